@@ -1,0 +1,85 @@
+// Micro-benchmarks of the costs that dominate planning (DESIGN.md 8): FK, Jacobian, IK, isValid.
+// Prints median and p90 per call with the CPU named. Not a test: `make bench` runs it.
+#include "slideplan/collision.hpp"
+#include "slideplan/contact_frame.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <string>
+#include <vector>
+
+using namespace slideplan;
+
+namespace
+{
+    std::string cpuName()
+    {
+        std::ifstream cpuinfo("/proc/cpuinfo");
+        for (std::string line; std::getline(cpuinfo, line);)
+            if (line.rfind("model name", 0) == 0)
+                return line.substr(line.find(':') + 2);
+        return "unknown CPU";
+    }
+
+    /// Times `batches` batches of `perBatch` calls; reports per-call median and p90 in microseconds.
+    void report(const char *name, int batches, int perBatch, const std::function<void(int)> &call)
+    {
+        std::vector<double> perCall;
+        int counter = 0;
+        for (int b = 0; b < batches; ++b)
+        {
+            const auto start = std::chrono::steady_clock::now();
+            for (int i = 0; i < perBatch; ++i)
+                call(counter++);
+            const std::chrono::duration<double, std::micro> elapsed = std::chrono::steady_clock::now() - start;
+            perCall.push_back(elapsed.count() / perBatch);
+        }
+        std::sort(perCall.begin(), perCall.end());
+        std::printf("%-28s median %9.2f us   p90 %9.2f us\n", name, perCall[perCall.size() / 2],
+                    perCall[perCall.size() * 9 / 10]);
+    }
+}  // namespace
+
+int main()
+{
+    std::printf("slideplan core micro-benchmarks on %s\n", cpuName().c_str());
+    Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
+    mount.translation().z() = 0.30;
+    const auto robot = std::make_shared<RobotModel>(
+        RobotModel::fromFile(std::string(SLIDEPLAN_DATA_DIR) + "/robots/wam_t42.urdf", "fingertip_contact", mount));
+    Polygon2 square(4, 2);
+    square << 0.35, -0.25, 0.85, -0.25, 0.85, 0.25, 0.35, 0.25;
+    CollisionWorld world(robot, SupportSurface(square, 0.0), {}, {"t42_finger1_proximal", "t42_finger1_distal"});
+
+    std::mt19937_64 rng(1);
+    std::vector<Eigen::VectorXd> configurations;
+    std::vector<Eigen::Isometry3d> targets;
+    for (int i = 0; i < 2000; ++i)
+    {
+        configurations.push_back(robot->randomConfiguration(rng));
+        targets.push_back(robot->fk(configurations.back()));
+    }
+    const auto pick = [&](int i) -> const Eigen::VectorXd & { return configurations[i % configurations.size()]; };
+    volatile double sink = 0.0;
+
+    report("fk", 50, 2000, [&](int i) { sink = sink + robot->fk(pick(i)).translation().x(); });
+    report("jacobian", 50, 2000, [&](int i) { sink = sink + robot->jacobian(pick(i))(0, 0); });
+    report("isValid (sliding)", 50, 1000, [&](int i) { sink = sink + world.isValid(pick(i)); });
+    report("isValid (free)", 50, 1000, [&](int i) { sink = sink + world.isValid(pick(i), ContactMode::Free); });
+    std::vector<Eigen::VectorXd> nearby;
+    for (const auto &q : configurations)
+        nearby.push_back(q + Eigen::VectorXd::Constant(7, 0.05));
+    report("ik (seed 0.05 rad away)", 20, 100, [&](int i) {
+        Eigen::VectorXd q;
+        const int k = i % targets.size();
+        sink = sink + robot->ik(targets[k], nearby[k], rng, q);
+    });
+    report("ik (random restarts)", 20, 50, [&](int i) {
+        Eigen::VectorXd q;
+        sink = sink + robot->ik(targets[i % targets.size()], Eigen::VectorXd(), rng, q);
+    });
+    return 0;
+}

@@ -1,0 +1,70 @@
+/// \file collision.hpp
+/// Collision world (FCL): the robot's link primitives posed by FK, the table as a solid prism under
+/// Q, box obstacles, and optionally the object as an obstacle (for the transfer to the grasp).
+#pragma once
+
+#include "slideplan/geometry.hpp"
+#include "slideplan/robot_model.hpp"
+
+#include <Eigen/Geometry>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace slideplan
+{
+    /// A box obstacle: `size` are the full extents, posed in the world.
+    struct BoxObstacle
+    {
+        Eigen::Isometry3d pose{Eigen::Isometry3d::Identity()};
+        Eigen::Vector3d size{Eigen::Vector3d::Zero()};
+    };
+
+    /// Whether the contacting finger may penetrate the table and the object. During sliding it may:
+    /// the virtual penetration stands for the finger's passive reconfiguration (DESIGN.md 3).
+    enum class ContactMode
+    {
+        Sliding,  ///< contact links excluded from table and object checks
+        Free      ///< every link checked against everything
+    };
+
+    class CollisionWorld
+    {
+    public:
+        /// \param contactLinks  links of the contacting finger (excluded from table/object in Sliding mode)
+        /// \param tableDepth    the table is a solid prism from its top down by this much
+        /// \throws std::invalid_argument for an unknown contact link or a bad obstacle.
+        CollisionWorld(std::shared_ptr<const RobotModel> robot, const SupportSurface &table,
+                       const std::vector<BoxObstacle> &obstacles, const std::vector<std::string> &contactLinks,
+                       double tableDepth = 0.75);
+        ~CollisionWorld();
+        CollisionWorld(const CollisionWorld &) = delete;
+        CollisionWorld &operator=(const CollisionWorld &) = delete;
+
+        /// True if configuration q is free of collisions (self, table, obstacles, object if set).
+        /// Not thread-safe: one world per planning thread.
+        bool isValid(const Eigen::VectorXd &q, ContactMode mode = ContactMode::Sliding) const;
+
+        /// The colliding pairs at q, by link or obstacle name: for diagnostics and the verifier.
+        std::vector<std::pair<std::string, std::string>> collisions(const Eigen::VectorXd &q,
+                                                                    ContactMode mode = ContactMode::Sliding) const;
+
+        /// Put the object in the world as a prism over the convex hull of `outlineXY` between the table
+        /// top and `topZ`.
+        void setObject(const std::vector<Eigen::Vector2d> &outlineXY, double topZ);
+        void clearObject();
+
+        /// Link pairs checked for self-collision (those not adjacent and not always in contact).
+        std::size_t selfPairCount() const;
+        const RobotModel &robot() const { return *robot_; }
+
+    private:
+        struct Impl;
+        bool check(const Eigen::VectorXd &q, ContactMode mode,
+                   std::vector<std::pair<std::string, std::string>> *report) const;
+        std::shared_ptr<const RobotModel> robot_;
+        std::unique_ptr<Impl> impl_;
+    };
+
+}  // namespace slideplan

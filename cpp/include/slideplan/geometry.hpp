@@ -1,0 +1,61 @@
+/// \file geometry.hpp
+/// The support surface Q of the paper (section IV-B): a simple planar polygon at a height.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <vector>
+
+namespace slideplan
+{
+    /// Row-major list of 2-D polygon vertices, one vertex per row.
+    using Polygon2 = Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>;
+
+    /// The edge of Q closest to a point, as used by pair validation (paper IV-C.1, Fig. 5).
+    struct EdgeQuery
+    {
+        int edge{-1};                    ///< index i of edge (e_i, e_{i+1})
+        double distance{0.0};            ///< unsigned distance from the point to the edge segment
+        Eigen::Vector2d closest;         ///< closest point on the edge
+        Eigen::Vector2d outwardNormal;   ///< unit normal of the edge pointing out of Q
+    };
+
+    /// Support surface Q = (e_1, ..., e_ns) at height z_table (paper IV-B). Any simple polygon,
+    /// convex or not, either winding; stored counter-clockwise.
+    class SupportSurface
+    {
+    public:
+        /// \throws std::invalid_argument if there are fewer than 3 vertices, a vertex is not finite,
+        ///         the polygon is self-intersecting or its area is (nearly) zero.
+        SupportSurface(const Polygon2 &vertices, double height);
+
+        /// Point-in-polygon by the crossing-number test (the paper's [27]).
+        bool contains(const Eigen::Vector2d &point) const;
+
+        /// Distance to the boundary, positive inside Q and negative outside.
+        double signedDistance(const Eigen::Vector2d &point) const;
+
+        /// Closest edge of Q to a point.
+        EdgeQuery closestEdge(const Eigen::Vector2d &point) const;
+
+        /// Triangles (vertex indices, counter-clockwise) covering Q, by ear clipping.
+        const std::vector<std::array<int, 3>> &triangles() const { return triangles_; }
+
+        bool isConvex() const { return convex_; }
+        const Polygon2 &vertices() const { return vertices_; }
+        double height() const { return height_; }
+        double area() const { return area_; }
+        int size() const { return static_cast<int>(vertices_.rows()); }
+
+    private:
+        Polygon2 vertices_;
+        double height_;
+        double area_{0.0};
+        bool convex_{false};
+        std::vector<std::array<int, 3>> triangles_;
+    };
+
+    /// Signed area of a polygon (positive for counter-clockwise).
+    double signedArea(const Polygon2 &vertices);
+
+}  // namespace slideplan

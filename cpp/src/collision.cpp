@@ -1,0 +1,278 @@
+#include "slideplan/collision.hpp"
+
+#include <algorithm>
+#include <fcl/geometry/shape/box.h>
+#include <fcl/geometry/shape/convex.h>
+#include <fcl/geometry/shape/cylinder.h>
+#include <fcl/geometry/shape/sphere.h>
+#include <fcl/narrowphase/collision.h>
+#include <fcl/narrowphase/collision_object.h>
+#include <random>
+#include <set>
+#include <stdexcept>
+
+namespace slideplan
+{
+    namespace
+    {
+        std::shared_ptr<fcl::CollisionGeometryd> makeGeometry(const LinkShape &shape)
+        {
+            switch (shape.type)
+            {
+                case LinkShape::Type::Box:
+                    return std::make_shared<fcl::Boxd>(shape.size.x(), shape.size.y(), shape.size.z());
+                case LinkShape::Type::Cylinder:
+                    return std::make_shared<fcl::Cylinderd>(shape.size.x(), shape.size.y());
+                case LinkShape::Type::Sphere:
+                    return std::make_shared<fcl::Sphered>(shape.size.x());
+            }
+            throw std::logic_error("unknown shape type");
+        }
+
+        /// A vertical prism over a counter-clockwise convex polygon.
+        std::shared_ptr<fcl::Convexd> makePrism(const std::vector<Eigen::Vector2d> &polygon, double bottom, double top)
+        {
+            const int n = static_cast<int>(polygon.size());
+            auto vertices = std::make_shared<std::vector<Eigen::Vector3d>>();
+            for (const Eigen::Vector2d &p : polygon)
+                vertices->emplace_back(p.x(), p.y(), bottom);
+            for (const Eigen::Vector2d &p : polygon)
+                vertices->emplace_back(p.x(), p.y(), top);
+            auto faces = std::make_shared<std::vector<int>>();
+            faces->push_back(n);  // top, counter-clockwise seen from above
+            for (int i = 0; i < n; ++i)
+                faces->push_back(n + i);
+            faces->push_back(n);  // bottom, reversed
+            for (int i = n - 1; i >= 0; --i)
+                faces->push_back(i);
+            for (int i = 0; i < n; ++i)
+                faces->insert(faces->end(), {4, i, (i + 1) % n, n + (i + 1) % n, n + i});
+            return std::make_shared<fcl::Convexd>(vertices, n + 2, faces);
+        }
+
+        /// Andrew's monotone chain; counter-clockwise hull.
+        std::vector<Eigen::Vector2d> convexHull(std::vector<Eigen::Vector2d> points)
+        {
+            std::sort(points.begin(), points.end(), [](const auto &a, const auto &b) {
+                return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+            });
+            if (points.size() < 3)
+                return points;
+            std::vector<Eigen::Vector2d> hull(2 * points.size());
+            std::size_t k = 0;
+            const auto turn = [&](const Eigen::Vector2d &a, const Eigen::Vector2d &b, const Eigen::Vector2d &c) {
+                return (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+            };
+            for (const auto &p : points)
+            {
+                while (k >= 2 && turn(hull[k - 2], hull[k - 1], p) <= 0)
+                    --k;
+                hull[k++] = p;
+            }
+            for (std::size_t i = points.size() - 1, lower = k + 1; i-- > 0;)
+            {
+                while (k >= lower && turn(hull[k - 2], hull[k - 1], points[i]) <= 0)
+                    --k;
+                hull[k++] = points[i];
+            }
+            hull.resize(k - 1);
+            return hull;
+        }
+
+        bool collide(const fcl::CollisionObjectd &a, const fcl::CollisionObjectd &b)
+        {
+            if (!a.getAABB().overlap(b.getAABB()))
+                return false;
+            fcl::CollisionRequestd request;
+            fcl::CollisionResultd result;
+            fcl::collide(&a, &b, request, result);
+            return result.isCollision();
+        }
+    }  // namespace
+
+    struct CollisionWorld::Impl
+    {
+        struct RobotShape
+        {
+            int link;
+            Eigen::Isometry3d origin;
+            std::unique_ptr<fcl::CollisionObjectd> object;
+            bool contact;
+        };
+        struct EnvironmentPiece
+        {
+            std::string name;
+            std::unique_ptr<fcl::CollisionObjectd> object;
+            bool touchable;  ///< table or object: contact links may penetrate it while sliding
+        };
+        std::vector<RobotShape> shapes;
+        std::vector<EnvironmentPiece> environment;
+        std::size_t firstObjectPiece{0};
+        std::vector<std::pair<int, int>> selfPairs;
+        double tableTop{0.0};
+        mutable std::vector<Eigen::Isometry3d> poses;
+
+        void pose(const RobotModel &robot, const Eigen::VectorXd &q)
+        {
+            robot.linkPoses(q, poses);
+            for (RobotShape &shape : shapes)
+            {
+                shape.object->setTransform(poses[shape.link] * shape.origin);
+                shape.object->computeAABB();
+            }
+        }
+
+        void addEnvironment(const std::string &name, std::shared_ptr<fcl::CollisionGeometryd> geometry,
+                            const Eigen::Isometry3d &pose, bool touchable)
+        {
+            auto object = std::make_unique<fcl::CollisionObjectd>(geometry, pose);
+            object->computeAABB();
+            environment.push_back({name, std::move(object), touchable});
+        }
+    };
+
+    CollisionWorld::CollisionWorld(std::shared_ptr<const RobotModel> robot, const SupportSurface &table,
+                                   const std::vector<BoxObstacle> &obstacles,
+                                   const std::vector<std::string> &contactLinks, double tableDepth)
+      : robot_(std::move(robot)), impl_(std::make_unique<Impl>())
+    {
+        if (!(tableDepth > 0.0))
+            throw std::invalid_argument("table depth must be positive");
+        std::set<int> contact;
+        for (const std::string &name : contactLinks)
+        {
+            const int index = robot_->linkIndex(name);
+            if (index < 0)
+                throw std::invalid_argument("contact link '" + name + "' is not a link of the robot");
+            contact.insert(index);
+        }
+        const auto &links = robot_->links();
+        for (std::size_t i = 0; i < links.size(); ++i)
+            for (const LinkShape &shape : links[i].shapes)
+                impl_->shapes.push_back({static_cast<int>(i), shape.origin,
+                                         std::make_unique<fcl::CollisionObjectd>(makeGeometry(shape)),
+                                         contact.count(static_cast<int>(i)) > 0});
+
+        // The table: one convex prism if Q is convex, else one per ear-clipping triangle.
+        impl_->tableTop = table.height();
+        const double bottom = table.height() - tableDepth;
+        const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+        if (table.isConvex())
+        {
+            std::vector<Eigen::Vector2d> polygon;
+            for (int i = 0; i < table.size(); ++i)
+                polygon.emplace_back(table.vertices().row(i));
+            impl_->addEnvironment("table", makePrism(polygon, bottom, table.height()), identity, true);
+        }
+        else
+            for (const auto &triangle : table.triangles())
+            {
+                std::vector<Eigen::Vector2d> polygon;
+                for (int v : triangle)
+                    polygon.emplace_back(table.vertices().row(v));
+                impl_->addEnvironment("table", makePrism(polygon, bottom, table.height()), identity, true);
+            }
+        for (std::size_t i = 0; i < obstacles.size(); ++i)
+        {
+            const BoxObstacle &box = obstacles[i];
+            if (!box.size.allFinite() || (box.size.array() <= 0).any() || !box.pose.matrix().allFinite())
+                throw std::invalid_argument("obstacle " + std::to_string(i) + ": size must be positive and finite");
+            impl_->addEnvironment("obstacle" + std::to_string(i),
+                                  std::make_shared<fcl::Boxd>(box.size.x(), box.size.y(), box.size.z()), box.pose, false);
+        }
+        impl_->firstObjectPiece = impl_->environment.size();
+
+        // Self-collision pairs: links joined by fixed joints form one body; skip pairs within a body,
+        // pairs of bodies joined by one movable joint, and pairs in contact in almost every random
+        // configuration (modelling overlap, e.g. a shoulder sphere and the upper arm).
+        std::vector<int> body(links.size());
+        for (std::size_t i = 0; i < links.size(); ++i)
+            body[i] = links[i].parent >= 0 && links[i].segment.getJoint().getType() == KDL::Joint::None
+                          ? body[links[i].parent]
+                          : static_cast<int>(i);
+        const auto bodyParent = [&](int b) { return links[b].parent >= 0 ? body[links[b].parent] : -1; };
+        std::vector<std::pair<int, int>> candidates;
+        for (std::size_t a = 0; a < impl_->shapes.size(); ++a)
+            for (std::size_t b = a + 1; b < impl_->shapes.size(); ++b)
+            {
+                const int ba = body[impl_->shapes[a].link], bb = body[impl_->shapes[b].link];
+                if (ba != bb && bodyParent(ba) != bb && bodyParent(bb) != ba)
+                    candidates.emplace_back(static_cast<int>(a), static_cast<int>(b));
+            }
+        std::mt19937_64 rng(1);
+        constexpr int samples = 200;
+        std::vector<int> hits(candidates.size(), 0);
+        for (int s = 0; s < samples; ++s)
+        {
+            impl_->pose(*robot_, robot_->randomConfiguration(rng));
+            for (std::size_t c = 0; c < candidates.size(); ++c)
+                hits[c] += collide(*impl_->shapes[candidates[c].first].object, *impl_->shapes[candidates[c].second].object);
+        }
+        for (std::size_t c = 0; c < candidates.size(); ++c)
+            if (hits[c] < samples * 95 / 100)
+                impl_->selfPairs.push_back(candidates[c]);
+    }
+
+    CollisionWorld::~CollisionWorld() = default;
+
+    std::size_t CollisionWorld::selfPairCount() const
+    {
+        return impl_->selfPairs.size();
+    }
+
+    void CollisionWorld::setObject(const std::vector<Eigen::Vector2d> &outlineXY, double topZ)
+    {
+        clearObject();
+        const std::vector<Eigen::Vector2d> hull = convexHull(outlineXY);
+        if (hull.size() < 3 || !(topZ > impl_->tableTop))
+            throw std::invalid_argument("object outline needs 3 non-collinear points and a top above the table");
+        impl_->addEnvironment("object", makePrism(hull, impl_->tableTop, topZ), Eigen::Isometry3d::Identity(), true);
+    }
+
+    void CollisionWorld::clearObject()
+    {
+        impl_->environment.resize(impl_->firstObjectPiece);
+    }
+
+    bool CollisionWorld::isValid(const Eigen::VectorXd &q, ContactMode mode) const
+    {
+        return check(q, mode, nullptr);
+    }
+
+    std::vector<std::pair<std::string, std::string>> CollisionWorld::collisions(const Eigen::VectorXd &q, ContactMode mode) const
+    {
+        std::vector<std::pair<std::string, std::string>> report;
+        check(q, mode, &report);
+        return report;
+    }
+
+    bool CollisionWorld::check(const Eigen::VectorXd &q, ContactMode mode,
+                               std::vector<std::pair<std::string, std::string>> *report) const
+    {
+        if (q.size() != static_cast<long>(robot_->dof()) || !q.allFinite())
+            throw std::invalid_argument("configuration has the wrong size or is not finite");
+        impl_->pose(*robot_, q);
+        const auto &links = robot_->links();
+        bool free = true;
+        const auto hit = [&](const std::string &a, const std::string &b) {
+            free = false;
+            if (report)
+                report->emplace_back(a, b);
+            return report == nullptr;  // stop at the first hit unless a report is wanted
+        };
+        for (const auto &shape : impl_->shapes)
+            for (const auto &piece : impl_->environment)
+            {
+                if (mode == ContactMode::Sliding && shape.contact && piece.touchable)
+                    continue;
+                if (collide(*shape.object, *piece.object) && hit(links[shape.link].name, piece.name))
+                    return false;
+            }
+        for (const auto &[a, b] : impl_->selfPairs)
+            if (collide(*impl_->shapes[a].object, *impl_->shapes[b].object) &&
+                hit(links[impl_->shapes[a].link].name, links[impl_->shapes[b].link].name))
+                return false;
+        return free;
+    }
+
+}  // namespace slideplan

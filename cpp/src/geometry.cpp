@@ -1,0 +1,180 @@
+#include "slideplan/geometry.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace slideplan
+{
+    namespace
+    {
+        double cross(const Eigen::Vector2d &a, const Eigen::Vector2d &b)
+        {
+            return a.x() * b.y() - a.y() * b.x();
+        }
+
+        int orientation(const Eigen::Vector2d &a, const Eigen::Vector2d &b, const Eigen::Vector2d &c)
+        {
+            const double value = cross(b - a, c - a);
+            constexpr double eps = 1e-14;
+            return value > eps ? 1 : (value < -eps ? -1 : 0);
+        }
+
+        bool onSegment(const Eigen::Vector2d &a, const Eigen::Vector2d &b, const Eigen::Vector2d &p)
+        {
+            return p.x() <= std::max(a.x(), b.x()) && p.x() >= std::min(a.x(), b.x()) &&
+                   p.y() <= std::max(a.y(), b.y()) && p.y() >= std::min(a.y(), b.y());
+        }
+
+        bool segmentsIntersect(const Eigen::Vector2d &p1, const Eigen::Vector2d &p2, const Eigen::Vector2d &q1,
+                               const Eigen::Vector2d &q2)
+        {
+            const int o1 = orientation(p1, p2, q1), o2 = orientation(p1, p2, q2);
+            const int o3 = orientation(q1, q2, p1), o4 = orientation(q1, q2, p2);
+            if (o1 != o2 && o3 != o4)
+                return true;
+            return (o1 == 0 && onSegment(p1, p2, q1)) || (o2 == 0 && onSegment(p1, p2, q2)) ||
+                   (o3 == 0 && onSegment(q1, q2, p1)) || (o4 == 0 && onSegment(q1, q2, p2));
+        }
+
+        Eigen::Vector2d closestOnSegment(const Eigen::Vector2d &a, const Eigen::Vector2d &b, const Eigen::Vector2d &p)
+        {
+            const Eigen::Vector2d ab = b - a;
+            const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+            return a + t * ab;
+        }
+
+        bool pointInTriangle(const Eigen::Vector2d &p, const Eigen::Vector2d &a, const Eigen::Vector2d &b,
+                             const Eigen::Vector2d &c)
+        {
+            return cross(b - a, p - a) >= 0 && cross(c - b, p - b) >= 0 && cross(a - c, p - c) >= 0;
+        }
+
+        /// Ear clipping of a simple counter-clockwise polygon: O(n^2), fine for table outlines.
+        std::vector<std::array<int, 3>> earClip(const Polygon2 &v)
+        {
+            std::vector<int> remaining(v.rows());
+            for (int i = 0; i < v.rows(); ++i)
+                remaining[i] = i;
+            std::vector<std::array<int, 3>> triangles;
+            while (remaining.size() > 3)
+            {
+                bool clipped = false;
+                const int n = static_cast<int>(remaining.size());
+                for (int k = 0; k < n && !clipped; ++k)
+                {
+                    const int ia = remaining[(k + n - 1) % n], ib = remaining[k], ic = remaining[(k + 1) % n];
+                    const Eigen::Vector2d a = v.row(ia), b = v.row(ib), c = v.row(ic);
+                    if (cross(b - a, c - b) <= 0)
+                        continue;  // reflex or collinear vertex: not an ear
+                    bool empty = true;
+                    for (int other : remaining)
+                        if (other != ia && other != ib && other != ic && pointInTriangle(v.row(other), a, b, c))
+                        {
+                            empty = false;
+                            break;
+                        }
+                    if (!empty)
+                        continue;
+                    triangles.push_back({ia, ib, ic});
+                    remaining.erase(remaining.begin() + k);
+                    clipped = true;
+                }
+                if (!clipped)  // only collinear vertices left: drop one, it adds no area
+                    remaining.erase(remaining.begin());
+            }
+            if (remaining.size() == 3)
+                triangles.push_back({remaining[0], remaining[1], remaining[2]});
+            return triangles;
+        }
+    }  // namespace
+
+    double signedArea(const Polygon2 &vertices)
+    {
+        double twiceArea = 0.0;
+        const int n = static_cast<int>(vertices.rows());
+        for (int i = 0; i < n; ++i)
+            twiceArea += cross(vertices.row(i), vertices.row((i + 1) % n));
+        return 0.5 * twiceArea;
+    }
+
+    SupportSurface::SupportSurface(const Polygon2 &vertices, double height) : vertices_(vertices), height_(height)
+    {
+        const int n = static_cast<int>(vertices_.rows());
+        if (n < 3)
+            throw std::invalid_argument("support polygon needs at least 3 vertices, got " + std::to_string(n));
+        if (!vertices_.allFinite())
+            throw std::invalid_argument("support polygon has a NaN or infinite vertex");
+        if (!std::isfinite(height_))
+            throw std::invalid_argument("support surface height is not finite");
+        for (int i = 0; i < n; ++i)
+            for (int j = i + 1; j < n; ++j)
+            {
+                const bool adjacent = j == i + 1 || (i == 0 && j == n - 1);
+                const Eigen::Vector2d p1 = vertices_.row(i), p2 = vertices_.row((i + 1) % n);
+                const Eigen::Vector2d q1 = vertices_.row(j), q2 = vertices_.row((j + 1) % n);
+                if (!adjacent && segmentsIntersect(p1, p2, q1, q2))
+                {
+                    std::ostringstream msg;
+                    msg << "support polygon is self-intersecting: edge " << i << " crosses edge " << j;
+                    throw std::invalid_argument(msg.str());
+                }
+            }
+        double area = signedArea(vertices_);
+        if (std::abs(area) < 1e-8)
+            throw std::invalid_argument("support polygon is degenerate (zero area)");
+        if (area < 0)
+        {
+            vertices_ = vertices_.colwise().reverse().eval();
+            area = -area;
+        }
+        area_ = area;
+        convex_ = true;
+        for (int i = 0; i < n; ++i)
+            if (orientation(vertices_.row(i), vertices_.row((i + 1) % n), vertices_.row((i + 2) % n)) < 0)
+                convex_ = false;
+        triangles_ = earClip(vertices_);
+    }
+
+    bool SupportSurface::contains(const Eigen::Vector2d &point) const
+    {
+        bool inside = false;
+        const int n = size();
+        for (int i = 0, j = n - 1; i < n; j = i++)
+        {
+            const double xi = vertices_(i, 0), yi = vertices_(i, 1), xj = vertices_(j, 0), yj = vertices_(j, 1);
+            if ((yi > point.y()) != (yj > point.y()) && point.x() < (xj - xi) * (point.y() - yi) / (yj - yi) + xi)
+                inside = !inside;
+        }
+        return inside;
+    }
+
+    EdgeQuery SupportSurface::closestEdge(const Eigen::Vector2d &point) const
+    {
+        EdgeQuery best;
+        best.distance = std::numeric_limits<double>::infinity();
+        const int n = size();
+        for (int i = 0; i < n; ++i)
+        {
+            const Eigen::Vector2d a = vertices_.row(i), b = vertices_.row((i + 1) % n);
+            const Eigen::Vector2d closest = closestOnSegment(a, b, point);
+            const double distance = (point - closest).norm();
+            if (distance < best.distance)
+            {
+                best.edge = i;
+                best.distance = distance;
+                best.closest = closest;
+                const Eigen::Vector2d edge = (b - a).normalized();
+                best.outwardNormal = Eigen::Vector2d(edge.y(), -edge.x());  // right of a CCW edge is outside
+            }
+        }
+        return best;
+    }
+
+    double SupportSurface::signedDistance(const Eigen::Vector2d &point) const
+    {
+        const double distance = closestEdge(point).distance;
+        return contains(point) ? distance : -distance;
+    }
+
+}  // namespace slideplan

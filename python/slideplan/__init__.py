@@ -1,0 +1,1 @@
+"""slideplan: pre-grasp sliding planning of thin objects (Hang, Morgan, Dollar, RA-L 2019)."""

@@ -1,0 +1,273 @@
+"""The support surface (table top): a simple polygon at a height, and its goal band."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
+
+from ._fields import as_number, as_numbers
+from .errors import InputError
+
+_MIN_AREA = 1e-8  # m^2; anything smaller is a degenerate table, not a real one
+
+
+def _signed_area(vertices: np.ndarray) -> float:
+    """Shoelace area: positive for counter-clockwise vertices."""
+    x, y = vertices[:, 0], vertices[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def simple_polygon_vertices(vertices, *, source: str = "", field: str = "vertices") -> np.ndarray:
+    """Validate the vertices of a simple polygon (one ring, no holes).
+
+    Args:
+        vertices: (n, 2) array-like, either winding; a repeated closing vertex is dropped.
+        source: file the vertices came from, for error messages.
+        field: name of the field/argument holding the vertices, for error messages.
+
+    Returns:
+        (n, 2) float array, counter-clockwise, without a repeated closing vertex.
+
+    Raises:
+        InputError: not an (n, 2) array of numbers, fewer than 3 vertices, NaN/inf,
+            a degenerate (area <= 1e-8 m^2) or a self-intersecting polygon.
+    """
+    def fail(problem: str) -> InputError:
+        return InputError(problem, source=source, field=field)
+
+    try:
+        points = np.array(vertices, dtype=float)
+    except (TypeError, ValueError):
+        raise fail("expected an (n, 2) array of numbers") from None
+    if points.ndim != 2 or points.shape[1] != 2:
+        raise fail(f"expected an (n, 2) array of vertices, got shape {points.shape}")
+    if not np.all(np.isfinite(points)):
+        raise fail("vertices must be finite (found NaN or inf)")
+    if len(points) > 1 and np.array_equal(points[0], points[-1]):
+        points = points[:-1]
+    if len(points) < 3:
+        raise fail(f"polygon needs at least 3 vertices, got {len(points)}")
+    polygon = Polygon(points)
+    # Check collinear/coincident vertices before validity: GEOS would call them
+    # self-intersecting, which is true but less helpful.
+    if polygon.convex_hull.area <= _MIN_AREA:
+        raise fail("polygon is degenerate (zero area: vertices are collinear or coincident)")
+    if not polygon.is_valid:
+        reason = shapely.is_valid_reason(polygon)
+        if "self-intersection" in reason.lower():
+            raise fail(f"polygon is self-intersecting ({reason})")
+        raise fail(f"polygon is not simple ({reason})")
+    if polygon.area <= _MIN_AREA:
+        raise fail(f"polygon is degenerate (area {polygon.area:.3g} m^2 <= {_MIN_AREA:g})")
+    return points if _signed_area(points) > 0 else points[::-1].copy()
+
+
+@dataclass(frozen=True, eq=False)
+class SupportSurface:
+    """A flat support surface: the table polygon ``Q`` at height ``z_table`` (paper Sec. IV).
+
+    Build it with :meth:`from_vertices` or :meth:`circle`, which validate the input;
+    the constructor itself trusts its arguments.
+
+    Attributes:
+        vertices: (n, 2) polygon vertices, counter-clockwise, without a repeated
+            closing vertex (read-only array).
+        height: z of the table top in the world frame (m).
+    """
+
+    vertices: np.ndarray
+    height: float = 0.0
+
+    @classmethod
+    def from_vertices(
+        cls, vertices, height: float = 0.0, *, source: str = "", field: str = "vertices"
+    ) -> SupportSurface:
+        """Validate a simple polygon and normalise it to counter-clockwise order.
+
+        Args:
+            vertices: (n, 2) array-like, either winding; a repeated closing vertex is dropped.
+            height: z of the table top (m).
+            source: file the vertices came from, for error messages.
+            field: name of the field/argument holding the vertices, for error messages.
+
+        Returns:
+            The support surface.
+
+        Raises:
+            InputError: see :func:`simple_polygon_vertices`; or a non-finite height.
+        """
+        points = simple_polygon_vertices(vertices, source=source, field=field)
+        points.setflags(write=False)
+        return cls(points, as_number(height, source=source, field="height"))
+
+    @classmethod
+    def circle(cls, center, radius: float, points: int = 100, height: float = 0.0) -> SupportSurface:
+        """A round table approximated by a regular polygon (the paper uses 100 edge points).
+
+        Args:
+            center: (x, y) of the centre (m).
+            radius: circumradius (m), > 0.
+            points: number of vertices, >= 3.
+            height: z of the table top (m).
+
+        Returns:
+            The support surface.
+
+        Raises:
+            InputError: bad centre, radius or point count.
+        """
+        center_xy = as_numbers(center, 2, source="", field="center")
+        radius = as_number(radius, source="", field="radius", positive=True)
+        if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 3:
+            raise InputError(f"expected an integer >= 3, got {points!r}", field="points")
+        angles = 2.0 * np.pi * np.arange(points) / points
+        vertices = center_xy + radius * np.column_stack([np.cos(angles), np.sin(angles)])
+        return cls.from_vertices(vertices, height)
+
+    @cached_property
+    def polygon(self) -> Polygon:
+        """The table polygon as a (prepared, hence fast to query) shapely Polygon."""
+        polygon = Polygon(self.vertices)
+        shapely.prepare(polygon)
+        return polygon
+
+    @property
+    def area(self) -> float:
+        """Area of the table polygon (m^2)."""
+        return self.polygon.area
+
+    def contains(self, xy) -> np.ndarray:
+        """Test which points lie strictly inside the polygon (points on an edge do not).
+
+        Args:
+            xy: (N, 2) array-like of points (a single (2,) point is accepted too).
+
+        Returns:
+            (N,) bool array (a bool array of shape () for a single point).
+
+        Raises:
+            InputError: ``xy`` does not have 2 columns.
+        """
+        points = np.asarray(xy, dtype=float)
+        if points.shape[-1:] != (2,):
+            raise InputError(f"expected (N, 2) points, got shape {points.shape}", field="xy")
+        return shapely.contains_xy(self.polygon, points[..., 0], points[..., 1])
+
+    def goal_band(self, d_goal: float) -> BaseGeometry:
+        """The goal band of Eq. 4: the part of ``Q`` within ``d_goal`` of its boundary.
+
+        It is ``Q`` minus ``Q`` contracted inward by ``d_goal`` (mitred corners, so
+        straight edges stay straight); when the contraction is empty (a table narrower
+        than ``2 d_goal``) the band is the whole polygon.
+
+        Args:
+            d_goal: band width (m), > 0.
+
+        Returns:
+            A shapely Polygon or MultiPolygon (it has a hole for a convex table).
+
+        Raises:
+            InputError: ``d_goal`` is not a positive finite number.
+        """
+        d_goal = as_number(d_goal, source="", field="d_goal", positive=True)
+        contracted = self.polygon.buffer(-d_goal, join_style="mitre")
+        if contracted.is_empty:
+            return self.polygon
+        return self.polygon.difference(contracted)
+
+    def goal_band_triangles(self, d_goal: float) -> np.ndarray:
+        """Triangulate the goal band exactly, for uniform area-weighted sampling (the C++
+        goal sampler takes these triangles).
+
+        Args:
+            d_goal: band width (m), > 0.
+
+        Returns:
+            (m, 3, 2) array of triangle vertices; their areas sum to the band's area.
+
+        Raises:
+            InputError: ``d_goal`` is not a positive finite number.
+        """
+        band = self.goal_band(d_goal)
+        triangles = _triangulate(band, max_edge=d_goal / 2.0)
+        total = float(np.sum(triangle_areas(triangles)))
+        if not math.isclose(total, band.area, rel_tol=1e-9):
+            # Only the fallback triangulation (shapely < 2.1) can get here.
+            raise RuntimeError(
+                f"goal band triangulation covers {total:.12g} m^2 of {band.area:.12g} m^2; "
+                "install shapely >= 2.1 for an exact constrained triangulation"
+            )
+        return triangles
+
+    def sample_goal_band(self, n: int, d_goal: float, rng: np.random.Generator) -> np.ndarray:
+        """Draw points uniformly (by area) from the goal band.
+
+        Args:
+            n: number of points, >= 0.
+            d_goal: band width (m), > 0.
+            rng: the random generator (seed it for reproducible samples).
+
+        Returns:
+            (n, 2) array of points in the band.
+
+        Raises:
+            InputError: ``d_goal`` is not a positive finite number.
+        """
+        return sample_in_triangles(self.goal_band_triangles(d_goal), n, rng)
+
+
+def _triangulate(region: BaseGeometry, *, max_edge: float) -> np.ndarray:
+    """Triangles exactly covering ``region`` (polygons with holes allowed), as (m, 3, 2)."""
+    if hasattr(shapely, "constrained_delaunay_triangles"):  # shapely >= 2.1
+        triangles = shapely.get_parts(shapely.constrained_delaunay_triangles(region))
+    else:
+        # Plain Delaunay ignores the region's edges; splitting those edges into pieces
+        # shorter than the band is wide makes them appear as Delaunay edges, so every
+        # triangle lies wholly inside or wholly outside and its centroid tells which.
+        candidates = shapely.get_parts(shapely.delaunay_triangles(shapely.segmentize(region, max_edge)))
+        centroids = shapely.get_coordinates(shapely.centroid(candidates))
+        triangles = candidates[shapely.contains_xy(region, centroids[:, 0], centroids[:, 1])]
+    # Each triangle's exterior ring has 4 coordinates (closed); keep the first three.
+    coordinates = shapely.get_coordinates(shapely.get_exterior_ring(triangles))
+    return coordinates.reshape(-1, 4, 2)[:, :3, :]
+
+
+def triangle_areas(triangles: np.ndarray) -> np.ndarray:
+    """Return the (unsigned) areas of (m, 3, 2) triangles as an (m,) array."""
+    edge_1 = triangles[:, 1] - triangles[:, 0]
+    edge_2 = triangles[:, 2] - triangles[:, 0]
+    return 0.5 * np.abs(edge_1[:, 0] * edge_2[:, 1] - edge_1[:, 1] * edge_2[:, 0])
+
+
+def sample_in_triangles(triangles: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
+    """Draw points uniformly (by area) from the union of disjoint triangles.
+
+    Args:
+        triangles: (m, 3, 2) array, m >= 1, total area > 0.
+        n: number of points, >= 0.
+        rng: the random generator.
+
+    Returns:
+        (n, 2) array of points.
+
+    Raises:
+        InputError: ``n`` is negative or there is no triangle area to sample from.
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+        raise InputError(f"expected an integer >= 0, got {n!r}", field="n")
+    areas = triangle_areas(triangles)
+    if areas.sum() <= 0:
+        raise InputError("no area to sample from", field="triangles")
+    chosen = triangles[rng.choice(len(triangles), size=n, p=areas / areas.sum())]
+    u, v = rng.random((2, n))
+    # Fold the unit square onto the triangle u + v <= 1, which keeps the density uniform.
+    outside = u + v > 1.0
+    u[outside], v[outside] = 1.0 - u[outside], 1.0 - v[outside]
+    origin = chosen[:, 0]
+    return origin + u[:, None] * (chosen[:, 1] - origin) + v[:, None] * (chosen[:, 2] - origin)

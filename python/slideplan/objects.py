@@ -1,0 +1,384 @@
+"""Thin objects: top-surface point clouds ``P_o`` built from outlines or loaded from files."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import plyfile
+import shapely
+import shapely.affinity
+from shapely.geometry import Polygon
+
+from ._fields import Fields, as_number, as_numbers, as_xy_points, read_toml
+from .errors import InputError
+from .geometry import SupportSurface, simple_polygon_vertices
+from .paths import find_data_file
+
+CLOUD_SUFFIXES = (".ply", ".npy", ".csv")
+DEFAULT_THICKNESS = 0.004  # m; a few mm, like the paper's objects
+_MAX_SAMPLES = 2_000_000  # guards against a resolution typo (e.g. 5e-6) eating all memory
+
+
+@dataclass(frozen=True, eq=False)
+class ThinObject:
+    """A thin flat object lying on the table, as the planner sees it.
+
+    Build it with :meth:`from_outline`, :meth:`from_points` or :func:`load_object`.
+
+    Attributes:
+        points: (N, 3) top-surface point cloud ``P_o`` in the world frame (read-only).
+        thickness: object thickness (m): the top surface is at ``z_table + thickness``.
+        name: a label for plots and logs.
+        outline: the object's outline in the world frame (for plots), None for clouds.
+    """
+
+    points: np.ndarray
+    thickness: float
+    name: str = ""
+    outline: Polygon | None = None
+
+    @classmethod
+    def from_outline(
+        cls,
+        outline: Polygon,
+        *,
+        thickness: float,
+        table_height: float,
+        pose,
+        resolution: float = 0.005,
+        name: str = "",
+    ) -> ThinObject:
+        """Sample the top surface of a flat object with the given outline, placed on the table.
+
+        The cloud is a square grid of spacing ``resolution`` inside the outline (holes
+        respected) plus points every ``resolution`` along every boundary ring.
+
+        Args:
+            outline: the outline in the object frame (origin near its centroid, so the
+                pose puts the object's middle at (x, y)).
+            thickness: object thickness (m), > 0.
+            table_height: z of the table top (m).
+            pose: (x, y, yaw): rotate by yaw about the object-frame origin, then translate.
+            resolution: sample spacing (m), > 0.
+            name: a label.
+
+        Returns:
+            The object, with ``z = table_height + thickness`` for every point.
+
+        Raises:
+            InputError: non-positive thickness/resolution, non-finite pose or height,
+                an invalid or empty outline, or a resolution so fine the cloud would be huge.
+        """
+        thickness = as_number(thickness, source="", field="thickness", positive=True)
+        table_height = as_number(table_height, source="", field="table_height")
+        resolution = as_number(resolution, source="", field="resolution", positive=True)
+        pose = as_numbers(pose, 3, source="", field="pose")
+        if not isinstance(outline, Polygon) or not outline.is_valid or outline.area <= 0:
+            raise InputError("expected a valid shapely Polygon with area > 0", field="outline")
+        xy = place_points(_sample_outline(outline, resolution), pose)
+        points = np.column_stack([xy, np.full(len(xy), table_height + thickness)])
+        points.setflags(write=False)
+        return cls(points, thickness, name, place_outline(outline, pose))
+
+    @classmethod
+    def from_points(cls, points, *, table_height: float, name: str = "", source: str = "") -> ThinObject:
+        """Use a top-surface point cloud where it lies.
+
+        Args:
+            points: (N, 3) array-like, N >= 3, world frame.
+            table_height: z of the table top (m); thickness = mean z - table_height.
+            name: a label.
+            source: the file the cloud came from, for error messages.
+
+        Returns:
+            The object (no outline).
+
+        Raises:
+            InputError: wrong shape, fewer than 3 points, NaN/inf, or a cloud whose mean
+                z is not above the table top.
+        """
+        cloud = _checked_cloud(points, source=source)
+        table_height = as_number(table_height, source="", field="table_height")
+        mean_z = float(cloud[:, 2].mean())
+        if mean_z <= table_height:
+            raise InputError(
+                f"cloud lies below the table top (mean z {mean_z:.6g} m <= table height {table_height:.6g} m)",
+                source=source,
+                field="points",
+            )
+        cloud.setflags(write=False)
+        return cls(cloud, mean_z - table_height, name)
+
+    @property
+    def centroid_xy(self) -> np.ndarray:
+        """Mean xy of the points: the centre of mass of a uniform plate sampled on a grid.
+
+        Returns:
+            (2,) array.
+        """
+        return self.points[:, :2].mean(axis=0)
+
+
+def place_points(xy: np.ndarray, pose) -> np.ndarray:
+    """Apply a planar pose to points: ``R(yaw) p + (x, y)``.
+
+    Args:
+        xy: (N, 2) points in the object frame.
+        pose: (x, y, yaw).
+
+    Returns:
+        (N, 2) points in the world frame.
+    """
+    x, y, yaw = pose
+    rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+    return xy @ rotation.T + (x, y)
+
+
+def place_outline(outline: Polygon, pose) -> Polygon:
+    """Apply a planar pose ``R(yaw) p + (x, y)`` to an outline (same map as :func:`place_points`).
+
+    Args:
+        outline: the outline in the object frame.
+        pose: (x, y, yaw).
+
+    Returns:
+        The outline in the world frame.
+    """
+    x, y, yaw = pose
+    cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
+    return shapely.affinity.affine_transform(outline, [cos_yaw, -sin_yaw, sin_yaw, cos_yaw, x, y])
+
+
+def _sample_outline(outline: Polygon, resolution: float) -> np.ndarray:
+    """Grid points strictly inside ``outline`` plus points along its rings, as (N, 2)."""
+    rings = [outline.exterior, *outline.interiors]
+    expected = outline.area / resolution**2 + sum(ring.length for ring in rings) / resolution
+    if expected > _MAX_SAMPLES:
+        raise InputError(
+            f"resolution {resolution:g} m would give about {expected:.3g} points (limit {_MAX_SAMPLES})",
+            field="resolution",
+        )
+    min_x, min_y, max_x, max_y = outline.bounds
+    # Centre the grid on the bounding box, so a symmetric outline gets a symmetric
+    # sample and its centroid_xy is exact.
+    axes = []
+    for low, high in ((min_x, max_x), (min_y, max_y)):
+        steps = math.floor((high - low) / resolution)
+        axes.append(0.5 * (low + high) + (np.arange(steps + 1) - 0.5 * steps) * resolution)
+    grid_x, grid_y = (axis.ravel() for axis in np.meshgrid(*axes))
+    inside = shapely.contains_xy(outline, grid_x, grid_y)
+    boundary = [
+        shapely.get_coordinates(shapely.line_interpolate_point(ring, np.arange(0.0, ring.length, resolution)))
+        for ring in rings
+    ]
+    return np.vstack([np.column_stack([grid_x[inside], grid_y[inside]]), *boundary])
+
+
+def _checked_cloud(points, *, source: str) -> np.ndarray:
+    """Return ``points`` as a fresh (N, 3) float array with N >= 3, all finite.
+
+    Raises:
+        InputError: naming ``source`` and what is wrong.
+    """
+    def fail(problem: str) -> InputError:
+        return InputError(problem, source=source, field="" if source else "points")
+
+    try:
+        cloud = np.array(points, dtype=float)
+    except (TypeError, ValueError):
+        raise fail("expected an (N, 3) array of numbers") from None
+    if cloud.size == 0:
+        raise fail("point cloud is empty")
+    if cloud.ndim != 2 or cloud.shape[1] != 3:
+        raise fail(f"expected an (N, 3) array of x, y, z, got shape {cloud.shape}")
+    if len(cloud) < 3:
+        raise fail(f"point cloud needs at least 3 points, got {len(cloud)}")
+    if not np.all(np.isfinite(cloud)):
+        raise fail(f"point cloud has {np.count_nonzero(~np.isfinite(cloud).all(axis=1))} points with NaN or inf")
+    return cloud
+
+
+def _read_ply(path: Path) -> np.ndarray:
+    ply = plyfile.PlyData.read(str(path))
+    if "vertex" not in ply:
+        raise InputError("no 'vertex' element", source=str(path), field="vertex")
+    vertex = ply["vertex"]
+    for axis in "xyz":
+        if axis not in vertex.data.dtype.names:
+            raise InputError("missing vertex property", source=str(path), field=f"vertex.{axis}")
+    return np.column_stack([vertex[axis] for axis in "xyz"])
+
+
+def _read_npy(path: Path) -> np.ndarray:
+    return np.load(path, allow_pickle=False)
+
+
+def _is_numeric_row(line: str) -> bool:
+    try:
+        [float(cell) for cell in line.split(",")]
+    except ValueError:
+        return False
+    return True
+
+
+def _read_csv(path: Path) -> np.ndarray:
+    rows = [line for line in path.read_text().splitlines() if line.strip()]
+    if rows and not _is_numeric_row(rows[0]):
+        rows = rows[1:]  # a header line such as "x,y,z"
+    if not rows:
+        return np.empty((0, 3))
+    return np.loadtxt(rows, delimiter=",", ndmin=2)
+
+
+_CLOUD_READERS = {".ply": _read_ply, ".npy": _read_npy, ".csv": _read_csv}
+
+
+def load_point_cloud(path: str | Path) -> np.ndarray:
+    """Read a top-surface point cloud (world frame).
+
+    Args:
+        path: a ``.ply`` (ascii or binary, vertex properties x, y, z), ``.npy`` (N x 3)
+            or ``.csv`` (x,y,z rows, optionally one header line) file.
+
+    Returns:
+        (N, 3) float array, N >= 3, all finite.
+
+    Raises:
+        InputError: naming the file: unknown format, missing or unreadable file,
+            parse error, wrong shape, empty, or NaN/inf values.
+    """
+    path = Path(path)
+    reader = _CLOUD_READERS.get(path.suffix.lower())
+    if reader is None:
+        raise InputError(
+            f"unsupported point-cloud format {path.suffix!r} (expected one of {', '.join(CLOUD_SUFFIXES)})",
+            source=str(path),
+        )
+    if not path.is_file():
+        raise InputError("file not found", source=str(path))
+    try:
+        points = reader(path)
+    except (OSError, ValueError, plyfile.PlyParseError) as error:  # ValueError covers numpy's parse errors
+        raise InputError(f"cannot read point cloud ({error})", source=str(path)) from None
+    return _checked_cloud(points, source=str(path))
+
+
+def load_outline(path_or_name: str | Path) -> tuple[Polygon, float, str]:
+    """Read an object outline.
+
+    Args:
+        path_or_name: a built-in object name (``data/objects/<name>.toml``, case-sensitive)
+            or a TOML file with ``outline = [[x, y], ...]`` (object frame, m), optional
+            ``holes = [[[x, y], ...], ...]``, ``thickness`` (default 0.004 m) and ``name``
+            (default: the file name without suffix).
+
+    Returns:
+        (outline polygon, thickness, name).
+
+    Raises:
+        InputError: naming the file and field: unknown name/missing file, bad TOML,
+            unknown/missing/mistyped field, invalid polygon or holes.
+    """
+    path = find_data_file(path_or_name, "objects")
+    source = str(path)
+    fields = Fields(read_toml(path), source=source, allowed={"name", "thickness", "outline", "holes"})
+    exterior = simple_polygon_vertices(fields.xy_points("outline"), source=source, field="outline")
+    hole_rings = fields.raw("holes", [])
+    if not isinstance(hole_rings, list):
+        raise InputError(f"expected a list of rings, got {hole_rings!r}", source=source, field="holes")
+    holes = [
+        simple_polygon_vertices(as_xy_points(ring, source=source, field=f"holes[{index}]"), source=source, field=f"holes[{index}]")
+        for index, ring in enumerate(hole_rings)
+    ]
+    outline = Polygon(exterior, holes)
+    if not outline.is_valid:
+        raise InputError(
+            f"holes must lie inside the outline without touching each other ({shapely.is_valid_reason(outline)})",
+            source=source,
+            field="holes",
+        )
+    thickness = fields.number("thickness", DEFAULT_THICKNESS, positive=True)
+    return outline, thickness, fields.string("name", path.stem)
+
+
+def load_object(
+    spec: str | Path, *, table_height: float, pose=None, scale: float = 1.0, resolution: float = 0.005
+) -> ThinObject:
+    """Load an object given on the command line or in an experiment.
+
+    Args:
+        spec: a built-in object name, an outline TOML file, or a point-cloud file
+            (``.ply``/``.npy``/``.csv``, used where it lies).
+        table_height: z of the table top (m).
+        pose: (x, y, yaw) for an outline object (required); must be None for a cloud.
+        scale: factor on the outline's x and y (not the thickness), e.g. 0.5 for the
+            paper's half-scale experiments; outline objects only.
+        resolution: sample spacing for outline objects (m).
+
+    Returns:
+        The object.
+
+    Raises:
+        InputError: anything wrong with the spec, the file, the pose or the scale.
+    """
+    source = str(spec)
+    if Path(source).suffix.lower() in CLOUD_SUFFIXES:
+        if pose is not None:
+            raise InputError("a point-cloud object is used where it lies; do not give a pose", source=source, field="pose")
+        if scale != 1.0:
+            raise InputError("only outline objects can be scaled", source=source, field="scale")
+        return ThinObject.from_points(
+            load_point_cloud(source), table_height=table_height, name=Path(source).stem, source=source
+        )
+    outline, thickness, name = load_outline(spec)
+    if pose is None:
+        raise InputError("an outline object needs a pose (x, y, yaw)", source=source, field="pose")
+    scale = as_number(scale, source=source, field="scale", positive=True)
+    outline = shapely.affinity.scale(outline, scale, scale, origin=(0.0, 0.0))
+    return ThinObject.from_outline(
+        outline, thickness=thickness, table_height=table_height, pose=pose, resolution=resolution, name=name
+    )
+
+
+def sample_pose_on_table(
+    outline: Polygon, table: SupportSurface, rng: np.random.Generator, *, margin: float = 0.0, max_tries: int = 10000
+) -> tuple[float, float, float]:
+    """Draw a random initial pose with the whole object on the table (paper Sec. V).
+
+    The position of the object-frame origin is uniform over the table's bounding box and
+    the yaw uniform in
+    [-pi, pi); a pose is accepted when the posed outline lies inside the table shrunk by
+    ``margin`` (rejection sampling, so the accepted poses are uniform over valid poses).
+
+    Args:
+        outline: the outline in the object frame.
+        table: the support surface.
+        rng: the random generator (seed it for reproducible poses).
+        margin: keep the object at least this far (m) from the table edges, >= 0.
+        max_tries: give up after this many rejected poses.
+
+    Returns:
+        (x, y, yaw).
+
+    Raises:
+        InputError: a negative margin, or no valid pose (the object is larger than the table).
+    """
+    margin = as_number(margin, source="", field="margin")
+    if margin < 0:
+        raise InputError(f"must be >= 0, got {margin!r}", field="margin")
+    usable = table.polygon.buffer(-margin, join_style="mitre") if margin > 0 else table.polygon
+    if usable.is_empty or outline.area > usable.area:
+        raise InputError(
+            f"object (area {outline.area:.4g} m^2) is larger than the table (usable area {usable.area:.4g} m^2)",
+            field="outline",
+        )
+    shapely.prepare(usable)
+    min_x, min_y, max_x, max_y = table.polygon.bounds
+    for _ in range(max_tries):
+        pose = (float(rng.uniform(min_x, max_x)), float(rng.uniform(min_y, max_y)), float(rng.uniform(-math.pi, math.pi)))
+        if usable.contains(place_outline(outline, pose)):
+            return pose
+    raise InputError(f"no pose with the whole object on the table found in {max_tries} tries", field="outline")

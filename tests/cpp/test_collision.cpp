@@ -1,0 +1,99 @@
+#include "slideplan/collision.hpp"
+#include "slideplan/contact_frame.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+
+using namespace slideplan;
+using slideplan::testing::squareTable;
+using slideplan::testing::wamT42;
+
+namespace
+{
+    const std::vector<std::string> kContactLinks{"t42_finger1_proximal", "t42_finger1_distal"};
+
+    /// A configuration pressing the fingertip `depth` below the table top at (x, y), pitch `pitch`.
+    Eigen::VectorXd pressing(const RobotModel &robot, double x, double y, double depth, double pitch = 1.0)
+    {
+        Eigen::Isometry3d target = Eigen::Isometry3d::Identity();
+        target.linear() = contactRotation(0.0, pitch);
+        target.translation() << x, y, -depth;
+        std::mt19937_64 rng(4);
+        Eigen::VectorXd q;
+        // Prefer an elbow-up solution: seed from a configuration leaning towards the table.
+        Eigen::VectorXd seed(7);
+        seed << 0.0, 1.0, 0.0, 1.5, 0.0, 0.5, 0.0;
+        EXPECT_TRUE(robot.ik(target, seed, rng, q));
+        return q;
+    }
+}  // namespace
+
+TEST(CollisionWorld, UprightArmIsFree)
+{
+    const auto robot = wamT42();
+    CollisionWorld world(robot, squareTable(), {}, kContactLinks);
+    EXPECT_TRUE(world.isValid(Eigen::VectorXd::Zero(7)));
+    EXPECT_TRUE(world.isValid(Eigen::VectorXd::Zero(7), ContactMode::Free));
+    EXPECT_GT(world.selfPairCount(), 10u);
+}
+
+TEST(CollisionWorld, ContactFingerMayPenetrateOnlyWhileSliding)
+{
+    const auto robot = wamT42();
+    CollisionWorld world(robot, squareTable(), {}, kContactLinks);
+    const Eigen::VectorXd shallow = pressing(*robot, 0.6, 0.0, 0.015);
+    EXPECT_TRUE(world.isValid(shallow, ContactMode::Sliding));
+    EXPECT_FALSE(world.isValid(shallow, ContactMode::Free));
+    const auto hits = world.collisions(shallow, ContactMode::Free);
+    ASSERT_FALSE(hits.empty());
+    EXPECT_EQ(hits.front().second, "table");
+    EXPECT_EQ(hits.front().first.rfind("t42_finger1", 0), 0u);
+
+    // Pressed so deep that the palm enters the table: invalid in both modes.
+    const Eigen::VectorXd deep = pressing(*robot, 0.6, 0.0, 0.14);
+    EXPECT_FALSE(world.isValid(deep, ContactMode::Sliding));
+}
+
+TEST(CollisionWorld, BoxObstaclesAndTheObjectBlock)
+{
+    const auto robot = wamT42();
+    const Eigen::VectorXd q = pressing(*robot, 0.6, 0.0, 0.01);
+    const Eigen::Vector3d palm = robot->linkPose(q, "t42_palm").translation();
+    BoxObstacle box;
+    box.pose.translation() = palm;
+    box.size << 0.05, 0.05, 0.05;
+    CollisionWorld blocked(robot, squareTable(), {box}, kContactLinks);
+    EXPECT_FALSE(blocked.isValid(q));
+    EXPECT_EQ(blocked.collisions(q).front().second, "obstacle0");
+
+    CollisionWorld world(robot, squareTable(), {}, kContactLinks);
+    const Eigen::Vector3d tip = robot->fk(q).translation();
+    const std::vector<Eigen::Vector2d> square{{tip.x() - 0.05, tip.y() - 0.05}, {tip.x() + 0.05, tip.y() - 0.05},
+                                              {tip.x() + 0.05, tip.y() + 0.05}, {tip.x() - 0.05, tip.y() + 0.05}};
+    world.setObject(square, 0.004);
+    EXPECT_TRUE(world.isValid(q, ContactMode::Sliding));  // the finger presses on it
+    world.clearObject();
+    // An object tall enough to reach the palm blocks even while sliding.
+    world.setObject(square, palm.z());
+    EXPECT_FALSE(world.isValid(q, ContactMode::Sliding));
+}
+
+TEST(CollisionWorld, FoldedArmCollidesWithItself)
+{
+    const auto robot = wamT42();
+    CollisionWorld world(robot, squareTable(), {}, kContactLinks);
+    Eigen::VectorXd folded = Eigen::VectorXd::Zero(7);
+    folded(3) = robot->upperLimits()(3);  // elbow folded back onto the upper arm
+    folded(5) = 1.5;
+    const auto hits = world.collisions(folded, ContactMode::Free);
+    ASSERT_FALSE(hits.empty());
+    bool self = false;
+    for (const auto &[a, b] : hits)
+        self = self || (robot->linkIndex(a) >= 0 && robot->linkIndex(b) >= 0);
+    EXPECT_TRUE(self);
+}
+
+TEST(CollisionWorld, RejectsUnknownContactLinks)
+{
+    EXPECT_THROW(CollisionWorld(wamT42(), squareTable(), {}, {"no_such_link"}), std::invalid_argument);
+}

@@ -1,0 +1,109 @@
+#include "slideplan/contact_frame.hpp"
+#include "slideplan/geometry.hpp"
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+#include <cmath>
+
+using namespace slideplan;
+
+namespace
+{
+    Polygon2 lShape()
+    {
+        Polygon2 l(6, 2);
+        l << 0, 0, 2, 0, 2, 1, 1, 1, 1, 2, 0, 2;
+        return l;
+    }
+}  // namespace
+
+TEST(SupportSurface, PointInConvexAndNonConvexPolygons)
+{
+    const SupportSurface l(lShape(), 0.0);
+    EXPECT_TRUE(l.contains({0.5, 0.5}));
+    EXPECT_TRUE(l.contains({1.5, 0.5}));
+    EXPECT_TRUE(l.contains({0.5, 1.5}));
+    EXPECT_FALSE(l.contains({1.5, 1.5}));  // the notch
+    EXPECT_FALSE(l.contains({-0.1, 0.5}));
+    EXPECT_FALSE(l.isConvex());
+    EXPECT_NEAR(l.area(), 3.0, 1e-12);
+
+    Polygon2 round(100, 2);
+    for (int i = 0; i < 100; ++i)
+        round.row(i) << std::cos(2 * M_PI * i / 100), std::sin(2 * M_PI * i / 100);
+    const SupportSurface circle(round, 0.0);
+    EXPECT_TRUE(circle.isConvex());
+    EXPECT_TRUE(circle.contains({0.99 * std::cos(0.3), 0.99 * std::sin(0.3)}));
+    EXPECT_FALSE(circle.contains({1.01 * std::cos(0.3), 1.01 * std::sin(0.3)}));
+}
+
+TEST(SupportSurface, ClockwiseInputIsStoredCounterClockwise)
+{
+    const SupportSurface l(lShape().colwise().reverse(), 0.0);
+    EXPECT_GT(signedArea(l.vertices()), 0.0);
+    EXPECT_TRUE(l.contains({0.5, 1.5}));
+}
+
+TEST(SupportSurface, EarClippingCoversTheArea)
+{
+    const SupportSurface l(lShape(), 0.0);
+    double area = 0.0;
+    for (const auto &t : l.triangles())
+    {
+        Polygon2 tri(3, 2);
+        tri << l.vertices().row(t[0]), l.vertices().row(t[1]), l.vertices().row(t[2]);
+        EXPECT_GT(signedArea(tri), 0.0);
+        area += signedArea(tri);
+    }
+    EXPECT_NEAR(area, l.area(), 1e-12);
+}
+
+TEST(SupportSurface, ClosestEdgeAndSignedDistance)
+{
+    const SupportSurface l(lShape(), 0.0);
+    const EdgeQuery query = l.closestEdge({1.9, 0.5});
+    EXPECT_NEAR(query.distance, 0.1, 1e-12);
+    EXPECT_TRUE(query.outwardNormal.isApprox(Eigen::Vector2d(1, 0)));
+    EXPECT_NEAR(l.signedDistance({1.9, 0.5}), 0.1, 1e-12);
+    EXPECT_NEAR(l.signedDistance({2.2, 0.5}), -0.2, 1e-12);
+}
+
+TEST(SupportSurface, RejectsBadPolygons)
+{
+    Polygon2 two(2, 2);
+    two << 0, 0, 1, 0;
+    EXPECT_THROW(SupportSurface(two, 0.0), std::invalid_argument);
+    Polygon2 bowtie(4, 2);
+    bowtie << 0, 0, 1, 1, 1, 0, 0, 1;
+    try
+    {
+        SupportSurface surface(bowtie, 0.0);
+        FAIL() << "a bow-tie polygon was accepted";
+    }
+    catch (const std::invalid_argument &error)
+    {
+        EXPECT_NE(std::string(error.what()).find("self-intersecting"), std::string::npos);
+    }
+    Polygon2 collinear(3, 2);
+    collinear << 0, 0, 1, 0, 2, 0;
+    EXPECT_THROW(SupportSurface(collinear, 0.0), std::invalid_argument);
+    Polygon2 nan = lShape();
+    nan(2, 1) = std::nan("");
+    EXPECT_THROW(SupportSurface(nan, 0.0), std::invalid_argument);
+}
+
+TEST(ContactFrame, RotationHasTheRequestedAngles)
+{
+    for (double yaw : {-2.5, -0.3, 0.0, 1.0, 3.0})
+        for (double pitch : {0.2, 1.0, M_PI / 2 - 1e-3})
+        {
+            const Eigen::Matrix3d r = contactRotation(yaw, pitch);
+            EXPECT_TRUE((r.transpose() * r).isIdentity(1e-12));
+            EXPECT_NEAR(r.col(0).cross(r.col(1)).dot(r.col(2)), 1.0, 1e-12);  // right-handed
+            const ContactAngles angles = contactAngles(r);
+            EXPECT_NEAR(angles.yaw, yaw, 1e-12);
+            EXPECT_NEAR(angles.pitch, pitch, 1e-12);
+            EXPECT_NEAR(angles.roll, 0.0, 1e-12);
+            EXPECT_NEAR(-r.col(2).z(), std::sin(pitch), 1e-12);  // Z_F points into the surface
+        }
+}

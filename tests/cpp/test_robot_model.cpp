@@ -1,0 +1,143 @@
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+#include <cmath>
+#include <random>
+
+using namespace slideplan;
+using slideplan::testing::wamT42;
+
+namespace
+{
+    /// Standard DH of the WAM (DESIGN.md 7), written independently of the URDF.
+    Eigen::Matrix4d dhFlange(const Eigen::VectorXd &q)
+    {
+        const double alpha[7] = {-M_PI / 2, M_PI / 2, -M_PI / 2, M_PI / 2, -M_PI / 2, M_PI / 2, -M_PI / 2};
+        const double a[7] = {0, 0, 0.045, -0.045, 0, 0, 0};
+        const double d[7] = {0, 0, 0.55, 0, 0.30, 0, 0.0609};
+        Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
+        for (int i = 0; i < 7; ++i)
+        {
+            const double ct = std::cos(q(i)), st = std::sin(q(i)), ca = std::cos(alpha[i]), sa = std::sin(alpha[i]);
+            Eigen::Matrix4d step;
+            step << ct, -st * ca, st * sa, a[i] * ct, st, ct * ca, -ct * sa, a[i] * st, 0, sa, ca, d[i], 0, 0, 0, 1;
+            t = t * step;
+        }
+        return t;
+    }
+}  // namespace
+
+TEST(RobotModel, LoadsTheWamWithSevenJointsAndLimits)
+{
+    const auto robot = wamT42();
+    ASSERT_EQ(robot->dof(), 7u);
+    EXPECT_EQ(robot->jointNames().front(), "wam_j1");
+    EXPECT_NEAR(robot->lowerLimits()(3), -50 * M_PI / 180, 1e-9);
+    EXPECT_NEAR(robot->upperLimits()(4), 75 * M_PI / 180, 1e-9);
+}
+
+TEST(RobotModel, FlangeForwardKinematicsMatchesStandardDh)
+{
+    const auto flange = wamT42("wam_flange", Eigen::Isometry3d::Identity());
+    std::mt19937_64 rng(7);
+    for (int i = 0; i < 50; ++i)
+    {
+        const Eigen::VectorXd q = flange->randomConfiguration(rng);
+        const Eigen::Matrix4d expected = dhFlange(q);
+        EXPECT_LT((flange->fk(q).matrix() - expected).cwiseAbs().maxCoeff(), 1e-9) << "configuration " << i;
+    }
+}
+
+TEST(RobotModel, BasePoseMovesEveryFrame)
+{
+    const auto robot = wamT42();
+    const auto unmounted = wamT42("fingertip_contact", Eigen::Isometry3d::Identity());
+    const Eigen::VectorXd q = Eigen::VectorXd::Constant(7, 0.3);
+    EXPECT_TRUE(robot->fk(q).isApprox(slideplan::testing::defaultMount() * unmounted->fk(q), 1e-12));
+}
+
+TEST(RobotModel, JacobianMatchesFiniteDifferences)
+{
+    const auto robot = wamT42();
+    std::mt19937_64 rng(3);
+    for (int trial = 0; trial < 10; ++trial)
+    {
+        const Eigen::VectorXd q = robot->randomConfiguration(rng);
+        const auto jacobian = robot->jacobian(q);
+        const Eigen::Isometry3d pose = robot->fk(q);
+        constexpr double h = 1e-7;
+        for (int j = 0; j < 7; ++j)
+        {
+            Eigen::VectorXd qh = q;
+            qh(j) += h;
+            const Eigen::Matrix<double, 6, 1> numeric = poseError(pose, robot->fk(qh)) / h;
+            EXPECT_LT((numeric - jacobian.col(j)).norm(), 1e-5) << "joint " << j;
+        }
+    }
+}
+
+TEST(RobotModel, IkSolvesReachablePosesWithinLimits)
+{
+    const auto robot = wamT42();
+    std::mt19937_64 sampler(11), rng(12);
+    int solved = 0;
+    constexpr int trials = 1000;
+    for (int i = 0; i < trials; ++i)
+    {
+        const Eigen::VectorXd truth = robot->randomConfiguration(sampler);
+        const Eigen::Isometry3d target = robot->fk(truth);
+        Eigen::VectorXd q;
+        if (!robot->ik(target, Eigen::VectorXd(), rng, q))
+            continue;
+        const Eigen::Matrix<double, 6, 1> error = poseError(robot->fk(q), target);
+        EXPECT_TRUE(robot->withinLimits(q));
+        EXPECT_LT(error.head<3>().norm(), 1e-6);
+        EXPECT_LT(error.tail<3>().norm(), 1e-6);
+        ++solved;
+    }
+    EXPECT_GE(solved, 995) << "IK solved " << solved << " of " << trials;
+}
+
+TEST(RobotModel, IkIsDeterministicForASeed)
+{
+    const auto robot = wamT42();
+    std::mt19937_64 sampler(5);
+    const Eigen::Isometry3d target = robot->fk(robot->randomConfiguration(sampler));
+    Eigen::VectorXd first, second;
+    std::mt19937_64 rngA(99), rngB(99);
+    ASSERT_TRUE(robot->ik(target, Eigen::VectorXd(), rngA, first));
+    ASSERT_TRUE(robot->ik(target, Eigen::VectorXd(), rngB, second));
+    EXPECT_EQ(first, second);
+}
+
+TEST(RobotModel, GraspFrameIkUsesTheSameJoints)
+{
+    const auto robot = wamT42();
+    std::mt19937_64 sampler(8), rng(9);
+    const Eigen::VectorXd truth = robot->randomConfiguration(sampler);
+    const Eigen::Isometry3d target = robot->linkPose(truth, "t42_grasp");
+    Eigen::VectorXd q;
+    ASSERT_TRUE(robot->ikForLink("t42_grasp", target, Eigen::VectorXd(), rng, q));
+    EXPECT_TRUE(robot->linkPose(q, "t42_grasp").isApprox(target, 1e-6));
+    EXPECT_THROW(robot->ikForLink("wam_link3", target, Eigen::VectorXd(), rng, q), std::invalid_argument);
+}
+
+TEST(RobotModel, RejectsBadUrdfs)
+{
+    EXPECT_THROW(RobotModel("<robot name='x'><link name='a'>", "a"), std::invalid_argument);
+    EXPECT_THROW(RobotModel::fromFile("/nonexistent/robot.urdf", "tip"), std::invalid_argument);
+    EXPECT_THROW(RobotModel::fromFile(slideplan::testing::robotPath(), "no_such_link"), std::invalid_argument);
+    const std::string mesh =
+        "<robot name='m'><link name='a'/><link name='b'><collision><geometry><mesh filename='x.stl'/></geometry>"
+        "</collision></link><joint name='j' type='revolute'><parent link='a'/><child link='b'/><axis xyz='0 0 1'/>"
+        "<limit lower='-1' upper='1' effort='1' velocity='1'/></joint></robot>";
+    try
+    {
+        RobotModel robot(mesh, "b");
+        FAIL() << "mesh geometry was accepted";
+    }
+    catch (const std::invalid_argument &error)
+    {
+        EXPECT_NE(std::string(error.what()).find("mesh"), std::string::npos);
+    }
+}

@@ -1,0 +1,154 @@
+"""Scene files: the built-in scenes and error messages for bad files."""
+
+import math
+
+import numpy as np
+import pytest
+
+from slideplan.errors import InputError
+from slideplan.paths import builtin_scenes, data_dir
+from slideplan.scenes import Scene, load_scene
+
+TABLE_AREAS = {
+    "square": 0.5 * 0.5,
+    "long": 0.3 * 1.0,
+    "triangle": 0.5 * 0.6 * 0.55,
+    "round": 0.5 * 100 * 0.27**2 * math.sin(2 * math.pi / 100),
+}
+
+
+def test_builtin_scene_list_is_complete():
+    assert sorted(builtin_scenes()) == sorted(TABLE_AREAS)
+
+
+@pytest.mark.parametrize("name", sorted(TABLE_AREAS))
+def test_builtin_scene_loads_with_defaults(name):
+    scene = load_scene(name)
+    assert scene.name == name
+    assert scene.table.area == pytest.approx(TABLE_AREAS[name])
+    assert scene.table.height == 0.0
+    np.testing.assert_array_equal(scene.base_pose, [0.0, 0.0, 0.30, 0.0, 0.0, 0.0])
+    assert scene.urdf_path == data_dir() / "robots" / "wam_t42.urdf"
+    assert scene.tip_link == "fingertip_contact"
+    assert scene.contact_links == ("t42_finger1_proximal", "t42_finger1_distal")
+    assert scene.obstacles == ()
+    assert scene.source.endswith(f"{name}.toml")
+
+
+def test_round_scene_has_100_edge_points():
+    assert load_scene("round").table.vertices.shape == (100, 2)
+
+
+def test_default_scene_is_square():
+    assert Scene.default().name == "square"
+
+
+def test_full_scene_file(tmp_path):
+    (tmp_path / "arm.urdf").write_text("<robot name='arm'/>")
+    path = tmp_path / "lab.toml"
+    path.write_text(
+        """
+[table]
+polygon = [[0.4, 0.3], [0.4, -0.3], [0.9, -0.3], [0.9, 0.3]]
+height = 0.72
+[robot]
+urdf = "arm.urdf"
+base_pose = [0.1, 0.0, 1.0, 0.0, 0.0, 1.57]
+tip_link = "tip"
+contact_links = ["finger"]
+[[obstacles]]
+center = [0.6, 0.2, 0.8]
+size = [0.1, 0.1, 0.16]
+[[obstacles]]
+center = [0.6, -0.2, 0.8]
+size = [0.1, 0.2, 0.16]
+yaw = 0.5
+"""
+    )
+    scene = load_scene(path)
+    assert scene.name == "lab"
+    assert scene.table.height == 0.72
+    assert scene.table.contains(np.array([[0.65, 0.0]])).all()
+    assert scene.urdf_path == tmp_path / "arm.urdf"
+    np.testing.assert_array_equal(scene.base_pose, [0.1, 0.0, 1.0, 0.0, 0.0, 1.57])
+    assert scene.tip_link == "tip"
+    assert scene.contact_links == ("finger",)
+    assert len(scene.obstacles) == 2
+    np.testing.assert_array_equal(scene.obstacles[1].size, [0.1, 0.2, 0.16])
+    assert scene.obstacles[0].yaw == 0.0
+    assert scene.obstacles[1].yaw == 0.5
+
+
+def test_circle_table_defaults_to_100_points(tmp_path):
+    path = tmp_path / "disc.toml"
+    path.write_text("[table]\ncircle = { center = [0.6, 0.0], radius = 0.3 }\n")
+    assert load_scene(path).table.vertices.shape == (100, 2)
+
+
+@pytest.mark.parametrize(
+    ("text", "field", "problem"),
+    [
+        ("[robot]\nbase_pose = [0, 0, 0, 0, 0, 0]\n", "table", "missing required field"),
+        ('[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\nheight = "zero"\n', "table.height", "expected a number"),
+        ("[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\nheight = true\n", "table.height", "expected a number"),
+        ("[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\nheigth = 0.1\n", "table.heigth", "unknown field"),
+        ("[table]\nheight = 0.0\n", "table", "exactly one of"),
+        (
+            "[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\ncircle = { center = [0, 0], radius = 1 }\n",
+            "table",
+            "exactly one of",
+        ),
+        ("[table]\npolygon = [[0, 0], [1, 1], [1, 0], [0, 1]]\n", "table.polygon", "polygon is self-intersecting"),
+        ("[table]\npolygon = [[0, 0], [1, 0]]\n", "table.polygon", "at least 3 vertices"),
+        ("[table]\npolygon = [[0, 0], [1, 0], [0, nan]]\n", "table.polygon[2]", "finite"),
+        ("[table]\ncircle = { center = [0, 0], radius = -1 }\n", "table.circle.radius", "> 0"),
+        ("[table]\ncircle = { center = [0, 0], radius = 1, points = 2 }\n", "table.circle.points", ">= 3"),
+        ("[table]\ncircle = { radius = 1 }\n", "table.circle.center", "missing"),
+        (
+            "[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\n[robot]\nbase_pose = [0, 0, 0, 0, 0]\n",
+            "robot.base_pose",
+            "6 numbers",
+        ),
+        (
+            '[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\n[robot]\nurdf = "nowhere.urdf"\n',
+            "robot.urdf",
+            "file not found",
+        ),
+        (
+            "[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\n[robot]\ncontact_links = []\n",
+            "robot.contact_links",
+            "non-empty list",
+        ),
+        (
+            "[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\n[[obstacles]]\ncenter = [0, 0, 0]\nsize = [1, -1, 1]\n",
+            "obstacles[0].size",
+            "> 0",
+        ),
+        (
+            "[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\n[[obstacles]]\nsize = [1, 1, 1]\n",
+            "obstacles[0].center",
+            "missing",
+        ),
+        ("table = 3\n", "table", "expected a table"),
+        ("[table\n", "", "invalid TOML"),
+    ],
+)
+def test_bad_scene_raises_input_error_naming_file_and_field(tmp_path, text, field, problem):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(InputError) as raised:
+        load_scene(path)
+    assert str(raised.value).startswith(f"{path}: {field}")
+    assert problem in str(raised.value)
+
+
+def test_unknown_scene_name_raises():
+    with pytest.raises(InputError, match="no_such_scene: no such file"):
+        load_scene("no_such_scene")
+
+
+def test_default_robot_urdf_has_the_default_tip_and_contact_links():
+    scene = Scene.default()
+    urdf = scene.urdf_path.read_text()
+    for link in (scene.tip_link, *scene.contact_links):
+        assert f'<link name="{link}"' in urdf
