@@ -42,8 +42,8 @@ namespace slideplan
     /// Options of the damped-least-squares inverse kinematics.
     struct IkOptions
     {
-        int maxIterations{150};          ///< per attempt
-        int maxAttempts{20};             ///< the seed, then random restarts
+        int maxIterations{100};          ///< per attempt
+        int maxAttempts{50};             ///< the seed, then random restarts
         double positionTolerance{1e-8};  ///< metres
         double orientationTolerance{1e-8};  ///< radians
     };
