@@ -29,4 +29,5 @@ PYBIND11_MODULE(_core, module)
     slideplan::bindings::bindGeometry(module);
     slideplan::bindings::bindRobot(module);
     slideplan::bindings::bindCollision(module);
+    slideplan::bindings::bindPlanner(module);
 }

@@ -1,0 +1,66 @@
+/// \file pair_validator.hpp
+/// IsPairValid of Algorithm 1 (paper IV-C.1): does sliding from phi_s to phi_g leave the object in a
+/// graspable pose, and can the hand reach the side grasp from phi_g?
+#pragma once
+
+#include "slideplan/collision.hpp"
+#include "slideplan/object_motion.hpp"
+#include "slideplan/params.hpp"
+#include "slideplan/task.hpp"
+
+#include <ompl/base/PlannerTerminationCondition.h>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace slideplan
+{
+    /// The cheap geometric part of pair validation: P'_o, P_out, u, CoM.
+    struct Overhang
+    {
+        PlanarMotion motion;
+        int outsideCount{0};          ///< |P_out|
+        Eigen::Vector2d outsideCentroid{Eigen::Vector2d::Zero()};  ///< geometric centre of P_out
+        EdgeQuery edge;               ///< edge (e_i, e_j) of Q closest to that centroid
+        double overhang{0.0};         ///< u: largest distance of P_out beyond that edge
+        bool comInside{false};        ///< CoM of P'_o inside Q
+    };
+
+    struct PairVerdict
+    {
+        bool valid{false};
+        std::string reason;           ///< why a pair was rejected: for statistics and debugging
+        Overhang overhang;
+        Eigen::Isometry3d graspPose{Eigen::Isometry3d::Identity()};
+        Eigen::VectorXd graspConfig;
+        std::vector<Eigen::VectorXd> approach;  ///< phi_g -> lift -> pre-grasp -> grasp, dense
+    };
+
+    class PairValidator
+    {
+    public:
+        PairValidator(std::shared_ptr<const SlidingTask> task, const PlannerParams &params);
+
+        /// IsPairValid(phi_s, phi_g): cheap geometry first, then grasp IK, then the transfer motion.
+        PairVerdict check(const Eigen::VectorXd &start, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
+                          const ompl::base::PlannerTerminationCondition &ptc) const;
+
+        /// P'_o by Eq. 2, P_out by point-in-polygon, u from the edge closest to the centroid of P_out.
+        Overhang overhang(const PlanarMotion &motion) const;
+
+        /// H_g: the grasp frame at the centroid of P_out, mid-thickness, approaching perpendicular to
+        /// the edge in the table plane, the straight (+Y) finger above the object.
+        Eigen::Isometry3d graspPose(const Overhang &overhang) const;
+
+    private:
+        bool lift(const Eigen::VectorXd &goal, std::vector<Eigen::VectorXd> &path) const;
+        bool straightMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::vector<Eigen::VectorXd> &path) const;
+        bool transferMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::uint64_t seed,
+                            const ompl::base::PlannerTerminationCondition &ptc, std::vector<Eigen::VectorXd> &path) const;
+
+        std::shared_ptr<const SlidingTask> task_;
+        PlannerParams params_;
+        std::unique_ptr<CollisionWorld> world_;  ///< holds the object at its final pose while a pair is checked
+    };
+
+}  // namespace slideplan

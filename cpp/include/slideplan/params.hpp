@@ -1,0 +1,53 @@
+/// \file params.hpp
+/// Every parameter of the planner, declared once. Defaults from the paper where it gives them
+/// (section V: Delta_beta = 0.1 rad, Delta_Z^- = 0.5 cm, reconfiguration range 2 cm, N* = 100,
+/// 60 s budget); the others are chosen for the WAM + T42 and palm-sized objects (docs/parameters.md).
+#pragma once
+
+#include <string>
+
+namespace slideplan
+{
+    /// Which roots the planner grows trees from (paper V-6).
+    enum class RootPolicy
+    {
+        Sampled,  ///< Algorithm 1: start and goal roots sampled from C_s and C_g by Eq. 5 ("slideplan")
+        Fixed,    ///< CBiRRT baseline: one valid start/goal pair precomputed, then connected ("cbirrt")
+        FixedStart  ///< CBiRRT2 baseline: one start precomputed, goals sampled ("cbirrt2")
+    };
+
+    struct PlannerParams
+    {
+        // Constraint and its relaxations (paper IV-C.3, Eqs. 3-4).
+        double beta0{1.0};        ///< contact pitch beta_0 (rad): the T42 fingertip pad pressing at ~57 deg
+        double deltaBeta{0.1};    ///< pitch relaxation Delta_beta (rad), paper V
+        double dzMin{0.005};      ///< Delta_Z^-: minimum contact depth below z_s (m), paper V-5
+        double dzMax{0.025};      ///< Delta_Z^+ = Delta_Z^- + reconfiguration range (2 cm), paper V-5
+
+        // Root sampling (Eq. 5) and regions.
+        double nStar{100.0};      ///< N* of Eq. 5, paper V-7
+        double dGoal{0.05};       ///< width of the goal band P_g inside the table edges (m), Eq. 4
+
+        // Pair validation (IV-C.1).
+        double uStar{0.02};       ///< minimum overhang u* (m): the T42's minimum contact size
+        double graspLift{0.05};   ///< fingertip lift before the transfer to the grasp (m)
+        double graspBackoff{0.06};  ///< pre-grasp offset along the approach axis (m)
+        double transferTime{0.2};   ///< RRTConnect budget per transfer when the straight motion fails (s)
+
+        // Constrained extension (CBiRRT [16]).
+        double maxJointStep{0.02};     ///< largest joint change between tree nodes (rad); also the path density
+        double maxTipStep{0.01};       ///< largest fingertip displacement between tree nodes (m)
+        double projectionTolerance{1e-4};  ///< residual tolerance of the projection (m, and sin of rad)
+        int projectionIterations{30};
+        int rootIkAttempts{3};    ///< IK attempts (seed + restarts) per root sample: cheap rejection
+
+        RootPolicy policy{RootPolicy::Sampled};
+
+        /// \throws std::invalid_argument naming the first inconsistent parameter.
+        void validate() const;
+    };
+
+    RootPolicy rootPolicyFromName(const std::string &name);  ///< "slideplan" | "cbirrt" | "cbirrt2"
+    std::string rootPolicyName(RootPolicy policy);
+
+}  // namespace slideplan

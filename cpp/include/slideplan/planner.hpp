@@ -1,0 +1,77 @@
+/// \file planner.hpp
+/// Algorithm 1 of the paper: CBiRRT with sampleable regions. Start and goal forests grow from roots
+/// drawn from C_s (Eq. 3) and C_g (Eq. 4) while CanAddRoot (Eq. 5) allows; every connection of a
+/// start tree with a goal tree is checked by IsPairValid (IV-C.1). The baselines of section V-6 are
+/// root policies of the same planner.
+#pragma once
+
+#include "slideplan/pair_validator.hpp"
+#include "slideplan/params.hpp"
+#include "slideplan/regions.hpp"
+#include "slideplan/result.hpp"
+#include "slideplan/task.hpp"
+
+#include <map>
+#include <ompl/base/Planner.h>
+#include <ompl/datastructures/NearestNeighbors.h>
+#include <random>
+
+namespace slideplan
+{
+    /// Eq. 5: add a root while exp(-(N_s + N_g) / N*) > U(0, 1).
+    bool canAddRoot(int startRoots, int goalRoots, double nStar, std::mt19937_64 &rng);
+
+    class SlidingPlanner : public ompl::base::Planner
+    {
+    public:
+        SlidingPlanner(const ompl::base::SpaceInformationPtr &si, std::shared_ptr<const SlidingTask> task,
+                       const PlannerParams &params, std::uint64_t seed);
+        ~SlidingPlanner() override;
+
+        ompl::base::PlannerStatus solve(const ompl::base::PlannerTerminationCondition &ptc) override;
+        void clear() override;
+
+        /// The plan of the last solve(): trajectory, object motion, grasp and statistics.
+        const PlanResult &result() const { return result_; }
+
+    private:
+        struct Node
+        {
+            Eigen::VectorXd q;
+            Eigen::Isometry3d tip;  ///< Gamma(q), kept to bound the fingertip step without another FK
+            Node *parent{nullptr};
+            int root{-1};           ///< index of the tree's root in its forest
+        };
+        struct Forest;
+
+        /// Pi.AddFromRegion(): one draw from the forest's region; a valid configuration becomes a root.
+        bool addRoot(Forest &forest);
+        /// T.ConstrainedExtend(target, near): project every step onto the relaxed constraint and stop
+        /// when projection fails, the step jumps, progress stalls or the state is invalid.
+        Node *constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target, bool &reached);
+        /// Baselines: draw roots until the policy's fixed roots exist (and, for CBiRRT, form a valid pair).
+        bool precomputeRoots(const ompl::base::PlannerTerminationCondition &ptc);
+        /// GetRoots + IsPairValid for a connection, with the verdict cached per root pair.
+        const PairVerdict *validatePair(Node *startNode, Node *goalNode, const ompl::base::PlannerTerminationCondition &ptc);
+        /// ExtractPath: root of the start tree -> connection -> root of the goal tree.
+        void extractPath(Node *startNode, Node *goalNode, const PairVerdict &verdict);
+
+        std::shared_ptr<const SlidingTask> task_;
+        PlannerParams params_;
+        std::uint64_t seed_;
+        std::mt19937_64 rng_;
+        std::shared_ptr<const SlidingConstraint> constraint_;
+        std::shared_ptr<const SlidingValidity> validity_;
+        std::unique_ptr<PairValidator> pairValidator_;
+        std::unique_ptr<Forest> startForest_, goalForest_;
+        std::map<std::pair<int, int>, PairVerdict> verdicts_;
+        PlanResult result_;
+    };
+
+    /// Plan one sliding task: sets up the OMPL space, runs SlidingPlanner::solve(ptc) and returns the
+    /// result; planning time counts everything from here, including the baselines' precomputation.
+    /// \throws std::invalid_argument for invalid parameters, an unreachable object or u* beyond the object.
+    PlanResult planSliding(std::shared_ptr<const SlidingTask> task, const PlannerParams &params, std::uint64_t seed,
+                           const ompl::base::PlannerTerminationCondition &ptc);
+
+}  // namespace slideplan

@@ -1,0 +1,50 @@
+/// \file regions.hpp
+/// Configuration sampleable regions (paper IV-A, IV-B): C = { Gamma~(omega) | omega in Omega } with
+/// Omega = (contact points) x { r(alpha, beta0) | alpha in [0, 2 pi) }, the contact depth drawn from
+/// the relaxed band [dz_min, dz_max].
+#pragma once
+
+#include "slideplan/params.hpp"
+#include "slideplan/validity.hpp"
+
+#include <random>
+
+namespace slideplan
+{
+    class ContactRegion
+    {
+    public:
+        ContactRegion(std::shared_ptr<const SlidingValidity> validity, const PlannerParams &params);
+        virtual ~ContactRegion() = default;
+
+        /// Draw omega, solve Gamma~(omega) from `seed` (then random restarts) and keep the result if it
+        /// is a valid sliding state. Returns false if this draw gave no valid configuration.
+        bool sample(std::mt19937_64 &rng, const Eigen::VectorXd &seed, Eigen::VectorXd &q) const;
+
+        /// The contact point (x, y) of a draw.
+        virtual Eigen::Vector2d samplePoint(std::mt19937_64 &rng) const = 0;
+
+    protected:
+        std::shared_ptr<const SlidingValidity> validity_;
+        PlannerParams params_;
+        double reach_;  ///< upper bound of the distance from the base to the tip: cheap rejection before IK
+    };
+
+    /// Eq. 3: contact points from the object's cloud P_o.
+    class StartRegion final : public ContactRegion
+    {
+    public:
+        using ContactRegion::ContactRegion;
+        Eigen::Vector2d samplePoint(std::mt19937_64 &rng) const override;
+    };
+
+    /// Eq. 4: contact points P_g from the band between Q and Q contracted inward by d_goal, lifted to z_s.
+    class GoalRegion final : public ContactRegion
+    {
+    public:
+        using ContactRegion::ContactRegion;
+        /// Uniform in the band: rejection sampling in Q's bounding box on the distance to the boundary.
+        Eigen::Vector2d samplePoint(std::mt19937_64 &rng) const override;
+    };
+
+}  // namespace slideplan

@@ -1,0 +1,43 @@
+/// \file result.hpp
+/// What a planning run returns: the sliding trajectory, the object motion (Eq. 2), the grasp and
+/// the statistics that the experiments of section V report.
+#pragma once
+
+#include "slideplan/object_motion.hpp"
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+namespace slideplan
+{
+    struct PlanStats
+    {
+        long iterations{0};
+        int startRoots{0};
+        int goalRoots{0};
+        long pairsChecked{0};
+        long pairsRejected{0};
+        long nodes{0};          ///< tree nodes over both forests
+        long rootSamples{0};    ///< root sampling attempts (successful or not)
+        double precomputeTime{0.0};  ///< baselines: time to find their fixed roots (s), included in planningTime
+    };
+
+    struct PlanResult
+    {
+        std::string status{"timeout"};  ///< "solved" | "timeout"
+        std::string planner;            ///< "slideplan" | "cbirrt" | "cbirrt2"
+        double planningTime{0.0};       ///< seconds, precomputation included
+        Eigen::VectorXd startConfig, goalConfig;
+        std::vector<Eigen::VectorXd> trajectory;          ///< dense, start to goal
+        std::vector<Eigen::Isometry3d> fingertipPoses;    ///< contact frame F per waypoint
+        PlanarMotion objectMotion;
+        double overhang{0.0};                             ///< u of the final object pose (m)
+        Eigen::Isometry3d graspPose{Eigen::Isometry3d::Identity()};  ///< H_g (grasp frame)
+        Eigen::VectorXd graspConfig;
+        std::vector<Eigen::VectorXd> approach;            ///< dense, goal config to grasp config
+        PlanStats stats;
+    };
+
+}  // namespace slideplan

@@ -1,0 +1,38 @@
+/// \file task.hpp
+/// One sliding problem: robot, table Q, obstacles and the thin object's top-surface cloud P_o.
+#pragma once
+
+#include "slideplan/collision.hpp"
+#include "slideplan/geometry.hpp"
+#include "slideplan/robot_model.hpp"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace slideplan
+{
+    struct SlidingTask
+    {
+        std::shared_ptr<const RobotModel> robot;
+        std::shared_ptr<const SupportSurface> table;
+        std::vector<BoxObstacle> obstacles;
+        std::vector<std::string> contactLinks;  ///< excluded from table/object collisions while sliding
+        std::string graspLink{"t42_grasp"};     ///< frame placed at H_g for the side grasp (Z = approach)
+        Polygon2 objectXY;       ///< P_o projected on the table plane, world frame
+        double surfaceZ{0.0};    ///< z_s: top of the object = table height + thickness
+        Eigen::Vector2d objectCom{Eigen::Vector2d::Zero()};  ///< centre of mass (uniform thin plate)
+
+        /// Build from the N x 3 top-surface cloud; z_s is the mean z of the cloud.
+        /// \throws std::invalid_argument for an empty or non-finite cloud, a cloud below the table top,
+        ///         an object not wholly on the table, or a centre of mass off the table.
+        static SlidingTask make(std::shared_ptr<const RobotModel> robot, std::shared_ptr<const SupportSurface> table,
+                                std::vector<BoxObstacle> obstacles, std::vector<std::string> contactLinks,
+                                const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
+                                const Eigen::Vector2d &objectCom);
+
+        double thickness() const { return surfaceZ - table->height(); }
+        double objectExtent() const;  ///< largest distance between two points of P_o
+    };
+
+}  // namespace slideplan

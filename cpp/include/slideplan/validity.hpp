@@ -1,0 +1,35 @@
+/// \file validity.hpp
+/// State validity while sliding (paper IV-C.3): within joint limits, on the relaxed constraint,
+/// fingertip inside Q (the object must not be pushed off the table), and collision-free with the
+/// contacting finger allowed to penetrate table and object.
+#pragma once
+
+#include "slideplan/collision.hpp"
+#include "slideplan/constraint.hpp"
+#include "slideplan/task.hpp"
+
+#include <ompl/base/StateValidityChecker.h>
+
+namespace slideplan
+{
+    class SlidingValidity : public ompl::base::StateValidityChecker
+    {
+    public:
+        SlidingValidity(const ompl::base::SpaceInformationPtr &si, std::shared_ptr<const SlidingTask> task,
+                        std::shared_ptr<const SlidingConstraint> constraint);
+
+        bool isValid(const ompl::base::State *state) const override;
+
+        /// The same check with the fingertip pose `tip = Gamma(q)` already known.
+        bool isValid(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip) const;
+
+        const SlidingTask &task() const { return *task_; }
+        const SlidingConstraint &constraint() const { return *constraint_; }
+
+    private:
+        std::shared_ptr<const SlidingTask> task_;
+        std::shared_ptr<const SlidingConstraint> constraint_;
+        std::unique_ptr<CollisionWorld> world_;
+    };
+
+}  // namespace slideplan

@@ -1,0 +1,156 @@
+#include "bindings.hpp"
+
+#include "slideplan/planner.hpp"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+namespace py = pybind11;
+
+namespace slideplan::bindings
+{
+    namespace
+    {
+        Eigen::MatrixXd stack(const std::vector<Eigen::VectorXd> &rows, long columns)
+        {
+            Eigen::MatrixXd matrix(static_cast<long>(rows.size()), columns);
+            for (std::size_t i = 0; i < rows.size(); ++i)
+                matrix.row(static_cast<long>(i)) = rows[i].transpose();
+            return matrix;
+        }
+
+        py::array_t<double> poses(const std::vector<Eigen::Isometry3d> &frames)
+        {
+            py::array_t<double> out({static_cast<py::ssize_t>(frames.size()), py::ssize_t{4}, py::ssize_t{4}});
+            auto view = out.mutable_unchecked<3>();
+            for (std::size_t i = 0; i < frames.size(); ++i)
+                for (int r = 0; r < 4; ++r)
+                    for (int c = 0; c < 4; ++c)
+                        view(static_cast<py::ssize_t>(i), r, c) = frames[i].matrix()(r, c);
+            return out;
+        }
+
+        PlanResult plan(std::shared_ptr<const RobotModel> robot, const SupportSurface &table,
+                        const std::vector<BoxObstacle> &obstacles, const std::vector<std::string> &contactLinks,
+                        const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints, const Eigen::Vector2d &objectCom,
+                        const PlannerParams &params, std::uint64_t seed, double timeLimit, const std::string &graspLink)
+        {
+            if (!std::isfinite(timeLimit) || timeLimit <= 0.0)
+                throw std::invalid_argument("time limit must be a positive number of seconds, got " + std::to_string(timeLimit));
+            auto task = std::make_shared<SlidingTask>(SlidingTask::make(
+                robot, std::make_shared<SupportSurface>(table), obstacles, contactLinks, objectPoints, objectCom));
+            task->graspLink = graspLink;
+            if (robot->linkIndex(graspLink) < 0)
+                throw std::invalid_argument("grasp link '" + graspLink + "' is not a link of the robot");
+
+            // The GIL is released while planning; every 100 ms the termination condition takes it back
+            // briefly to let Python run its signal handlers, so Ctrl-C stops planning promptly.
+            using Clock = std::chrono::steady_clock;
+            const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeLimit));
+            auto lastSignalCheck = Clock::now();
+            std::atomic<bool> interrupted{false};
+            const ompl::base::PlannerTerminationCondition ptc([&] {
+                const auto now = Clock::now();
+                if (now >= deadline || interrupted)
+                    return true;
+                if (now - lastSignalCheck > std::chrono::milliseconds(100))
+                {
+                    lastSignalCheck = now;
+                    py::gil_scoped_acquire gil;
+                    if (PyErr_CheckSignals() != 0)
+                        interrupted = true;
+                }
+                return interrupted.load();
+            });
+            PlanResult result;
+            {
+                py::gil_scoped_release release;
+                result = planSliding(task, params, seed, ptc);
+            }
+            if (interrupted)
+                throw py::error_already_set();  // the KeyboardInterrupt raised by the signal handler
+            return result;
+        }
+    }  // namespace
+
+    void bindPlanner(py::module_ &module)
+    {
+        py::class_<PlannerParams>(module, "PlannerParams", "Every planner parameter, declared once (params.hpp).")
+            .def(py::init<>())
+            .def_readwrite("beta0", &PlannerParams::beta0, "Contact pitch beta_0 (rad), Eqs. 3-4.")
+            .def_readwrite("delta_beta", &PlannerParams::deltaBeta, "Pitch relaxation Delta_beta (rad).")
+            .def_readwrite("dz_min", &PlannerParams::dzMin, "Delta_Z^-: minimum contact depth (m).")
+            .def_readwrite("dz_max", &PlannerParams::dzMax, "Delta_Z^+: maximum contact depth (m).")
+            .def_readwrite("n_star", &PlannerParams::nStar, "N* of Eq. 5.")
+            .def_readwrite("d_goal", &PlannerParams::dGoal, "Goal band width (m), Eq. 4.")
+            .def_readwrite("u_star", &PlannerParams::uStar, "Minimum overhang u* (m).")
+            .def_readwrite("grasp_lift", &PlannerParams::graspLift, "Fingertip lift before the transfer (m).")
+            .def_readwrite("grasp_backoff", &PlannerParams::graspBackoff, "Pre-grasp offset along the approach (m).")
+            .def_readwrite("transfer_time", &PlannerParams::transferTime, "RRTConnect budget per transfer (s).")
+            .def_readwrite("max_joint_step", &PlannerParams::maxJointStep, "Largest joint change between waypoints (rad).")
+            .def_readwrite("max_tip_step", &PlannerParams::maxTipStep, "Largest fingertip step between waypoints (m).")
+            .def_readwrite("projection_tolerance", &PlannerParams::projectionTolerance, "Projection residual tolerance.")
+            .def_readwrite("projection_iterations", &PlannerParams::projectionIterations, "Newton steps per projection.")
+            .def_readwrite("root_ik_attempts", &PlannerParams::rootIkAttempts, "IK attempts per root draw.")
+            .def_property(
+                "policy", [](const PlannerParams &p) { return rootPolicyName(p.policy); },
+                [](PlannerParams &p, const std::string &name) { p.policy = rootPolicyFromName(name); },
+                "Root policy: 'slideplan' (Algorithm 1), 'cbirrt' or 'cbirrt2' (baselines of V-6).")
+            .def("validate", &PlannerParams::validate, "Raise ValueError naming the first inconsistent parameter.");
+
+        py::class_<PlanResult>(module, "PlanResult", "Result of plan_sliding().")
+            .def_readonly("status", &PlanResult::status, "'solved' or 'timeout'.")
+            .def_readonly("planner", &PlanResult::planner, "'slideplan', 'cbirrt' or 'cbirrt2'.")
+            .def_readonly("planning_time", &PlanResult::planningTime, "Seconds, precomputation included.")
+            .def_readonly("start_config", &PlanResult::startConfig, "phi_s.")
+            .def_readonly("goal_config", &PlanResult::goalConfig, "phi_g.")
+            .def_property_readonly("trajectory", [](const PlanResult &r) { return stack(r.trajectory, r.startConfig.size()); },
+                                   "Dense joint path (M, dof), phi_s to phi_g.")
+            .def_property_readonly("fingertip_poses", [](const PlanResult &r) { return poses(r.fingertipPoses); },
+                                   "Contact frame F per waypoint (M, 4, 4).")
+            .def_property_readonly("object_motion",
+                                   [](const PlanResult &r) { return py::make_tuple(r.objectMotion.x, r.objectMotion.y, r.objectMotion.yaw); },
+                                   "(x, y, yaw): p' = R(yaw) p + (x, y), Eq. 2.")
+            .def_readonly("overhang", &PlanResult::overhang, "Overhang u of the final pose (m).")
+            .def_property_readonly("grasp_pose", [](const PlanResult &r) { return r.graspPose.matrix(); }, "H_g (4x4).")
+            .def_readonly("grasp_config", &PlanResult::graspConfig, "Configuration at the grasp.")
+            .def_property_readonly("approach", [](const PlanResult &r) { return stack(r.approach, r.startConfig.size()); },
+                                   "Dense joint path (K, dof) from phi_g to the grasp.")
+            .def_property_readonly(
+                "stats",
+                [](const PlanResult &r) {
+                    py::dict stats;
+                    stats["iterations"] = r.stats.iterations;
+                    stats["start_roots"] = r.stats.startRoots;
+                    stats["goal_roots"] = r.stats.goalRoots;
+                    stats["pairs_checked"] = r.stats.pairsChecked;
+                    stats["pairs_rejected"] = r.stats.pairsRejected;
+                    stats["nodes"] = r.stats.nodes;
+                    stats["root_samples"] = r.stats.rootSamples;
+                    stats["precompute_time"] = r.stats.precomputeTime;
+                    return stats;
+                },
+                "Planner statistics.");
+
+        module.def("plan_sliding", &plan, py::arg("robot"), py::arg("table"), py::arg("obstacles"), py::arg("contact_links"),
+                   py::arg("object_points"), py::arg("object_com_xy"), py::arg("params"), py::arg("seed"),
+                   py::arg("time_limit"), py::arg("grasp_link") = "t42_grasp",
+                   "Plan a pre-grasp sliding motion (Algorithm 1). Releases the GIL; Ctrl-C raises KeyboardInterrupt. "
+                   "Raises ValueError for bad input (object off the table, bad parameters, non-positive time limit).");
+        module.def(
+            "can_add_root",
+            [](int startRoots, int goalRoots, double nStar, std::uint64_t rngSeed, int draws) {
+                std::mt19937_64 rng(rngSeed);
+                int added = 0;
+                for (int i = 0; i < draws; ++i)
+                    added += canAddRoot(startRoots, goalRoots, nStar, rng);
+                return added;
+            },
+            py::arg("start_roots"), py::arg("goal_roots"), py::arg("n_star"), py::arg("rng_seed"), py::arg("draws"),
+            "Eq. 5 drawn `draws` times: how many allowed a new root.");
+    }
+}  // namespace slideplan::bindings

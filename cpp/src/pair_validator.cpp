@@ -1,0 +1,248 @@
+#include "slideplan/pair_validator.hpp"
+
+#include <ompl/base/SpaceInformation.h>
+#include <ompl/base/spaces/RealVectorStateSpace.h>
+#include <ompl/datastructures/NearestNeighborsLinear.h>
+#include <ompl/geometric/PathGeometric.h>
+#include <ompl/geometric/planners/rrt/RRTConnect.h>
+
+#include <cmath>
+
+namespace ob = ompl::base;
+namespace og = ompl::geometric;
+
+namespace slideplan
+{
+    namespace
+    {
+        /// OMPL's uniform sampler with a local seed, so the transfer motion is reproducible.
+        class SeededSampler : public ob::RealVectorStateSampler
+        {
+        public:
+            SeededSampler(const ob::StateSpace *space, std::uint_fast32_t seed) : ob::RealVectorStateSampler(space)
+            {
+                rng_.setLocalSeed(seed);
+            }
+        };
+
+        /// Clears the object from the transfer world however the check ends.
+        struct ObjectGuard
+        {
+            CollisionWorld &world;
+            ~ObjectGuard() { world.clearObject(); }
+        };
+    }  // namespace
+
+    PairValidator::PairValidator(std::shared_ptr<const SlidingTask> task, const PlannerParams &params)
+      : task_(std::move(task))
+      , params_(params)
+      , world_(std::make_unique<CollisionWorld>(task_->robot, *task_->table, task_->obstacles, task_->contactLinks))
+    {
+    }
+
+    Overhang PairValidator::overhang(const PlanarMotion &motion) const
+    {
+        const SupportSurface &table = *task_->table;
+        Overhang result;
+        result.motion = motion;
+        std::vector<Eigen::Vector2d> outside;
+        for (int i = 0; i < task_->objectXY.rows(); ++i)
+        {
+            const Eigen::Vector2d moved = motion.apply(task_->objectXY.row(i).transpose());
+            if (!table.contains(moved))
+                outside.push_back(moved);
+        }
+        result.comInside = table.contains(motion.apply(task_->objectCom));
+        result.outsideCount = static_cast<int>(outside.size());
+        if (outside.empty())
+            return result;
+        for (const auto &point : outside)
+            result.outsideCentroid += point / static_cast<double>(outside.size());
+        result.edge = table.closestEdge(result.outsideCentroid);
+        for (const auto &point : outside)
+            result.overhang = std::max(result.overhang, (point - result.edge.closest).dot(result.edge.outwardNormal));
+        return result;
+    }
+
+    Eigen::Isometry3d PairValidator::graspPose(const Overhang &overhang) const
+    {
+        const Eigen::Vector3d approach(-overhang.edge.outwardNormal.x(), -overhang.edge.outwardNormal.y(), 0.0);
+        const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+        Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+        pose.linear().col(0) = up.cross(approach);
+        pose.linear().col(1) = up;
+        pose.linear().col(2) = approach;
+        pose.translation() << overhang.outsideCentroid, task_->table->height() + 0.5 * task_->thickness();
+        return pose;
+    }
+
+    bool PairValidator::straightMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to,
+                                       std::vector<Eigen::VectorXd> &path) const
+    {
+        const int steps = std::max(1, static_cast<int>(std::ceil((to - from).cwiseAbs().maxCoeff() / params_.maxJointStep)));
+        std::vector<Eigen::VectorXd> segment;  // appended only if the whole motion is free
+        for (int k = 1; k <= steps; ++k)
+        {
+            segment.push_back(from + (to - from) * (static_cast<double>(k) / steps));
+            if (!world_->isValid(segment.back(), ContactMode::Free))
+                return false;
+        }
+        path.insert(path.end(), segment.begin(), segment.end());
+        return true;
+    }
+
+    bool PairValidator::lift(const Eigen::VectorXd &goal, std::vector<Eigen::VectorXd> &path) const
+    {
+        const RobotModel &robot = *task_->robot;
+        const Eigen::Isometry3d start = robot.fk(goal);
+        const int steps = static_cast<int>(std::ceil(params_.graspLift / (0.8 * params_.maxTipStep)));
+        IkOptions options;
+        options.maxAttempts = 1;  // from the previous waypoint only: a restart would jump
+        std::mt19937_64 unused(0);
+        Eigen::VectorXd previous = goal;
+        for (int k = 1; k <= steps; ++k)
+        {
+            Eigen::Isometry3d target = start;
+            target.translation().z() += params_.graspLift * k / steps;
+            Eigen::VectorXd q;
+            if (!robot.ik(target, previous, unused, q, options) ||
+                (q - previous).cwiseAbs().maxCoeff() > params_.maxJointStep)
+                return false;
+            // The finger may still press into the object until it has risen above it.
+            const bool clear = target.translation().z() >= task_->surfaceZ + params_.graspLift - 1e-3;
+            if (!world_->isValid(q, clear ? ContactMode::Free : ContactMode::Sliding))
+                return false;
+            path.push_back(q);
+            previous = q;
+        }
+        return true;
+    }
+
+    bool PairValidator::transferMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::uint64_t seed,
+                                       const ob::PlannerTerminationCondition &ptc,
+                                       std::vector<Eigen::VectorXd> &path) const
+    {
+        if (straightMotion(from, to, path))
+            return true;
+        if (params_.transferTime <= 0.0)
+            return false;
+        const RobotModel &robot = *task_->robot;
+        const unsigned dof = robot.dof();
+        auto space = std::make_shared<ob::RealVectorStateSpace>(dof);
+        ob::RealVectorBounds bounds(dof);
+        for (unsigned i = 0; i < dof; ++i)
+        {
+            bounds.setLow(i, robot.lowerLimits()(i));
+            bounds.setHigh(i, robot.upperLimits()(i));
+        }
+        space->setBounds(bounds);
+        space->setStateSamplerAllocator([seed](const ob::StateSpace *s) {
+            return std::make_shared<SeededSampler>(s, static_cast<std::uint_fast32_t>(seed));
+        });
+        auto si = std::make_shared<ob::SpaceInformation>(space);
+        si->setStateValidityChecker([this, dof](const ob::State *state) {
+            const auto *values = state->as<ob::RealVectorStateSpace::StateType>()->values;
+            return world_->isValid(Eigen::Map<const Eigen::VectorXd>(values, dof), ContactMode::Free);
+        });
+        si->setStateValidityCheckingResolution(params_.maxJointStep / space->getMaximumExtent());
+        si->setup();
+        ob::ScopedState<ob::RealVectorStateSpace> start(space), goal(space);
+        for (unsigned i = 0; i < dof; ++i)
+        {
+            start[i] = from(i);
+            goal[i] = to(i);
+        }
+        auto pdef = std::make_shared<ob::ProblemDefinition>(si);
+        pdef->setStartAndGoalStates(start, goal);
+        og::RRTConnect planner(si);
+        planner.setNearestNeighbors<ompl::NearestNeighborsLinear>();  // deterministic, and trees stay small
+        planner.setProblemDefinition(pdef);
+        planner.setup();
+        const ob::PlannerStatus status =
+            planner.solve(ob::plannerOrTerminationCondition(ptc, ob::timedPlannerTerminationCondition(params_.transferTime)));
+        if (status != ob::PlannerStatus::EXACT_SOLUTION)
+            return false;
+        const auto &states = pdef->getSolutionPath()->as<og::PathGeometric>()->getStates();
+        std::vector<Eigen::VectorXd> dense;
+        Eigen::VectorXd previous = from;
+        for (std::size_t i = 1; i < states.size(); ++i)
+        {
+            const auto *values = states[i]->as<ob::RealVectorStateSpace::StateType>()->values;
+            const Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(values, dof);
+            if (!straightMotion(previous, q, dense))
+                return false;
+            previous = q;
+        }
+        path.insert(path.end(), dense.begin(), dense.end());
+        return true;
+    }
+
+    PairVerdict PairValidator::check(const Eigen::VectorXd &start, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
+                                     const ob::PlannerTerminationCondition &ptc) const
+    {
+        const RobotModel &robot = *task_->robot;
+        PairVerdict verdict;
+        verdict.overhang = overhang(objectMotion(robot.fk(start), robot.fk(goal)));
+        const Overhang &result = verdict.overhang;
+        if (result.outsideCount == 0 || result.overhang < params_.uStar)
+        {
+            verdict.reason = "overhang below u*";
+            return verdict;
+        }
+        if (!result.comInside)
+        {
+            verdict.reason = "centre of mass off the table";
+            return verdict;
+        }
+
+        verdict.graspPose = graspPose(result);
+        IkOptions graspOptions;
+        graspOptions.maxAttempts = 5;
+        if (!robot.ikForLink(task_->graspLink, verdict.graspPose, goal, rng, verdict.graspConfig, graspOptions))
+        {
+            verdict.reason = "grasp pose unreachable";
+            return verdict;
+        }
+        std::vector<Eigen::Vector2d> moved;
+        for (int i = 0; i < task_->objectXY.rows(); ++i)
+            moved.push_back(result.motion.apply(task_->objectXY.row(i).transpose()));
+        world_->setObject(moved, task_->surfaceZ);
+        const ObjectGuard guard{*world_};
+        if (!world_->isValid(verdict.graspConfig, ContactMode::Free))
+        {
+            verdict.reason = "grasp configuration in collision";
+            return verdict;
+        }
+        Eigen::Isometry3d preGraspPose = verdict.graspPose;
+        preGraspPose.translation() -= params_.graspBackoff * verdict.graspPose.linear().col(2);
+        Eigen::VectorXd preGrasp;
+        IkOptions nearOptions;
+        nearOptions.maxAttempts = 1;
+        if (!robot.ikForLink(task_->graspLink, preGraspPose, verdict.graspConfig, rng, preGrasp, nearOptions) ||
+            !world_->isValid(preGrasp, ContactMode::Free))
+        {
+            verdict.reason = "pre-grasp configuration unreachable or in collision";
+            return verdict;
+        }
+
+        std::vector<Eigen::VectorXd> approach;
+        if (!lift(goal, approach))
+        {
+            verdict.reason = "cannot lift the finger off the object";
+            return verdict;
+        }
+        const std::uint64_t transferSeed = rng();
+        if (!transferMotion(approach.back(), preGrasp, transferSeed, ptc, approach) ||
+            !straightMotion(preGrasp, verdict.graspConfig, approach))
+        {
+            verdict.reason = "no transfer motion to the grasp";
+            return verdict;
+        }
+        verdict.approach.reserve(approach.size() + 1);
+        verdict.approach.push_back(goal);
+        verdict.approach.insert(verdict.approach.end(), approach.begin(), approach.end());
+        verdict.valid = true;
+        return verdict;
+    }
+
+}  // namespace slideplan

@@ -1,0 +1,62 @@
+#include "slideplan/params.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace slideplan
+{
+    namespace
+    {
+        void require(bool condition, const std::string &message)
+        {
+            if (!condition)
+                throw std::invalid_argument("planner parameter " + message);
+        }
+    }  // namespace
+
+    void PlannerParams::validate() const
+    {
+        const auto finite = [](double value) { return std::isfinite(value); };
+        require(finite(beta0) && beta0 > 0.0 && beta0 <= M_PI / 2, "beta0 must lie in (0, pi/2]");
+        require(finite(deltaBeta) && deltaBeta >= 0.0 && deltaBeta < beta0, "delta_beta must lie in [0, beta0)");
+        require(finite(dzMin) && dzMin >= 0.0, "dz_min must be >= 0");
+        require(finite(dzMax) && dzMax >= dzMin, "dz_max must be >= dz_min (the reconfiguration range dz_max - dz_min cannot be negative)");
+        require(finite(nStar) && nStar > 0.0, "n_star must be > 0");
+        require(finite(dGoal) && dGoal > 0.0, "d_goal must be > 0");
+        require(finite(uStar) && uStar > 0.0, "u_star must be > 0");
+        require(finite(graspLift) && graspLift > 0.0, "grasp_lift must be > 0");
+        require(finite(graspBackoff) && graspBackoff >= 0.0, "grasp_backoff must be >= 0");
+        require(finite(transferTime) && transferTime >= 0.0, "transfer_time must be >= 0");
+        require(finite(maxJointStep) && maxJointStep > 0.0, "max_joint_step must be > 0");
+        require(finite(maxTipStep) && maxTipStep > 0.0, "max_tip_step must be > 0");
+        require(finite(projectionTolerance) && projectionTolerance > 0.0, "projection_tolerance must be > 0");
+        require(projectionIterations > 0, "projection_iterations must be > 0");
+        require(rootIkAttempts > 0, "root_ik_attempts must be > 0");
+    }
+
+    RootPolicy rootPolicyFromName(const std::string &name)
+    {
+        if (name == "slideplan")
+            return RootPolicy::Sampled;
+        if (name == "cbirrt")
+            return RootPolicy::Fixed;
+        if (name == "cbirrt2")
+            return RootPolicy::FixedStart;
+        throw std::invalid_argument("unknown planner '" + name + "' (expected slideplan, cbirrt or cbirrt2)");
+    }
+
+    std::string rootPolicyName(RootPolicy policy)
+    {
+        switch (policy)
+        {
+            case RootPolicy::Sampled:
+                return "slideplan";
+            case RootPolicy::Fixed:
+                return "cbirrt";
+            case RootPolicy::FixedStart:
+                return "cbirrt2";
+        }
+        return "unknown";
+    }
+
+}  // namespace slideplan

@@ -1,0 +1,314 @@
+#include "slideplan/planner.hpp"
+
+#include "slideplan/contact_frame.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <ompl/base/SpaceInformation.h>
+#include <ompl/base/spaces/RealVectorStateSpace.h>
+#include <ompl/datastructures/NearestNeighborsLinear.h>
+#include <ompl/geometric/PathGeometric.h>
+#include <sstream>
+
+namespace ob = ompl::base;
+
+namespace slideplan
+{
+    bool canAddRoot(int startRoots, int goalRoots, double nStar, std::mt19937_64 &rng)
+    {
+        return std::exp(-(startRoots + goalRoots) / nStar) > std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+    }
+
+    /// Pi: the trees grown from one region's roots, with one nearest-neighbour structure over all of them.
+    struct SlidingPlanner::Forest
+    {
+        bool isStart;
+        std::unique_ptr<ContactRegion> region;
+        std::vector<std::unique_ptr<Node>> nodes;
+        std::vector<Node *> roots;
+        // Linear search: deterministic (GNAT draws its pivots from a global RNG) and fast enough for
+        // the few thousand nodes a plan needs.
+        ompl::NearestNeighborsLinear<Node *> nearest;
+
+        Forest(bool start, std::unique_ptr<ContactRegion> sampler) : isStart(start), region(std::move(sampler))
+        {
+            nearest.setDistanceFunction([](const Node *a, const Node *b) { return (a->q - b->q).norm(); });
+        }
+
+        Node *add(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip, Node *parent)
+        {
+            nodes.push_back(std::make_unique<Node>(Node{q, tip, parent, parent ? parent->root : static_cast<int>(roots.size())}));
+            Node *node = nodes.back().get();
+            if (!parent)
+                roots.push_back(node);
+            nearest.add(node);
+            return node;
+        }
+
+        Node *nearestTo(const Eigen::VectorXd &q) const
+        {
+            Node query{q, Eigen::Isometry3d::Identity(), nullptr, -1};
+            return nearest.nearest(&query);
+        }
+    };
+
+    SlidingPlanner::SlidingPlanner(const ob::SpaceInformationPtr &si, std::shared_ptr<const SlidingTask> task,
+                                   const PlannerParams &params, std::uint64_t seed)
+      : ob::Planner(si, "SlidingPlanner"), task_(std::move(task)), params_(params), seed_(seed), rng_(seed)
+    {
+        specs_.approximateSolutions = false;
+        specs_.directed = true;
+        // N* is read at every iteration, so OMPL's tools (benchmarking, parameter sweeps) may set it by
+        // name; the other parameters shape the regions and the validator built below.
+        ob::Planner::params().declareParam<double>("n_star", [this](double v) { params_.nStar = v; },
+                                                   [this] { return params_.nStar; });
+        auto constraint = std::make_shared<SlidingConstraint>(task_->robot, task_->surfaceZ, params_);
+        auto validity = std::make_shared<SlidingValidity>(si_, task_, constraint);
+        si_->setStateValidityChecker(validity);
+        constraint_ = constraint;
+        validity_ = validity;
+        pairValidator_ = std::make_unique<PairValidator>(task_, params_);
+        clear();
+    }
+
+    SlidingPlanner::~SlidingPlanner() = default;
+
+    void SlidingPlanner::clear()
+    {
+        ob::Planner::clear();
+        startForest_ = std::make_unique<Forest>(true, std::make_unique<StartRegion>(validity_, params_));
+        goalForest_ = std::make_unique<Forest>(false, std::make_unique<GoalRegion>(validity_, params_));
+        verdicts_.clear();
+        rng_.seed(seed_);
+        result_ = PlanResult();
+    }
+
+    bool SlidingPlanner::addRoot(Forest &forest)
+    {
+        ++result_.stats.rootSamples;
+        // Warm start from the forest's latest root: neighbouring contact poses have nearby IK solutions.
+        const Eigen::VectorXd seed = forest.roots.empty() ? Eigen::VectorXd() : forest.roots.back()->q;
+        Eigen::VectorXd q;
+        if (!forest.region->sample(rng_, seed, q))
+            return false;
+        forest.add(q, task_->robot->fk(q), nullptr);
+        return true;
+    }
+
+    SlidingPlanner::Node *SlidingPlanner::constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target,
+                                                            bool &reached)
+    {
+        reached = false;
+        Node *current = near;
+        for (;;)
+        {
+            const Eigen::VectorXd towards = target - current->q;
+            const double distance = towards.cwiseAbs().maxCoeff();
+            if (distance < 1e-9)
+            {
+                reached = true;
+                return current;
+            }
+            // Aim inside the step bounds: projection moves the state a little further.
+            double scale = std::min(1.0, 0.9 * params_.maxJointStep / distance);
+            Eigen::VectorXd q;
+            Eigen::Isometry3d tip;
+            bool withinStep = false;
+            for (int halving = 0; halving < 4 && !withinStep; ++halving, scale *= 0.5)
+            {
+                q = current->q + scale * towards;
+                if (!constraint_->project(q))
+                    return current;
+                tip = task_->robot->fk(q);
+                withinStep = (q - current->q).cwiseAbs().maxCoeff() <= params_.maxJointStep &&
+                             (tip.translation() - current->tip.translation()).norm() <= params_.maxTipStep;
+            }
+            if (!withinStep)
+                return current;  // the manifold bends away too fast here: a jump, not a step
+            const double before = towards.norm(), after = (target - q).norm();
+            if (after > before - 0.25 * (q - current->q).norm())
+                return current;  // stalled: the projection undoes the step
+            if (!validity_->isValid(q, tip))
+                return current;
+            current = forest.add(q, tip, current);
+        }
+    }
+
+    const PairVerdict *SlidingPlanner::validatePair(Node *startNode, Node *goalNode, const ob::PlannerTerminationCondition &ptc)
+    {
+        const std::pair<int, int> key(startNode->root, goalNode->root);
+        auto it = verdicts_.find(key);
+        if (it == verdicts_.end())
+        {
+            ++result_.stats.pairsChecked;
+            PairVerdict verdict = pairValidator_->check(startForest_->roots[key.first]->q, goalForest_->roots[key.second]->q, rng_, ptc);
+            result_.stats.pairsRejected += !verdict.valid;
+            it = verdicts_.emplace(key, std::move(verdict)).first;
+        }
+        return &it->second;
+    }
+
+    bool SlidingPlanner::precomputeRoots(const ob::PlannerTerminationCondition &ptc)
+    {
+        if (params_.policy == RootPolicy::Fixed)
+        {
+            // CBiRRT: draw start/goal pairs until one passes IsPairValid; only then plan the motion.
+            Eigen::VectorXd start, goal;
+            while (!ptc)
+            {
+                result_.stats.rootSamples += 2;
+                if (!startForest_->region->sample(rng_, start, start) || !goalForest_->region->sample(rng_, goal, goal))
+                    continue;
+                ++result_.stats.pairsChecked;
+                PairVerdict verdict = pairValidator_->check(start, goal, rng_, ptc);
+                if (!verdict.valid)
+                {
+                    ++result_.stats.pairsRejected;
+                    continue;
+                }
+                startForest_->add(start, task_->robot->fk(start), nullptr);
+                goalForest_->add(goal, task_->robot->fk(goal), nullptr);
+                verdicts_.emplace(std::make_pair(0, 0), std::move(verdict));
+                return true;
+            }
+            return false;
+        }
+        // Algorithm 1 line 1 (Init) for both forests; CBiRRT2's single start is drawn the same way.
+        while (!ptc && startForest_->roots.empty())
+            addRoot(*startForest_);
+        while (!ptc && goalForest_->roots.empty())
+            addRoot(*goalForest_);
+        return !startForest_->roots.empty() && !goalForest_->roots.empty();
+    }
+
+    void SlidingPlanner::extractPath(Node *startNode, Node *goalNode, const PairVerdict &verdict)
+    {
+        std::vector<Node *> nodes;
+        for (Node *node = startNode; node; node = node->parent)
+            nodes.push_back(node);
+        std::reverse(nodes.begin(), nodes.end());
+        for (Node *node = goalNode->parent; node; node = node->parent)  // goalNode duplicates startNode
+            nodes.push_back(node);
+        auto path = std::make_shared<ompl::geometric::PathGeometric>(si_);
+        for (Node *node : nodes)
+        {
+            result_.trajectory.push_back(node->q);
+            result_.fingertipPoses.push_back(node->tip);
+            ob::State *state = si_->allocState();
+            std::copy(node->q.data(), node->q.data() + node->q.size(), state->as<ob::RealVectorStateSpace::StateType>()->values);
+            path->append(state);
+            si_->freeState(state);
+        }
+        if (pdef_)
+            pdef_->addSolutionPath(path, false, 0.0, getName());
+        result_.startConfig = nodes.front()->q;
+        result_.goalConfig = nodes.back()->q;
+        result_.objectMotion = verdict.overhang.motion;
+        result_.overhang = verdict.overhang.overhang;
+        result_.graspPose = verdict.graspPose;
+        result_.graspConfig = verdict.graspConfig;
+        result_.approach = verdict.approach;
+        result_.status = "solved";
+    }
+
+    ob::PlannerStatus SlidingPlanner::solve(const ob::PlannerTerminationCondition &ptc)
+    {
+        const auto started = std::chrono::steady_clock::now();
+        const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(); };
+        result_.planner = rootPolicyName(params_.policy);
+        const bool ready = precomputeRoots(ptc);
+        if (params_.policy != RootPolicy::Sampled)
+            result_.stats.precomputeTime = elapsed();
+
+        Forest *a = startForest_.get(), *b = goalForest_.get();
+        const RobotModel &robot = *task_->robot;
+        std::uniform_real_distribution<double> unit(0.0, 1.0);
+        while (ready && !ptc)
+        {
+            ++result_.stats.iterations;
+            const bool mayAddRoot = params_.policy == RootPolicy::Sampled || (params_.policy == RootPolicy::FixedStart && !a->isStart);
+            if (mayAddRoot && canAddRoot(static_cast<int>(startForest_->roots.size()), static_cast<int>(goalForest_->roots.size()),
+                                         params_.nStar, rng_))
+                addRoot(*a);
+            Eigen::VectorXd random(robot.dof());
+            for (unsigned i = 0; i < robot.dof(); ++i)
+                random(i) = robot.lowerLimits()(i) + unit(rng_) * (robot.upperLimits()(i) - robot.lowerLimits()(i));
+            bool reached = false;
+            Node *extendedA = constrainedExtend(*a, a->nearestTo(random), random, reached);
+            Node *extendedB = constrainedExtend(*b, b->nearestTo(extendedA->q), extendedA->q, reached);
+            if (reached)
+            {
+                Node *startNode = a->isStart ? extendedA : extendedB, *goalNode = a->isStart ? extendedB : extendedA;
+                const PairVerdict *verdict = validatePair(startNode, goalNode, ptc);
+                if (verdict->valid)
+                {
+                    extractPath(startNode, goalNode, *verdict);
+                    break;
+                }
+            }
+            std::swap(a, b);
+        }
+        result_.stats.startRoots = static_cast<int>(startForest_->roots.size());
+        result_.stats.goalRoots = static_cast<int>(goalForest_->roots.size());
+        result_.stats.nodes = static_cast<long>(startForest_->nodes.size() + goalForest_->nodes.size());
+        result_.planningTime = elapsed();
+        return result_.status == "solved" ? ob::PlannerStatus::EXACT_SOLUTION : ob::PlannerStatus::TIMEOUT;
+    }
+
+    namespace
+    {
+        /// Fails loudly when no fingertip pose on the object has an IK solution at all.
+        void requireReachableObject(const SlidingTask &task, const PlannerParams &params, std::uint64_t seed)
+        {
+            std::mt19937_64 rng(seed);
+            const Eigen::Vector2d centre = task.objectXY.colwise().mean().transpose();
+            for (int k = 0; k < 8; ++k)
+            {
+                Eigen::Isometry3d target = Eigen::Isometry3d::Identity();
+                target.linear() = contactRotation(k * M_PI / 4, params.beta0);
+                target.translation() << centre, task.surfaceZ - 0.5 * (params.dzMin + params.dzMax);
+                Eigen::VectorXd q;
+                if (task.robot->ik(target, Eigen::VectorXd(), rng, q))
+                    return;
+            }
+            std::ostringstream message;
+            message << "the object is out of the robot's reach: no fingertip pose on it (pitch beta0 = " << params.beta0
+                    << " rad, any yaw) has an inverse-kinematics solution";
+            throw std::invalid_argument(message.str());
+        }
+    }  // namespace
+
+    PlanResult planSliding(std::shared_ptr<const SlidingTask> task, const PlannerParams &params, std::uint64_t seed,
+                           const ob::PlannerTerminationCondition &ptc)
+    {
+        const auto started = std::chrono::steady_clock::now();
+        params.validate();
+        if (params.uStar > task->objectExtent())
+        {
+            std::ostringstream message;
+            message << "u_star = " << params.uStar << " m exceeds the object's largest extent (" << task->objectExtent()
+                    << " m): no overhang can reach it";
+            throw std::invalid_argument(message.str());
+        }
+        requireReachableObject(*task, params, seed);
+
+        const RobotModel &robot = *task->robot;
+        auto space = std::make_shared<ob::RealVectorStateSpace>(robot.dof());
+        ob::RealVectorBounds bounds(robot.dof());
+        for (unsigned i = 0; i < robot.dof(); ++i)
+        {
+            bounds.setLow(i, robot.lowerLimits()(i));
+            bounds.setHigh(i, robot.upperLimits()(i));
+        }
+        space->setBounds(bounds);
+        auto si = std::make_shared<ob::SpaceInformation>(space);
+        auto planner = std::make_shared<SlidingPlanner>(si, task, params, seed);
+        si->setup();
+        planner->setProblemDefinition(std::make_shared<ob::ProblemDefinition>(si));
+        planner->solve(ptc);
+        PlanResult result = planner->result();
+        result.planningTime = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+        return result;
+    }
+
+}  // namespace slideplan

@@ -1,0 +1,55 @@
+#include "slideplan/regions.hpp"
+
+#include "slideplan/contact_frame.hpp"
+
+#include <stdexcept>
+
+namespace slideplan
+{
+    ContactRegion::ContactRegion(std::shared_ptr<const SlidingValidity> validity, const PlannerParams &params)
+      : validity_(std::move(validity)), params_(params), reach_(0.0)
+    {
+        const RobotModel &robot = *validity_->task().robot;
+        const int tip = robot.linkIndex(robot.tipLink());
+        for (int link = tip; link > 0; link = robot.links()[link].parent)
+            reach_ += robot.links()[link].segment.getFrameToTip().p.Norm();
+    }
+
+    bool ContactRegion::sample(std::mt19937_64 &rng, const Eigen::VectorXd &seed, Eigen::VectorXd &q) const
+    {
+        const SlidingTask &task = validity_->task();
+        std::uniform_real_distribution<double> yaw(-M_PI, M_PI), depth(params_.dzMin, params_.dzMax);
+        const Eigen::Vector2d point = samplePoint(rng);
+        Eigen::Isometry3d target = Eigen::Isometry3d::Identity();
+        target.linear() = contactRotation(yaw(rng), params_.beta0);
+        target.translation() << point, task.surfaceZ - depth(rng);
+        if ((target.translation() - task.robot->basePose().translation()).norm() > reach_)
+            return false;
+        IkOptions options;
+        options.maxAttempts = params_.rootIkAttempts;
+        options.positionTolerance = options.orientationTolerance = 0.1 * params_.projectionTolerance;
+        return task.robot->ik(target, seed, rng, q, options) && validity_->isValid(q, task.robot->fk(q));
+    }
+
+    Eigen::Vector2d StartRegion::samplePoint(std::mt19937_64 &rng) const
+    {
+        const Polygon2 &cloud = validity_->task().objectXY;
+        std::uniform_int_distribution<long> index(0, cloud.rows() - 1);
+        return cloud.row(index(rng)).transpose();
+    }
+
+    Eigen::Vector2d GoalRegion::samplePoint(std::mt19937_64 &rng) const
+    {
+        const SupportSurface &table = *validity_->task().table;
+        const Eigen::Vector2d low = table.vertices().colwise().minCoeff(), high = table.vertices().colwise().maxCoeff();
+        std::uniform_real_distribution<double> x(low.x(), high.x()), y(low.y(), high.y());
+        for (;;)  // the band has positive area, so this ends with probability 1 (acceptance ~ band/bbox area)
+        {
+            const Eigen::Vector2d point(x(rng), y(rng));
+            const double distance = table.signedDistance(point);
+            if (distance > 0.0 && distance <= params_.dGoal)
+                return point;
+        }
+    }
+
+}  // namespace slideplan

@@ -1,0 +1,30 @@
+#include "slideplan/validity.hpp"
+
+#include <ompl/base/SpaceInformation.h>
+#include <ompl/base/spaces/RealVectorStateSpace.h>
+
+namespace slideplan
+{
+    SlidingValidity::SlidingValidity(const ompl::base::SpaceInformationPtr &si, std::shared_ptr<const SlidingTask> task,
+                                     std::shared_ptr<const SlidingConstraint> constraint)
+      : ompl::base::StateValidityChecker(si)
+      , task_(std::move(task))
+      , constraint_(std::move(constraint))
+      , world_(std::make_unique<CollisionWorld>(task_->robot, *task_->table, task_->obstacles, task_->contactLinks))
+    {
+    }
+
+    bool SlidingValidity::isValid(const ompl::base::State *state) const
+    {
+        const auto *values = state->as<ompl::base::RealVectorStateSpace::StateType>()->values;
+        const Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(values, task_->robot->dof());
+        return isValid(q, task_->robot->fk(q));
+    }
+
+    bool SlidingValidity::isValid(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip) const
+    {
+        return task_->robot->withinLimits(q) && constraint_->satisfied(tip) &&
+               task_->table->contains(tip.translation().head<2>()) && world_->isValid(q, ContactMode::Sliding);
+    }
+
+}  // namespace slideplan
