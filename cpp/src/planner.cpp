@@ -79,6 +79,7 @@ namespace slideplan
         startForest_ = std::make_unique<Forest>(true, std::make_unique<StartRegion>(validity_, params_));
         goalForest_ = std::make_unique<Forest>(false, std::make_unique<GoalRegion>(validity_, params_));
         verdicts_.clear();
+        promising_.clear();
         rng_.seed(seed_);
         result_ = PlanResult();
     }
@@ -142,10 +143,55 @@ namespace slideplan
         {
             ++result_.stats.pairsChecked;
             PairVerdict verdict = pairValidator_->check(startForest_->roots[key.first]->q, goalForest_->roots[key.second]->q, rng_, ptc);
-            result_.stats.pairsRejected += !verdict.valid;
+            if (!verdict.valid)
+            {
+                ++result_.stats.pairsRejected;
+                ++result_.stats.rejections[verdict.reason];
+            }
             it = verdicts_.emplace(key, std::move(verdict)).first;
         }
         return &it->second;
+    }
+
+    bool SlidingPlanner::promisingPair(int startRoot, int goalRoot)
+    {
+        const std::pair<int, int> key(startRoot, goalRoot);
+        const auto verdict = verdicts_.find(key);
+        if (verdict != verdicts_.end())
+            return verdict->second.valid;
+        auto it = promising_.find(key);
+        if (it == promising_.end())
+        {
+            const Overhang overhang = pairValidator_->overhang(
+                objectMotion(startForest_->roots[startRoot]->tip, goalForest_->roots[goalRoot]->tip));
+            it = promising_.emplace(key, overhang.overhang >= params_.uStar && overhang.comInside).first;
+        }
+        return it->second;
+    }
+
+    SlidingPlanner::Node *SlidingPlanner::nearestForConnection(const Forest &forest, const Eigen::VectorXd &q,
+                                                               const Forest &other, int root)
+    {
+        if (!params_.screenPairs)
+            return forest.nearestTo(q);
+        Node *best = nullptr;
+        double bestDistance = std::numeric_limits<double>::infinity();
+        std::vector<char> promising(forest.roots.size(), -1);  // per tree, decided on first use
+        for (const auto &node : forest.nodes)
+        {
+            char &ok = promising[node->root];
+            if (ok < 0)
+                ok = other.isStart ? promisingPair(root, node->root) : promisingPair(node->root, root);
+            if (!ok)
+                continue;
+            const double distance = (node->q - q).norm();
+            if (distance < bestDistance)
+            {
+                bestDistance = distance;
+                best = node.get();
+            }
+        }
+        return best ? best : forest.nearestTo(q);  // nothing promising yet: keep exploring as Algorithm 1 does
     }
 
     bool SlidingPlanner::precomputeRoots(const ob::PlannerTerminationCondition &ptc)
@@ -164,6 +210,7 @@ namespace slideplan
                 if (!verdict.valid)
                 {
                     ++result_.stats.pairsRejected;
+                    ++result_.stats.rejections[verdict.reason];
                     continue;
                 }
                 startForest_->add(start, task_->robot->fk(start), nullptr);
@@ -235,7 +282,8 @@ namespace slideplan
                 random(i) = robot.lowerLimits()(i) + unit(rng_) * (robot.upperLimits()(i) - robot.lowerLimits()(i));
             bool reached = false;
             Node *extendedA = constrainedExtend(*a, a->nearestTo(random), random, reached);
-            Node *extendedB = constrainedExtend(*b, b->nearestTo(extendedA->q), extendedA->q, reached);
+            Node *extendedB = constrainedExtend(*b, nearestForConnection(*b, extendedA->q, *a, extendedA->root),
+                                                extendedA->q, reached);
             if (reached)
             {
                 Node *startNode = a->isStart ? extendedA : extendedB, *goalNode = a->isStart ? extendedB : extendedA;

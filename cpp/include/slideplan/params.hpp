@@ -43,6 +43,11 @@ namespace slideplan
 
         RootPolicy policy{RootPolicy::Sampled};
 
+        /// Beyond the paper: when connecting, NearestTree skips trees whose root pair was already
+        /// rejected or fails the cheap geometric part of IsPairValid (overhang, CoM). False gives
+        /// Algorithm 1 exactly as published.
+        bool screenPairs{true};
+
         /// \throws std::invalid_argument naming the first inconsistent parameter.
         void validate() const;
     };

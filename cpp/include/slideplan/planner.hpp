@@ -51,6 +51,11 @@ namespace slideplan
         Node *constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target, bool &reached);
         /// Baselines: draw roots until the policy's fixed roots exist (and, for CBiRRT, form a valid pair).
         bool precomputeRoots(const ompl::base::PlannerTerminationCondition &ptc);
+        /// Pi_b.NearestTree(q) for the connection step: with screenPairs, only among trees whose root
+        /// forms a promising pair with `root` of the other forest.
+        Node *nearestForConnection(const Forest &forest, const Eigen::VectorXd &q, const Forest &other, int root);
+        /// Cheap part of IsPairValid (overhang >= u*, CoM on the table), cached per root pair.
+        bool promisingPair(int startRoot, int goalRoot);
         /// GetRoots + IsPairValid for a connection, with the verdict cached per root pair.
         const PairVerdict *validatePair(Node *startNode, Node *goalNode, const ompl::base::PlannerTerminationCondition &ptc);
         /// ExtractPath: root of the start tree -> connection -> root of the goal tree.
@@ -65,6 +70,7 @@ namespace slideplan
         std::unique_ptr<PairValidator> pairValidator_;
         std::unique_ptr<Forest> startForest_, goalForest_;
         std::map<std::pair<int, int>, PairVerdict> verdicts_;
+        std::map<std::pair<int, int>, bool> promising_;
         PlanResult result_;
     };
 

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,7 @@ namespace slideplan
         int goalRoots{0};
         long pairsChecked{0};
         long pairsRejected{0};
+        std::map<std::string, long> rejections;  ///< rejected pairs by reason (IV-C.1 conditions)
         long nodes{0};          ///< tree nodes over both forests
         long rootSamples{0};    ///< root sampling attempts (successful or not)
         double precomputeTime{0.0};  ///< baselines: time to find their fixed roots (s), included in planningTime

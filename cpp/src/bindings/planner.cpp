@@ -96,6 +96,9 @@ namespace slideplan::bindings
             .def_readwrite("projection_tolerance", &PlannerParams::projectionTolerance, "Projection residual tolerance.")
             .def_readwrite("projection_iterations", &PlannerParams::projectionIterations, "Newton steps per projection.")
             .def_readwrite("root_ik_attempts", &PlannerParams::rootIkAttempts, "IK attempts per root draw.")
+            .def_readwrite("screen_pairs", &PlannerParams::screenPairs,
+                           "Beyond the paper: NearestTree skips trees whose root pair is known to fail; False gives "
+                           "Algorithm 1 as published.")
             .def_property(
                 "policy", [](const PlannerParams &p) { return rootPolicyName(p.policy); },
                 [](PlannerParams &p, const std::string &name) { p.policy = rootPolicyFromName(name); },
@@ -132,6 +135,7 @@ namespace slideplan::bindings
                     stats["nodes"] = r.stats.nodes;
                     stats["root_samples"] = r.stats.rootSamples;
                     stats["precompute_time"] = r.stats.precomputeTime;
+                    stats["rejections"] = r.stats.rejections;
                     return stats;
                 },
                 "Planner statistics.");
