@@ -47,11 +47,11 @@ int main()
 {
     std::printf("slideplan core micro-benchmarks on %s\n", cpuName().c_str());
     Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
-    mount.translation().z() = 0.30;
+    mount.translation().z() = 0.20;
     const auto robot = std::make_shared<RobotModel>(
         RobotModel::fromFile(std::string(SLIDEPLAN_DATA_DIR) + "/robots/wam_t42.urdf", "fingertip_contact", mount));
     Polygon2 square(4, 2);
-    square << 0.35, -0.25, 0.85, -0.25, 0.85, 0.25, 0.35, 0.25;
+    square << 0.30, -0.20, 0.70, -0.20, 0.70, 0.20, 0.30, 0.20;
     CollisionWorld world(robot, SupportSurface(square, 0.0), {}, {"t42_finger1_proximal", "t42_finger1_distal"});
 
     std::mt19937_64 rng(1);

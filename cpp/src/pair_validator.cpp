@@ -76,6 +76,29 @@ namespace slideplan
         return pose;
     }
 
+    bool PairValidator::graspIk(const Eigen::Isometry3d &grasp, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
+                                Eigen::VectorXd &solution) const
+    {
+        const RobotModel &robot = *task_->robot;
+        IkOptions single;
+        single.maxAttempts = 1;
+        if (robot.ikForLink(task_->graspLink, grasp, goal, rng, solution, single))
+            return true;
+        for (auto seed = graspSeeds_.rbegin(); seed != graspSeeds_.rend(); ++seed)
+            if (robot.ikForLink(task_->graspLink, grasp, *seed, rng, solution, single))
+                return true;
+        // Side grasps at table height are a thin part of the workspace: one restart in ~5 succeeds.
+        IkOptions restarts;
+        restarts.maxAttempts = 25;
+        if (!robot.ikForLink(task_->graspLink, grasp, Eigen::VectorXd(), rng, solution, restarts))
+            return false;
+        constexpr std::size_t kRemembered = 8;
+        if (graspSeeds_.size() == kRemembered)
+            graspSeeds_.erase(graspSeeds_.begin());
+        graspSeeds_.push_back(solution);
+        return true;
+    }
+
     bool PairValidator::straightMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to,
                                        std::vector<Eigen::VectorXd> &path) const
     {
@@ -83,7 +106,7 @@ namespace slideplan
         std::vector<Eigen::VectorXd> segment;  // appended only if the whole motion is free
         for (int k = 1; k <= steps; ++k)
         {
-            segment.push_back(from + (to - from) * (static_cast<double>(k) / steps));
+            segment.push_back(k == steps ? to : Eigen::VectorXd(from + (to - from) * (static_cast<double>(k) / steps)));
             if (!world_->isValid(segment.back(), ContactMode::Free))
                 return false;
         }
@@ -157,7 +180,6 @@ namespace slideplan
         og::RRTConnect planner(si);
         planner.setNearestNeighbors<ompl::NearestNeighborsLinear>();  // deterministic, and trees stay small
         planner.setProblemDefinition(pdef);
-        planner.setup();
         const ob::PlannerStatus status =
             planner.solve(ob::plannerOrTerminationCondition(ptc, ob::timedPlannerTerminationCondition(params_.transferTime)));
         if (status != ob::PlannerStatus::EXACT_SOLUTION)
@@ -196,9 +218,7 @@ namespace slideplan
         }
 
         verdict.graspPose = graspPose(result);
-        IkOptions graspOptions;
-        graspOptions.maxAttempts = 5;
-        if (!robot.ikForLink(task_->graspLink, verdict.graspPose, goal, rng, verdict.graspConfig, graspOptions))
+        if (!graspIk(verdict.graspPose, goal, rng, verdict.graspConfig))
         {
             verdict.reason = "grasp pose unreachable";
             return verdict;

@@ -126,9 +126,9 @@ namespace slideplan
             }
             if (!withinStep)
                 return current;  // the manifold bends away too fast here: a jump, not a step
-            const double before = towards.norm(), after = (target - q).norm();
-            if (after > before - 0.25 * (q - current->q).norm())
-                return current;  // stalled: the projection undoes the step
+            const double step = (q - current->q).norm(), before = towards.norm(), after = (target - q).norm();
+            if (step < 1e-3 * params_.maxJointStep || after > before - 0.25 * step)
+                return current;  // stalled: the projection (or a joint limit) undoes the step
             if (!validity_->isValid(q, tip))
                 return current;
             current = forest.add(q, tip, current);

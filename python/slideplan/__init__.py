@@ -1,1 +1,50 @@
-"""slideplan: pre-grasp sliding planning of thin objects (Hang, Morgan, Dollar, RA-L 2019)."""
+"""slideplan: pre-grasp sliding planning of thin objects (Hang, Morgan, Dollar, RA-L 2019).
+
+Typical use::
+
+    import numpy as np
+    import slideplan
+
+    scene = slideplan.load_scene("square")
+    obj = slideplan.load_object("crescent", table_height=scene.table.height, pose=(0.6, 0.0, 0.3))
+    result = slideplan.plan(scene, obj, slideplan.PlannerConfig(seed=1, time_limit_s=20))
+    if result.solved and slideplan.verify(result).ok:
+        open("plan.json", "w").write(result.to_json())
+
+Set the environment variable ``SLIDEPLAN_OMPL_LOG`` to keep OMPL's own log level
+(otherwise OMPL prints warnings and errors only).
+"""
+
+import os
+from importlib.metadata import PackageNotFoundError, version
+
+from . import _core
+from .errors import InputError
+from .geometry import SupportSurface
+from .objects import ThinObject, load_object
+from .planning import PlannerConfig, PlanResult, plan
+from .scenes import Scene, load_scene
+from .verify import Verification, verify
+
+try:
+    __version__ = version("slideplan")
+except PackageNotFoundError:  # running from a source checkout without installing
+    __version__ = "0.1.0"
+
+if "SLIDEPLAN_OMPL_LOG" not in os.environ:
+    _core.set_ompl_log_level(4)  # warnings and errors only: Debian's OMPL logs debug output by default
+
+__all__ = [
+    "InputError",
+    "PlanResult",
+    "PlannerConfig",
+    "Scene",
+    "SupportSurface",
+    "ThinObject",
+    "Verification",
+    "__version__",
+    "load_object",
+    "load_scene",
+    "plan",
+    "verify",
+]

@@ -5,20 +5,24 @@
 #include "slideplan/robot_model.hpp"
 
 #include <memory>
+#include <ompl/util/Console.h>
 #include <string>
 
 namespace slideplan::testing
 {
+    /// Debian's OMPL logs at debug level by default (DESIGN.md 7): keep test output readable.
+    inline const bool kQuietOmpl = (ompl::msg::setLogLevel(ompl::msg::LOG_WARN), true);
+
     inline std::string robotPath()
     {
         return std::string(SLIDEPLAN_DATA_DIR) + "/robots/wam_t42.urdf";
     }
 
-    /// The default mount: the WAM's base frame (the shoulder) 0.30 m above the table top.
+    /// The default mount: the WAM's base frame (the shoulder) 0.20 m above the table top.
     inline Eigen::Isometry3d defaultMount()
     {
         Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
-        mount.translation().z() = 0.30;
+        mount.translation().z() = 0.20;
         return mount;
     }
 
@@ -31,7 +35,7 @@ namespace slideplan::testing
     inline SupportSurface squareTable()
     {
         Polygon2 square(4, 2);
-        square << 0.35, -0.25, 0.85, -0.25, 0.85, 0.25, 0.35, 0.25;
+        square << 0.30, -0.20, 0.70, -0.20, 0.70, 0.20, 0.30, 0.20;
         return SupportSurface(square, 0.0);
     }
 }  // namespace slideplan::testing

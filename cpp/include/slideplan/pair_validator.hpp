@@ -53,6 +53,10 @@ namespace slideplan
         Eigen::Isometry3d graspPose(const Overhang &overhang) const;
 
     private:
+        /// Grasp IK: from phi_g, then from earlier successful grasps (nearby grasp poses have nearby
+        /// solutions), then random restarts.
+        bool graspIk(const Eigen::Isometry3d &grasp, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
+                     Eigen::VectorXd &solution) const;
         bool lift(const Eigen::VectorXd &goal, std::vector<Eigen::VectorXd> &path) const;
         bool straightMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::vector<Eigen::VectorXd> &path) const;
         bool transferMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::uint64_t seed,
@@ -61,6 +65,7 @@ namespace slideplan
         std::shared_ptr<const SlidingTask> task_;
         PlannerParams params_;
         std::unique_ptr<CollisionWorld> world_;  ///< holds the object at its final pose while a pair is checked
+        mutable std::vector<Eigen::VectorXd> graspSeeds_;  ///< recent successful grasp configurations
     };
 
 }  // namespace slideplan

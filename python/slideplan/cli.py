@@ -1,0 +1,185 @@
+"""Command line: ``slideplan plan`` and ``slideplan demo`` (DESIGN.md 5).
+
+Exit codes of ``plan``: 0 solved (and verified), 1 not solved within the time limit,
+2 bad input (one line ``slideplan: error: ...`` on stderr), 3 solved but the plan fails
+the independent verification (a planner bug; the violations go to stderr and the JSON
+is written with status ``"invalid"``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Optional, Tuple
+
+import numpy as np
+import typer
+
+from .errors import InputError
+from .objects import CLOUD_SUFFIXES, ThinObject, load_object, load_outline, sample_pose_on_table
+from .planning import PLANNERS, PlannerConfig, PlanResult
+from .scenes import Scene, load_scene
+
+EXIT_SOLVED, EXIT_NOT_SOLVED, EXIT_BAD_INPUT, EXIT_INVALID_PLAN = 0, 1, 2, 3
+_SHOWN_VIOLATIONS = 20  # a broken plan can have thousands; the first ones tell the story
+
+# Command-line option names of the PlannerConfig fields the CLI sets, for error messages.
+_OPTION_OF_FIELD = {
+    "seed": "--seed",
+    "time_limit_s": "--time-limit",
+    "reconfiguration_range": "--reconfiguration-range",
+    "dz_max": "--reconfiguration-range",
+    "planner": "--planner",
+}
+
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    help="Pre-grasp sliding planning of thin objects (Hang, Morgan, Dollar, RA-L 2019).",
+)
+
+
+def _fail(error: Exception) -> typer.Exit:
+    """Print one error line on stderr and return the bad-input exit."""
+    message = " ".join(str(error).split())  # one line, whatever the source's message looked like
+    typer.echo(f"slideplan: error: {message}", err=True)
+    return typer.Exit(EXIT_BAD_INPUT)
+
+
+def _config_from_options(seed: int, time_limit: float, reconfiguration_range: float | None, planner: str) -> PlannerConfig:
+    """Build the planner config, naming command-line options (not config fields) in errors."""
+    try:
+        config = PlannerConfig(seed=seed, time_limit_s=time_limit, planner=planner)
+        if reconfiguration_range is not None:
+            config = config.with_reconfiguration_range(reconfiguration_range)
+    except InputError as error:
+        raise InputError(error.problem, field=_OPTION_OF_FIELD.get(error.field, error.field)) from None
+    return config
+
+
+def _load_task(scene_spec: str, object_spec: str, pose, seed: int) -> tuple[Scene, ThinObject, tuple | None]:
+    """Load the scene and the object; place an outline object at ``pose`` or a seeded random pose.
+
+    Returns:
+        (scene, object, the random pose drawn or None).
+    """
+    scene = load_scene(scene_spec)
+    sampled_pose = None
+    if pose is None and Path(object_spec).suffix.lower() not in CLOUD_SUFFIXES:
+        outline, _, _ = load_outline(object_spec)
+        sampled_pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(seed))
+        pose = sampled_pose
+    obj = load_object(object_spec, table_height=scene.table.height, pose=pose)
+    return scene, obj, sampled_pose
+
+
+def _summary(result: PlanResult) -> str:
+    """One line: status, time, overhang, roots and pairs."""
+    stats = result.stats
+    counts = (
+        f"roots {stats.get('start_roots', 0)} start / {stats.get('goal_roots', 0)} goal, "
+        f"pairs {stats.get('pairs_checked', 0)} checked / {stats.get('pairs_rejected', 0)} rejected"
+    )
+    if not result.solved:
+        return f"{result.status} after {result.planning_time_s:.2f} s ({result.planner}; {counts})"
+    return (
+        f"solved in {result.planning_time_s:.2f} s ({result.planner}): overhang {100 * result.overhang_m:.1f} cm, "
+        f"{len(result.trajectory)} waypoints, {counts}"
+    )
+
+
+def _verify_and_mark(result: PlanResult) -> PlanResult:
+    """Verify a solved plan; print its violations and return it marked ``invalid`` if it fails."""
+    from .verify import verify
+
+    verification = verify(result)
+    if verification.ok:
+        return result
+    typer.echo(f"slideplan: plan fails verification ({len(verification.violations)} violations):", err=True)
+    for violation in verification.violations[:_SHOWN_VIOLATIONS]:
+        typer.echo(f"  {violation}", err=True)
+    if len(verification.violations) > _SHOWN_VIOLATIONS:
+        typer.echo(f"  ... and {len(verification.violations) - _SHOWN_VIOLATIONS} more", err=True)
+    return dataclasses.replace(result, status="invalid")
+
+
+def _write_outputs(result: PlanResult, json_path: Path | None, png_path: Path | None) -> None:
+    if json_path is not None:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(result.to_json(indent=1))
+    if png_path is not None:
+        from .viz import draw_plan
+
+        draw_plan(result, png_path)
+
+
+@app.command("plan")
+def plan_command(
+    scene: str = typer.Option(..., "--scene", help="Built-in scene (square, round, triangle, long) or a scene TOML file."),
+    object_spec: str = typer.Option(
+        ..., "--object", help="Built-in object name, outline TOML, or point-cloud file (.ply/.npy/.csv, used where it lies)."
+    ),
+    pose: Optional[Tuple[float, float, float]] = typer.Option(
+        None, "--pose", help="X Y YAW of an outline object (m, m, rad); default: a seeded random pose on the table."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Random seed (planner and random pose)."),
+    time_limit: float = typer.Option(60.0, "--time-limit", help="Planning time budget (s)."),
+    reconfiguration_range: Optional[float] = typer.Option(
+        None, "--reconfiguration-range", help="dz_max - dz_min (m); default 0.02."
+    ),
+    planner: str = typer.Option("slideplan", "--planner", help=f"One of: {', '.join(PLANNERS)}."),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="Write the plan JSON (slideplan.plan/1) here."),
+    png_out: Optional[Path] = typer.Option(None, "--png", help="Write a top-down picture here (.png or .svg)."),
+) -> None:
+    """Plan a pre-grasp sliding motion and verify it.
+
+    Exit codes: 0 solved and verified, 1 not solved within the time limit, 2 bad input,
+    3 solved but the plan fails verification.
+    """
+    from .planning import plan
+
+    try:
+        config = _config_from_options(seed, time_limit, reconfiguration_range, planner)
+        task_scene, obj, sampled_pose = _load_task(scene, object_spec, pose, seed)
+        result = plan(task_scene, obj, config)
+        if result.solved:
+            result = _verify_and_mark(result)
+        _write_outputs(result, json_out, png_out)
+    except (InputError, ValueError, OSError) as error:
+        raise _fail(error) from None
+    prefix = f"{obj.name} at random pose ({sampled_pose[0]:.3f}, {sampled_pose[1]:.3f}, {sampled_pose[2]:.3f}): " if sampled_pose else ""
+    typer.echo(prefix + _summary(result) + (", verified" if result.solved else ""))
+    if result.status == "invalid":
+        raise typer.Exit(EXIT_INVALID_PLAN)
+    raise typer.Exit(EXIT_SOLVED if result.solved else EXIT_NOT_SOLVED)
+
+
+@app.command("demo")
+def demo_command(
+    out: Path = typer.Option(Path("out"), "--out", help="Directory for demo-plan.json and demo-plan.png."),
+    seed: int = typer.Option(0, "--seed", help="Random seed (object pose and planner)."),
+) -> None:
+    """Slide the crescent on the square table from a seeded random pose; write the plan and a picture."""
+    from .planning import plan
+
+    try:
+        scene, obj, _ = _load_task("square", "crescent", None, seed)
+        result = plan(scene, obj, PlannerConfig(seed=seed))
+        if result.solved:
+            result = _verify_and_mark(result)
+        _write_outputs(result, out / "demo-plan.json", out / "demo-plan.png")
+    except (InputError, ValueError, OSError) as error:
+        raise _fail(error) from None
+    if result.solved:
+        typer.echo(f"solved in {result.planning_time_s:.2f} s, overhang {100 * result.overhang_m:.1f} cm, verified")
+    elif result.status == "invalid":
+        typer.echo(f"solved in {result.planning_time_s:.2f} s, but the plan fails verification (see above)")
+        raise typer.Exit(EXIT_INVALID_PLAN)
+    else:
+        typer.echo(_summary(result))
+        raise typer.Exit(EXIT_NOT_SOLVED)
+
+
+if __name__ == "__main__":
+    app(prog_name="slideplan")

@@ -1,0 +1,474 @@
+"""Planning API: :class:`PlannerConfig`, :func:`plan` and the :class:`PlanResult` it returns.
+
+:func:`plan` turns a :class:`~slideplan.scenes.Scene` and a :class:`~slideplan.objects.ThinObject`
+into the C++ core's inputs, runs Algorithm 1 (``_core.plan_sliding``) and wraps the answer in a
+:class:`PlanResult`, which reads and writes the plan JSON of DESIGN.md section 5
+(``slideplan.plan/1``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ._fields import is_number
+from .errors import InputError
+from .objects import ThinObject
+from .scenes import Scene
+from .transforms import homogeneous, pose_to_row, rotation_from_rpy, yawed_pose
+
+PLANNERS = ("slideplan", "cbirrt", "cbirrt2")
+PLAN_SCHEMA = "slideplan.plan/1"
+STATUSES = ("solved", "timeout", "invalid")
+GRASP_LINK = "t42_grasp"  # the hand's grasp frame in the bundled URDF (Z = approach axis)
+
+# Fields of PlannerConfig that must be > 0 (the others: beta0 and dz_min may be 0 or more).
+_POSITIVE_FIELDS = (
+    "delta_beta", "n_star", "d_goal", "u_star", "grasp_lift", "grasp_backoff", "transfer_time",
+    "max_joint_step", "max_tip_step", "projection_tolerance", "time_limit_s",
+)
+_INT_FIELDS = ("projection_iterations", "root_ik_attempts")
+# PlannerConfig fields that are not PlannerParams attributes (or are named differently there).
+_NOT_PARAMS = ("planner", "seed", "time_limit_s")
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """Planner parameters (defaults: paper section V where it gives them, docs otherwise).
+
+    Every field is checked on construction.
+
+    Attributes:
+        beta0: contact pitch ``beta_0`` of Eqs. 3-4 (rad).
+        delta_beta: pitch relaxation ``Delta_beta`` (rad).
+        dz_min: minimum contact depth ``Delta_Z^-`` below the object top (m).
+        dz_max: maximum contact depth ``Delta_Z^+`` (m); ``dz_max - dz_min`` is the
+            reconfiguration range ``Delta_Z^*``.
+        n_star: ``N*`` of Eq. 5 (root-adding conservativeness).
+        d_goal: width of the goal band ``P_g`` inside the table edges (m).
+        u_star: minimum overhang ``u*`` for a grasp (m).
+        grasp_lift: fingertip lift before moving to the grasp (m).
+        grasp_backoff: pre-grasp offset along the approach axis (m).
+        transfer_time: time budget of one transfer motion to the grasp (s).
+        max_joint_step: largest joint change between waypoints (rad).
+        max_tip_step: largest fingertip displacement between waypoints (m).
+        projection_tolerance: constraint residual tolerance of the projection.
+        projection_iterations: Newton iterations of one projection.
+        root_ik_attempts: IK attempts per root sample.
+        planner: ``"slideplan"`` (Algorithm 1), ``"cbirrt"`` or ``"cbirrt2"`` (baselines, paper V-6).
+        seed: random seed; the same seed gives the same plan.
+        time_limit_s: planning time budget (s).
+
+    Raises:
+        InputError: on construction, naming the field: a non-finite or out-of-range value,
+            ``dz_min > dz_max``, an unknown planner, a non-integer count or seed.
+    """
+
+    beta0: float = 1.0
+    delta_beta: float = 0.1
+    dz_min: float = 0.005
+    dz_max: float = 0.025
+    n_star: float = 100.0
+    d_goal: float = 0.05
+    u_star: float = 0.02
+    grasp_lift: float = 0.05
+    grasp_backoff: float = 0.06
+    transfer_time: float = 0.2
+    max_joint_step: float = 0.02
+    max_tip_step: float = 0.01
+    projection_tolerance: float = 1e-4
+    projection_iterations: int = 30
+    root_ik_attempts: int = 3
+    planner: str = "slideplan"
+    seed: int = 0
+    time_limit_s: float = 60.0
+
+    def __post_init__(self) -> None:
+        for item in dataclasses.fields(self):
+            name, value = item.name, getattr(self, item.name)
+            if name == "planner":
+                if value not in PLANNERS:
+                    raise InputError(f"unknown planner {value!r} (expected one of: {', '.join(PLANNERS)})", field=name)
+            elif name in _INT_FIELDS or name == "seed":
+                if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                    raise InputError(f"expected an integer, got {value!r}", field=name)
+                low, high = (0, 2**64) if name == "seed" else (1, 2**31)  # C++: uint64 seed, int counts
+                if not low <= value < high:
+                    raise InputError(f"must be in [{low}, {high}), got {value!r}", field=name)
+            else:
+                if not is_number(value) or not math.isfinite(value):
+                    raise InputError(f"expected a finite number, got {value!r}", field=name)
+                if name in _POSITIVE_FIELDS and value <= 0:
+                    raise InputError(f"must be > 0, got {value!r}", field=name)
+                if value < 0:
+                    raise InputError(f"must be >= 0, got {value!r}", field=name)
+        if self.dz_min > self.dz_max:
+            raise InputError(
+                f"must be >= dz_min ({self.dz_min!r}), got {self.dz_max!r} (negative reconfiguration range)",
+                field="dz_max",
+            )
+
+    @property
+    def reconfiguration_range(self) -> float:
+        """``Delta_Z^* = dz_max - dz_min`` (m), the paper's reconfiguration range."""
+        return self.dz_max - self.dz_min
+
+    def with_reconfiguration_range(self, range_m: float) -> PlannerConfig:
+        """Return a copy with ``dz_max = dz_min + range_m``.
+
+        Args:
+            range_m: reconfiguration range ``Delta_Z^*`` (m), >= 0 (the paper uses 0, 0.005, 0.02).
+
+        Returns:
+            The new config.
+
+        Raises:
+            InputError: ``range_m`` is negative or not a finite number.
+        """
+        if not is_number(range_m) or not math.isfinite(range_m) or range_m < 0:
+            raise InputError(f"must be a finite number >= 0 (m), got {range_m!r}", field="reconfiguration_range")
+        return dataclasses.replace(self, dz_max=self.dz_min + float(range_m))
+
+    def to_params(self):
+        """Build the C++ core's parameter object.
+
+        Returns:
+            ``_core.PlannerParams`` with every field but ``seed`` and ``time_limit_s``
+            (``planner`` becomes ``policy``).
+        """
+        from . import _core
+
+        params = _core.PlannerParams()
+        for item in dataclasses.fields(self):
+            if item.name not in _NOT_PARAMS:
+                setattr(params, item.name, getattr(self, item.name))
+        params.policy = self.planner
+        return params
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the fields as a plain dict (JSON-ready)."""
+        return dataclasses.asdict(self)
+
+
+@dataclass
+class PlanResult:
+    """One planning run, as stored in the plan JSON (``slideplan.plan/1``, DESIGN.md 5).
+
+    It holds everything needed to re-check the plan without the planner
+    (:func:`slideplan.verify.verify` does). Arrays are numpy arrays; when ``status`` is
+    not ``"solved"`` the configuration and trajectory arrays are empty.
+
+    Attributes:
+        status: ``"solved"``, ``"timeout"``, or ``"invalid"`` (a solved plan the verifier rejected).
+        planner: ``"slideplan"``, ``"cbirrt"`` or ``"cbirrt2"``.
+        seed: the random seed of the run.
+        planning_time_s: wall time of planning (s), baselines' precomputation included.
+        params: the planner parameters (:meth:`PlannerConfig.to_dict` without planner and seed).
+        table: ``{"polygon": (n, 2) array, "height": float}``.
+        object: ``{"name": str, "thickness": float, "points": (N, 3) array (input cloud, world
+            frame), "com_xy": (2,) array}``.
+        robot: ``{"urdf": str, "base_pose": (4, 4) array, "tip_link": str, "grasp_link": str,
+            "contact_links": [str]}``.
+        obstacles: the scene's boxes, ``[{"center": (3,) array, "size": (3,) array, "yaw": float}]``
+            (not in DESIGN.md's field list, but a collision re-check needs them).
+        object_motion: ``{"x", "y", "yaw"}``: ``p' = R(yaw) p + (x, y)`` moves the object
+            from its start to its final pose (Eq. 2).
+        overhang_m: overhang ``u`` of the final pose (m).
+        joint_names: the arm's joints, in configuration order.
+        start_config, goal_config: (dof,) arrays.
+        trajectory: (M, dof) dense sliding path, start to goal.
+        fingertip_poses: (M, 7) contact frame ``F`` per waypoint, ``[x, y, z, qx, qy, qz, qw]``.
+        grasp: ``{"pose": (7,) pose of the grasp frame, "config": (dof,), "approach": (K, dof)
+            dense path from the goal configuration to the grasp configuration}``.
+        stats: planner counters (iterations, start_roots, goal_roots, pairs_checked, ...).
+    """
+
+    SCHEMA = PLAN_SCHEMA
+
+    status: str
+    planner: str
+    seed: int
+    planning_time_s: float
+    params: dict[str, Any]
+    table: dict[str, Any]
+    object: dict[str, Any]
+    robot: dict[str, Any]
+    obstacles: list[dict[str, Any]]
+    object_motion: dict[str, float]
+    overhang_m: float
+    joint_names: list[str]
+    start_config: np.ndarray
+    goal_config: np.ndarray
+    trajectory: np.ndarray
+    fingertip_poses: np.ndarray
+    grasp: dict[str, Any]
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def solved(self) -> bool:
+        """True if the planner found a plan (and no verifier marked it invalid)."""
+        return self.status == "solved"
+
+    @property
+    def dof(self) -> int:
+        """Number of arm joints."""
+        return len(self.joint_names)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the plan as JSON-ready nested dicts and lists, ``schema`` first."""
+        content = {item.name: getattr(self, item.name) for item in dataclasses.fields(self)}
+        return {"schema": self.SCHEMA, **_to_plain(content)}
+
+    def to_json(self, indent: int | None = None) -> str:
+        """Return the plan JSON text.
+
+        Args:
+            indent: passed to :func:`json.dumps` (None: one line).
+        """
+        return json.dumps(self.to_dict(), indent=indent)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> PlanResult:
+        """Rebuild a plan from :meth:`to_dict` output (exact round trip).
+
+        Args:
+            data: the parsed JSON.
+
+        Returns:
+            The plan, with numpy arrays where :meth:`to_dict` had lists.
+
+        Raises:
+            InputError: wrong schema, unknown status, or missing, unknown or misshapen fields.
+        """
+        if not isinstance(data, dict) or data.get("schema") != PLAN_SCHEMA:
+            found = data.get("schema") if isinstance(data, dict) else type(data).__name__
+            raise InputError(f"expected {PLAN_SCHEMA!r}, got {found!r}", field="schema")
+        names = {item.name for item in dataclasses.fields(cls)}
+        missing = sorted(names - data.keys())
+        unknown = sorted(data.keys() - names - {"schema"})
+        if missing or unknown:
+            raise InputError(f"missing fields {missing}, unknown fields {unknown}", field="plan")
+        if data["status"] not in STATUSES:
+            raise InputError(f"unknown status {data['status']!r} (expected one of {STATUSES})", field="status")
+        dof = len(data["joint_names"])
+        try:
+            return cls(
+                status=data["status"],
+                planner=data["planner"],
+                seed=data["seed"],
+                planning_time_s=data["planning_time_s"],
+                params=dict(data["params"]),
+                table={**data["table"], "polygon": _array(data["table"]["polygon"], 2)},
+                object={
+                    **data["object"],
+                    "points": _array(data["object"]["points"], 3),
+                    "com_xy": _array(data["object"]["com_xy"]),
+                },
+                robot={**data["robot"], "base_pose": _array(data["robot"]["base_pose"], 4)},
+                obstacles=[
+                    {**box, "center": _array(box["center"]), "size": _array(box["size"])} for box in data["obstacles"]
+                ],
+                object_motion=dict(data["object_motion"]),
+                overhang_m=data["overhang_m"],
+                joint_names=list(data["joint_names"]),
+                start_config=_array(data["start_config"]),
+                goal_config=_array(data["goal_config"]),
+                trajectory=_array(data["trajectory"], dof),
+                fingertip_poses=_array(data["fingertip_poses"], 7),
+                grasp={
+                    **data["grasp"],
+                    "pose": _array(data["grasp"]["pose"]),
+                    "config": _array(data["grasp"]["config"]),
+                    "approach": _array(data["grasp"]["approach"], dof),
+                },
+                stats=dict(data["stats"]),
+            )
+        except (KeyError, TypeError, ValueError) as error:
+            raise InputError(f"malformed plan ({type(error).__name__}: {error})", field="plan") from None
+
+    @classmethod
+    def from_json(cls, text: str) -> PlanResult:
+        """Parse plan JSON text (see :meth:`from_dict`).
+
+        Raises:
+            InputError: not JSON, or not a valid plan.
+        """
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as error:
+            raise InputError(f"invalid JSON ({error})") from None
+        return cls.from_dict(data)
+
+
+def _to_plain(value: Any) -> Any:
+    """Recursively turn numpy arrays and scalars into lists and Python numbers."""
+    if isinstance(value, dict):
+        return {key: _to_plain(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_to_plain(item) for item in value]
+    if isinstance(value, (np.ndarray, np.generic)):
+        return value.tolist()
+    return value
+
+
+def _array(value: Any, columns: int | None = None) -> np.ndarray:
+    """A float array; with ``columns``, 2-D with that many columns (an empty list becomes (0, columns))."""
+    array = np.asarray(value, dtype=float)
+    if columns is None:
+        return array
+    if array.size == 0:
+        return array.reshape(0, columns)
+    if array.ndim != 2 or array.shape[1] != columns:
+        raise ValueError(f"expected rows of {columns} numbers, got shape {array.shape}")
+    return array
+
+
+def base_pose_matrix(base_pose) -> np.ndarray:
+    """Convert a scene's robot mount ``[x, y, z, roll, pitch, yaw]`` (URDF rpy convention) to 4x4.
+
+    Args:
+        base_pose: 6 numbers (m, rad).
+
+    Returns:
+        (4, 4) homogeneous matrix.
+    """
+    x, y, z, roll, pitch, yaw = (float(value) for value in base_pose)
+    return homogeneous(rotation_from_rpy(roll, pitch, yaw), (x, y, z))
+
+
+@functools.lru_cache(maxsize=16)
+def _cached_robot(urdf_path: str, base_pose: tuple[float, ...], tip_link: str):
+    from . import _core
+
+    return _core.RobotModel(urdf_path, tip_link=tip_link, base_pose=base_pose_matrix(base_pose))
+
+
+def robot_model(scene: Scene):
+    """Return the C++ robot model of a scene, cached: parsing the URDF is not free.
+
+    Args:
+        scene: the scene (its URDF, base pose and tip link key the cache).
+
+    Returns:
+        ``_core.RobotModel`` (shared: do not mutate).
+
+    Raises:
+        InputError: naming the URDF file, if it cannot be loaded or lacks the tip link.
+    """
+    try:
+        return _cached_robot(str(scene.urdf_path), tuple(float(v) for v in scene.base_pose), scene.tip_link)
+    except (ValueError, RuntimeError) as error:
+        raise InputError(f"cannot load robot ({error})", source=str(scene.urdf_path), field="robot") from None
+
+
+def _box_obstacles(scene: Scene) -> list:
+    """The scene's boxes as C++ obstacles (yaw about the world z axis)."""
+    from . import _core
+
+    return [
+        _core.BoxObstacle(yawed_pose(box.center, box.yaw), np.asarray(box.size, dtype=float))
+        for box in scene.obstacles
+    ]
+
+
+def _check_object_on_table(scene: Scene, obj: ThinObject) -> None:
+    """Reject an object that does not lie wholly on the table (sliding starts from rest on it)."""
+    outside = int(np.count_nonzero(~scene.table.contains(obj.points[:, :2])))
+    if outside:
+        raise InputError(
+            f"{outside} of {len(obj.points)} object points lie outside the table "
+            f"(object {obj.name or 'cloud'} must lie wholly on table {scene.name})",
+            source=scene.source,
+            field="object",
+        )
+
+
+def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> PlanResult:
+    """Plan a pre-grasp sliding motion (paper Algorithm 1 with IsPairValid).
+
+    Args:
+        scene: table, robot and obstacles.
+        obj: the thin object, lying on the scene's table.
+        config: planner parameters, seed, time limit and planner (default: :class:`PlannerConfig()`).
+
+    Returns:
+        The result; ``status`` is ``"solved"`` or ``"timeout"``. The planner does not run
+        :func:`slideplan.verify.verify`; call it to re-check a plan.
+
+    Raises:
+        InputError: the object is not on the table, the robot cannot be loaded, or the core
+            rejects the input (message from the core).
+        KeyboardInterrupt: Ctrl-C during planning.
+    """
+    from . import _core
+
+    config = config or PlannerConfig()
+    _check_object_on_table(scene, obj)
+    robot = robot_model(scene)
+    try:
+        core_result = _core.plan_sliding(
+            robot=robot,
+            table=_core.SupportSurface(scene.table.vertices, scene.table.height),
+            obstacles=_box_obstacles(scene),
+            contact_links=list(scene.contact_links),
+            object_points=np.asarray(obj.points, dtype=float),
+            object_com_xy=np.asarray(obj.centroid_xy, dtype=float),
+            params=config.to_params(),
+            seed=config.seed,
+            time_limit=config.time_limit_s,
+            grasp_link=GRASP_LINK,
+        )
+    except ValueError as error:
+        raise InputError(f"planner rejected the input: {error}", source=scene.source) from None
+    return _wrap_core_result(core_result, scene, obj, config, robot)
+
+
+def _wrap_core_result(core_result, scene: Scene, obj: ThinObject, config: PlannerConfig, robot) -> PlanResult:
+    """Copy a ``_core.PlanResult`` and the inputs that produced it into a :class:`PlanResult`."""
+    dof = robot.dof
+    motion = core_result.object_motion
+    params = {key: value for key, value in config.to_dict().items() if key not in ("planner", "seed")}
+    return PlanResult(
+        status=core_result.status,
+        planner=core_result.planner,
+        seed=config.seed,
+        planning_time_s=float(core_result.planning_time),
+        params=params,
+        table={"polygon": np.array(scene.table.vertices, dtype=float), "height": float(scene.table.height)},
+        object={
+            "name": obj.name,
+            "thickness": float(obj.thickness),
+            "points": np.array(obj.points, dtype=float),
+            "com_xy": np.array(obj.centroid_xy, dtype=float),
+        },
+        robot={
+            "urdf": str(scene.urdf_path),
+            "base_pose": base_pose_matrix(scene.base_pose),
+            "tip_link": scene.tip_link,
+            "grasp_link": GRASP_LINK,
+            "contact_links": list(scene.contact_links),
+        },
+        obstacles=[
+            {"center": np.array(box.center, dtype=float), "size": np.array(box.size, dtype=float), "yaw": float(box.yaw)}
+            for box in scene.obstacles
+        ],
+        object_motion={"x": float(motion[0]), "y": float(motion[1]), "yaw": float(motion[2])},
+        overhang_m=float(core_result.overhang),
+        joint_names=list(robot.joint_names),
+        start_config=np.array(core_result.start_config, dtype=float).reshape(-1),
+        goal_config=np.array(core_result.goal_config, dtype=float).reshape(-1),
+        trajectory=_array(core_result.trajectory, dof),
+        fingertip_poses=np.array([pose_to_row(pose) for pose in core_result.fingertip_poses]).reshape(-1, 7),
+        grasp={
+            "pose": pose_to_row(core_result.grasp_pose) if core_result.status == "solved" else np.zeros(0),
+            "config": np.array(core_result.grasp_config, dtype=float).reshape(-1),
+            "approach": _array(core_result.approach, dof),
+        },
+        stats=dict(core_result.stats),
+    )

@@ -1,0 +1,424 @@
+"""Independent re-check of a plan from the plan data alone.
+
+:func:`verify` recomputes, from the fields of a :class:`~slideplan.planning.PlanResult`
+(robot URDF and mount, table, object cloud, configurations), everything the plan claims:
+the contact constraint at every waypoint (DESIGN.md 3, paper IV-C.3), the path density,
+the object motion of Eq. 2, the graspability of the final object pose (paper IV-C.1) and
+the approach to the grasp. It deliberately shares no code with the planner: it uses only
+the robot model and collision world of the core (kinematics and FCL, which the plan data
+cannot replace) and the data layer's geometry.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import shapely
+from shapely.geometry import MultiPoint
+
+from .geometry import SupportSurface
+from .transforms import rotation_angle_between, row_to_pose, wrap_angle, yawed_pose
+
+if TYPE_CHECKING:
+    from .planning import PlanResult
+
+POSE_TOLERANCE = 1e-6  # m and rad: recorded poses must be the forward kinematics (JSON keeps floats exact)
+DEPTH_TOLERANCE_M = 1e-3  # contact depth band slack (the planner projects to 1e-4)
+ANGLE_TOLERANCE_RAD = 1e-3  # pitch band slack and largest allowed roll
+STEP_SLACK = 1e-9  # rounding slack on the joint and fingertip step bounds
+MOTION_TOLERANCE = 1e-6  # object motion and overhang against their recomputed values (m, rad)
+CONFIG_TOLERANCE = 1e-9  # rad: configurations that must be the same (approach ends)
+LIFT_SLACK_M = 1e-3  # the approach switches to free-mode checks once the fingertip is this close to the lift height
+
+
+@dataclass
+class Verification:
+    """The verdict of :func:`verify`.
+
+    Attributes:
+        violations: one line per problem, naming the waypoint (e.g. ``trajectory[12]``) or
+            the field and the numbers that are wrong; empty for a valid plan.
+    """
+
+    violations: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """True if no violation was found."""
+        return not self.violations
+
+    def __str__(self) -> str:
+        return "ok" if self.ok else f"{len(self.violations)} violations:\n" + "\n".join(self.violations)
+
+
+@dataclass
+class _PlanWorld:
+    """What the checks share: the robot, the table and the collision world, rebuilt from the plan."""
+
+    robot: object
+    collision_world: object
+    table: SupportSurface
+    object_top_z: float  # z_s = table height + object thickness
+
+
+def verify(result: PlanResult) -> Verification:
+    """Re-check every claim of a solved plan from its data.
+
+    Checks: consistent array shapes; at every trajectory waypoint, that the forward
+    kinematics reproduces the recorded fingertip pose, the contact depth ``z_s - z_F`` lies
+    in ``[dz_min, dz_max]`` (+- 1 mm), the pitch in ``beta0 +- delta_beta`` and the roll is 0
+    (+- 1 mrad), the fingertip is over the table, the joints are within limits and the arm
+    is collision-free (sliding mode); the density bounds between waypoints; Eq. 2 (the
+    recorded object motion is the planar motion of the fingertip from first to last
+    waypoint); the final object pose (overhang ``u >= u*`` and equal to the recorded one,
+    centre of mass on the table); and the grasp (its recorded pose is the forward
+    kinematics of the grasp link, the approach runs densely and without collision from the
+    goal to the grasp configuration).
+
+    Args:
+        result: the plan.
+
+    Returns:
+        The verification; ``ok`` is False for any plan that is not solved.
+    """
+    if result.status not in ("solved", "invalid"):
+        return Verification([f"status is {result.status!r}: there is no plan to verify"])
+    violations = check_shapes(result)
+    if violations:
+        return Verification(violations)  # the remaining checks index into the arrays
+    world = _rebuild_world(result)
+    violations += check_sliding_path(result, world)
+    violations += check_object_motion(result)
+    violations += check_graspability(result, world.table)
+    violations += check_grasp(result, world)
+    return Verification(violations)
+
+
+def _rebuild_world(result: PlanResult) -> _PlanWorld:
+    """Load the plan's robot and build its table and collision world (sliding: no object)."""
+    from . import _core
+
+    robot = _core.RobotModel(
+        str(result.robot["urdf"]), tip_link=result.robot["tip_link"], base_pose=np.asarray(result.robot["base_pose"])
+    )
+    polygon = np.asarray(result.table["polygon"], dtype=float)
+    height = float(result.table["height"])
+    obstacles = [
+        _core.BoxObstacle(yawed_pose(box["center"], box["yaw"]), np.asarray(box["size"], dtype=float))
+        for box in result.obstacles
+    ]
+    collision_world = _core.CollisionWorld(
+        robot, _core.SupportSurface(polygon, height), obstacles, list(result.robot["contact_links"])
+    )
+    return _PlanWorld(
+        robot=robot,
+        collision_world=collision_world,
+        table=SupportSurface.from_vertices(polygon, height, field="table.polygon"),
+        object_top_z=height + float(result.object["thickness"]),
+    )
+
+
+def check_shapes(result: PlanResult) -> list[str]:
+    """Check that the plan's arrays fit together.
+
+    Args:
+        result: the plan.
+
+    Returns:
+        Violations: a trajectory without waypoints, arrays whose sizes disagree with the
+        joint count or with each other, or end configurations that are not the path's ends.
+    """
+    dof = len(result.joint_names)
+    violations = []
+    trajectory = np.asarray(result.trajectory)
+    shapes = {
+        "trajectory": (trajectory.shape, (max(len(trajectory), 1), dof)),
+        "fingertip_poses": (np.shape(result.fingertip_poses), (max(len(trajectory), 1), 7)),
+        "start_config": (np.shape(result.start_config), (dof,)),
+        "goal_config": (np.shape(result.goal_config), (dof,)),
+        "grasp.pose": (np.shape(result.grasp["pose"]), (7,)),
+        "grasp.config": (np.shape(result.grasp["config"]), (dof,)),
+        "grasp.approach": (np.shape(result.grasp["approach"]), (max(len(result.grasp["approach"]), 1), dof)),
+        "object.points": (np.shape(result.object["points"]), (max(len(result.object["points"]), 1), 3)),
+    }
+    for name, (actual, expected) in shapes.items():
+        if tuple(actual) != expected:
+            violations.append(f"{name}: shape {tuple(actual)}, expected {expected}")
+    if violations:
+        return violations
+    for name, config, index in (("start_config", result.start_config, 0), ("goal_config", result.goal_config, -1)):
+        gap = float(np.max(np.abs(trajectory[index] - config)))
+        if gap > CONFIG_TOLERANCE:
+            violations.append(f"{name}: differs from trajectory[{index % len(trajectory)}] by {gap:.3g} rad")
+    return violations
+
+
+def _joint_limit_violations(name: str, config: np.ndarray, robot) -> list[str]:
+    """One violation per joint of ``config`` outside the robot's limits."""
+    lower, upper = np.asarray(robot.lower_limits), np.asarray(robot.upper_limits)
+    return [
+        f"{name}: joint {joint} = {config[joint]:.6f} rad outside its limits [{lower[joint]:.6f}, {upper[joint]:.6f}]"
+        for joint in np.flatnonzero((config < lower - STEP_SLACK) | (config > upper + STEP_SLACK))
+    ]
+
+
+def _collision_violation(name: str, config: np.ndarray, collision_world, mode) -> list[str]:
+    """A violation naming the colliding pairs if ``config`` collides in ``mode``."""
+    if collision_world.is_valid(config, mode):
+        return []
+    pairs = ", ".join(f"{link}-{other}" for link, other in collision_world.collisions(config, mode))
+    return [f"{name}: collision in {mode.name.lower()} mode ({pairs})"]
+
+
+def _density_violations(name: str, path: np.ndarray, max_joint_step: float, tip_positions=None, max_tip_step=None) -> list[str]:
+    """Violations of the step bounds between consecutive waypoints of ``path`` (named ``name``)."""
+    violations = []
+    joint_steps = np.max(np.abs(np.diff(path, axis=0)), axis=1) if len(path) > 1 else np.zeros(0)
+    for index in np.flatnonzero(joint_steps > max_joint_step + STEP_SLACK):
+        violations.append(
+            f"{name}[{index}]->[{index + 1}]: a joint moves {joint_steps[index]:.6f} rad > max_joint_step {max_joint_step}"
+        )
+    if tip_positions is not None:
+        tip_steps = np.linalg.norm(np.diff(tip_positions, axis=0), axis=1)
+        for index in np.flatnonzero(tip_steps > max_tip_step + STEP_SLACK):
+            violations.append(
+                f"{name}[{index}]->[{index + 1}]: fingertip moves {tip_steps[index]:.6f} m > max_tip_step {max_tip_step}"
+            )
+    return violations
+
+
+def contact_angles(pose: np.ndarray) -> tuple[float, float, float]:
+    """Yaw, pitch and roll of a fingertip pose relative to the horizontal surface (DESIGN.md 3).
+
+    Args:
+        pose: (4, 4) or (3, 3) pose of the contact frame ``F``.
+
+    Returns:
+        ``(yaw, pitch, roll)``: yaw = atan2(X_F.y, X_F.x), pitch = asin(-Z_F.z),
+        roll = asin(X_F.z) (rad).
+    """
+    rotation = np.asarray(pose)[:3, :3]
+    x_axis, z_axis = rotation[:, 0], rotation[:, 2]
+    return (
+        math.atan2(x_axis[1], x_axis[0]),
+        math.asin(max(-1.0, min(1.0, -z_axis[2]))),
+        math.asin(max(-1.0, min(1.0, x_axis[2]))),
+    )
+
+
+def check_sliding_path(result: PlanResult, world: _PlanWorld) -> list[str]:
+    """Check every trajectory waypoint against the contact constraint, and the path density.
+
+    Args:
+        result: the plan (array shapes already checked).
+        world: the rebuilt robot, table and collision world.
+
+    Returns:
+        Violations, each naming ``trajectory[i]`` and the numbers.
+    """
+    from . import _core
+
+    params = result.params
+    violations = []
+    tips = []
+    for index, config in enumerate(np.asarray(result.trajectory)):
+        name = f"trajectory[{index}]"
+        pose = np.asarray(world.robot.fk(config))
+        tips.append(pose[:3, 3])
+        recorded = row_to_pose(result.fingertip_poses[index])
+        position_error = float(np.linalg.norm(pose[:3, 3] - recorded[:3, 3]))
+        angle_error = rotation_angle_between(pose, recorded)
+        if position_error > POSE_TOLERANCE or angle_error > POSE_TOLERANCE:
+            violations.append(
+                f"{name}: forward kinematics differs from fingertip_poses[{index}] by "
+                f"{position_error:.3g} m and {angle_error:.3g} rad"
+            )
+        depth = world.object_top_z - pose[2, 3]
+        if not params["dz_min"] - DEPTH_TOLERANCE_M <= depth <= params["dz_max"] + DEPTH_TOLERANCE_M:
+            violations.append(
+                f"{name}: contact depth {depth:.6f} m outside [dz_min, dz_max] = [{params['dz_min']}, {params['dz_max']}]"
+            )
+        _, pitch, roll = contact_angles(pose)
+        if abs(pitch - params["beta0"]) > params["delta_beta"] + ANGLE_TOLERANCE_RAD:
+            violations.append(
+                f"{name}: pitch {pitch:.6f} rad outside beta0 +- delta_beta = {params['beta0']} +- {params['delta_beta']}"
+            )
+        if abs(roll) > ANGLE_TOLERANCE_RAD:
+            violations.append(f"{name}: roll {roll:.6f} rad, expected 0 (+- {ANGLE_TOLERANCE_RAD})")
+        if not world.table.contains(pose[:2, 3]):
+            violations.append(f"{name}: fingertip ({pose[0, 3]:.4f}, {pose[1, 3]:.4f}) is not over the table")
+        violations += _joint_limit_violations(name, config, world.robot)
+        violations += _collision_violation(name, config, world.collision_world, _core.ContactMode.SLIDING)
+    violations += _density_violations(
+        "trajectory", np.asarray(result.trajectory), params["max_joint_step"], np.array(tips), params["max_tip_step"]
+    )
+    return violations
+
+
+def planar_motion(first_pose: np.ndarray, last_pose: np.ndarray) -> tuple[float, float, float]:
+    """Eq. 2 restricted to SE(2): the planar motion taking one contact frame to another.
+
+    Args:
+        first_pose, last_pose: (4, 4) fingertip poses.
+
+    Returns:
+        ``(x, y, yaw)`` such that ``R(yaw) p + (x, y)`` maps the first frame's xy (and its
+        X_F heading) onto the last one's.
+    """
+    yaw = wrap_angle(contact_angles(last_pose)[0] - contact_angles(first_pose)[0])
+    rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+    x, y = last_pose[:2, 3] - rotation @ first_pose[:2, 3]
+    return float(x), float(y), yaw
+
+
+def check_object_motion(result: PlanResult) -> list[str]:
+    """Check Eq. 2: the recorded object motion is the fingertip's planar motion.
+
+    Args:
+        result: the plan (array shapes already checked).
+
+    Returns:
+        At most one violation, with both motions.
+    """
+    expected = planar_motion(row_to_pose(result.fingertip_poses[0]), row_to_pose(result.fingertip_poses[-1]))
+    recorded = (result.object_motion["x"], result.object_motion["y"], result.object_motion["yaw"])
+    errors = (recorded[0] - expected[0], recorded[1] - expected[1], wrap_angle(recorded[2] - expected[2]))
+    if max(abs(error) for error in errors) <= MOTION_TOLERANCE:
+        return []
+    return [
+        "object_motion: (x, y, yaw) = ({:.6f}, {:.6f}, {:.6f}) but the fingertip moves the object by "
+        "({:.6f}, {:.6f}, {:.6f}) from trajectory[0] to trajectory[{}] (Eq. 2)".format(
+            *recorded, *expected, len(result.trajectory) - 1
+        )
+    ]
+
+
+def moved_object_xy(result: PlanResult) -> np.ndarray:
+    """The object points' xy at the final pose, ``P'_o``, by the recorded object motion.
+
+    Args:
+        result: the plan.
+
+    Returns:
+        (N, 2) array.
+    """
+    motion = result.object_motion
+    cos_yaw, sin_yaw = math.cos(motion["yaw"]), math.sin(motion["yaw"])
+    rotation = np.array([[cos_yaw, -sin_yaw], [sin_yaw, cos_yaw]])
+    return np.asarray(result.object["points"])[:, :2] @ rotation.T + (motion["x"], motion["y"])
+
+
+def overhang(table: SupportSurface, moved_xy: np.ndarray) -> tuple[float, np.ndarray]:
+    """Overhang ``u`` of paper IV-C.1 for an object at its final pose.
+
+    ``u`` is the largest distance, along the outward normal of the table edge closest to
+    the centroid of the points outside the table (``P_out``), of a point of ``P_out``
+    beyond that edge.
+
+    Args:
+        table: the support surface (vertices counter-clockwise).
+        moved_xy: (N, 2) object points at the final pose.
+
+    Returns:
+        ``(u, outside)``: u (m; 0 when no point is outside) and the (N,) bool mask of ``P_out``.
+    """
+    outside = ~table.contains(moved_xy)
+    if not outside.any():
+        return 0.0, outside
+    out_points = moved_xy[outside]
+    centroid = out_points.mean(axis=0)
+    starts = table.vertices
+    ends = np.roll(starts, -1, axis=0)
+    edges = ends - starts
+    along = np.clip(np.einsum("ij,ij->i", centroid - starts, edges) / np.einsum("ij,ij->i", edges, edges), 0.0, 1.0)
+    distances = np.linalg.norm(starts + along[:, None] * edges - centroid, axis=1)
+    closest = int(np.argmin(distances))
+    direction = edges[closest] / np.linalg.norm(edges[closest])
+    outward_normal = np.array([direction[1], -direction[0]])  # right of the edge: outside for a CCW polygon
+    return float(np.max((out_points - starts[closest]) @ outward_normal)), outside
+
+
+def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
+    """Check the final object pose (paper IV-C.1): ``u >= u*``, ``u`` as recorded, CoM on the table.
+
+    Args:
+        result: the plan.
+        table: the support surface built from ``result.table``.
+
+    Returns:
+        Violations with the numbers.
+    """
+    violations = []
+    u, outside = overhang(table, moved_object_xy(result))
+    if not outside.any():
+        violations.append("final object pose: no object point overhangs the table")
+    if u < result.params["u_star"] - STEP_SLACK:
+        violations.append(f"final object pose: overhang {u:.6f} m < u_star {result.params['u_star']}")
+    if abs(u - result.overhang_m) > MOTION_TOLERANCE:
+        violations.append(f"overhang_m: recorded {result.overhang_m:.6f} m, recomputed {u:.6f} m")
+    motion = result.object_motion
+    com = np.asarray(result.object["com_xy"], dtype=float)
+    cos_yaw, sin_yaw = math.cos(motion["yaw"]), math.sin(motion["yaw"])
+    moved_com = (cos_yaw * com[0] - sin_yaw * com[1] + motion["x"], sin_yaw * com[0] + cos_yaw * com[1] + motion["y"])
+    if not table.contains(moved_com):
+        violations.append(f"final object pose: centre of mass ({moved_com[0]:.4f}, {moved_com[1]:.4f}) is off the table")
+    return violations
+
+
+def check_grasp(result: PlanResult, world: _PlanWorld) -> list[str]:
+    """Check the grasp and the approach motion to it.
+
+    The grasp link's forward kinematics at ``grasp.config`` must equal ``grasp.pose``; the
+    approach must start at the goal configuration, end at the grasp configuration, respect
+    the joint limits and ``max_joint_step``, and be collision-free: in sliding mode while the
+    fingertip is still below ``z_s + grasp_lift`` (it is pressing or lifting off the object,
+    as during the slide), then in free mode against the object at its final pose.
+
+    Args:
+        result: the plan (array shapes already checked).
+        world: the rebuilt robot, table and collision world (its object is set and cleared here).
+
+    Returns:
+        Violations naming ``grasp`` or ``approach[i]``.
+    """
+    from . import _core
+
+    violations = []
+    config = np.asarray(result.grasp["config"])
+    approach = np.asarray(result.grasp["approach"])
+    grasp_link = result.robot["grasp_link"]
+    pose = np.asarray(world.robot.link_pose(config, grasp_link))
+    recorded = row_to_pose(result.grasp["pose"])
+    position_error = float(np.linalg.norm(pose[:3, 3] - recorded[:3, 3]))
+    angle_error = rotation_angle_between(pose, recorded)
+    if position_error > POSE_TOLERANCE or angle_error > POSE_TOLERANCE:
+        violations.append(
+            f"grasp.pose: forward kinematics of {grasp_link} at grasp.config differs by "
+            f"{position_error:.3g} m and {angle_error:.3g} rad"
+        )
+    violations += _joint_limit_violations("grasp.config", config, world.robot)
+    if len(approach) == 0:
+        return violations + ["grasp.approach: empty"]
+    for name, end, index in (("goal_config", result.goal_config, 0), ("grasp.config", config, -1)):
+        gap = float(np.max(np.abs(approach[index] - end)))
+        if gap > CONFIG_TOLERANCE:
+            violations.append(f"approach[{index % len(approach)}]: differs from {name} by {gap:.3g} rad")
+    violations += _density_violations("approach", approach, result.params["max_joint_step"])
+    lift_height = world.object_top_z + result.params["grasp_lift"] - LIFT_SLACK_M
+    lifted = [world.robot.fk(waypoint)[2, 3] >= lift_height for waypoint in approach]
+    collision_world = world.collision_world
+    for index, waypoint in enumerate(approach):
+        violations += _joint_limit_violations(f"approach[{index}]", waypoint, world.robot)
+        if not lifted[index]:
+            violations += _collision_violation(f"approach[{index}]", waypoint, collision_world, _core.ContactMode.SLIDING)
+    hull = MultiPoint(moved_object_xy(result)).convex_hull
+    collision_world.set_object(shapely.get_coordinates(hull.exterior)[:-1], world.object_top_z)
+    try:
+        for index in np.flatnonzero(lifted):
+            violations += _collision_violation(f"approach[{index}]", approach[index], collision_world, _core.ContactMode.FREE)
+    finally:
+        collision_world.clear_object()
+    return violations

@@ -1,0 +1,144 @@
+"""Top-down pictures of scenes and plans (matplotlib, no display needed).
+
+Figures are built with :class:`matplotlib.figure.Figure` directly rather than pyplot, so
+drawing never touches the global backend or leaks figures in long experiment runs.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle, Polygon as PolygonPatch
+
+from .geometry import SupportSurface
+from .transforms import row_to_pose
+from .verify import moved_object_xy, overhang
+
+if TYPE_CHECKING:
+    from .objects import ThinObject
+    from .planning import PlanResult
+    from .scenes import Scene
+
+_TABLE_STYLE = {"facecolor": "0.9", "edgecolor": "0.35", "linewidth": 1.2, "label": "table"}
+
+
+def _new_axes():
+    figure = Figure(figsize=(9, 6), layout="constrained")
+    axes = figure.add_subplot()
+    axes.set_aspect("equal")
+    axes.set_xlabel("x (m)")
+    axes.set_ylabel("y (m)")
+    axes.grid(True, linewidth=0.3)
+    return figure, axes
+
+
+def _draw_table(axes, vertices: np.ndarray) -> None:
+    axes.add_patch(PolygonPatch(vertices, closed=True, **_TABLE_STYLE))
+
+
+def _save(figure: Figure, path: str | Path) -> Path:
+    """Save as SVG if the suffix is ``.svg``, else PNG (the suffix ``.png`` is added if missing)."""
+    path = Path(path)
+    if path.suffix.lower() not in (".png", ".svg"):
+        path = path.with_name(path.name + ".png")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path, dpi=150)
+    return path
+
+
+def draw_plan(result: PlanResult, path: str | Path) -> Path:
+    """Draw a plan from above: table, object at start and final pose, fingertip path, grasp.
+
+    The final object points that overhang the table are highlighted, the grasp pose is an
+    arrow along its approach axis (z of the grasp frame), and the title gives the status,
+    the planning time and the overhang. A plan that is not solved shows the table and the
+    object at its start only.
+
+    Args:
+        result: the plan.
+        path: output file, ``.png`` or ``.svg``.
+
+    Returns:
+        The path written.
+
+    Raises:
+        OSError: the file cannot be written.
+    """
+    figure, axes = _new_axes()
+    vertices = np.asarray(result.table["polygon"], dtype=float)
+    _draw_table(axes, vertices)
+    start_xy = np.asarray(result.object["points"])[:, :2]
+    axes.scatter(start_xy[:, 0], start_xy[:, 1], s=2, color="0.65", label="object at start")
+    title = f"{result.planner}: {result.status} in {result.planning_time_s:.2f} s"
+    if len(result.trajectory):
+        table = SupportSurface.from_vertices(vertices, result.table["height"])
+        final_xy = moved_object_xy(result)
+        _, outside = overhang(table, final_xy)
+        axes.scatter(final_xy[~outside, 0], final_xy[~outside, 1], s=2, color="tab:blue", label="object at goal")
+        axes.scatter(final_xy[outside, 0], final_xy[outside, 1], s=3, color="tab:red", label="overhang")
+        tips = np.asarray(result.fingertip_poses)[:, :2]
+        axes.plot(tips[:, 0], tips[:, 1], color="black", linewidth=1.5, label="fingertip path")
+        axes.plot(*tips[0], marker="o", color="tab:green", markersize=8, linestyle="none", label="fingertip start")
+        axes.plot(*tips[-1], marker="X", color="tab:purple", markersize=9, linestyle="none", label="fingertip goal")
+        if len(result.grasp["pose"]):
+            grasp = row_to_pose(result.grasp["pose"])
+            approach = grasp[:2, 2]  # z of the grasp frame, seen from above
+            if np.linalg.norm(approach) > 1e-6:
+                axes.annotate(
+                    "",
+                    xy=grasp[:2, 3],
+                    xytext=grasp[:2, 3] - 0.06 * approach / np.linalg.norm(approach),
+                    arrowprops={"arrowstyle": "-|>", "color": "tab:orange", "linewidth": 2},
+                )
+            axes.plot(*grasp[:2, 3], marker="s", color="tab:orange", linestyle="none", label="grasp (approach arrow)")
+        title += f", overhang {100 * result.overhang_m:.1f} cm"
+    axes.set_title(title)
+    axes.autoscale_view()
+    axes.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small")
+    return _save(figure, path)
+
+
+def draw_scene(scene: Scene, obj: ThinObject, path: str | Path) -> Path:
+    """Draw a planning problem from above: table, object, robot base and its reach.
+
+    The reach circle is where the fingertip can get at table height with the arm
+    stretched straight (an upper bound on the workspace, not a guarantee).
+
+    Args:
+        scene: table, robot and obstacles.
+        obj: the object.
+        path: output file, ``.png`` or ``.svg``.
+
+    Returns:
+        The path written.
+
+    Raises:
+        OSError: the file cannot be written.
+        InputError: the robot cannot be loaded.
+    """
+    from .planning import base_pose_matrix, robot_model
+
+    figure, axes = _new_axes()
+    _draw_table(axes, scene.table.vertices)
+    for box in scene.obstacles:
+        corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * np.asarray(box.size[:2]) / 2
+        rotation = np.array([[math.cos(box.yaw), -math.sin(box.yaw)], [math.sin(box.yaw), math.cos(box.yaw)]])
+        axes.add_patch(PolygonPatch(corners @ rotation.T + box.center[:2], color="tab:brown", alpha=0.6))
+    axes.scatter(obj.points[:, 0], obj.points[:, 1], s=2, color="tab:blue", label=f"object {obj.name}".strip())
+    base = base_pose_matrix(scene.base_pose)[:3, 3]
+    robot = robot_model(scene)
+    # The WAM's zero configuration stretches the arm straight up, so its fingertip distance
+    # from the base frame is the arm's full length.
+    arm_length = float(np.linalg.norm(np.asarray(robot.fk(np.zeros(robot.dof)))[:3, 3] - base))
+    height_above_table = base[2] - scene.table.height
+    reach = math.sqrt(max(arm_length**2 - height_above_table**2, 0.0))
+    axes.add_patch(Circle(base[:2], reach, fill=False, linestyle="--", color="0.4", label="reach at table height"))
+    axes.plot(*base[:2], marker="^", color="black", markersize=10, linestyle="none", label="robot base")
+    axes.set_title(f"scene {scene.name}, object {obj.name or 'cloud'}")
+    axes.autoscale_view()
+    axes.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small")
+    return _save(figure, path)

@@ -1,0 +1,276 @@
+#include "slideplan/contact_frame.hpp"
+#include "slideplan/planner.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+#include <ompl/base/PlannerTerminationCondition.h>
+
+using namespace slideplan;
+using slideplan::testing::squareTable;
+using slideplan::testing::wamT42;
+
+namespace
+{
+    const std::vector<std::string> kContactLinks{"t42_finger1_proximal", "t42_finger1_distal"};
+    constexpr double kThickness = 0.004;
+
+    /// A 10 cm square plate centred at `centre`, sampled on a 1 cm grid that includes its border.
+    Eigen::Matrix<double, Eigen::Dynamic, 3> squarePlate(const Eigen::Vector2d &centre)
+    {
+        Eigen::Matrix<double, Eigen::Dynamic, 3> points(121, 3);
+        for (int i = 0; i <= 10; ++i)
+            for (int j = 0; j <= 10; ++j)
+                points.row(i * 11 + j) << centre.x() - 0.05 + 0.01 * i, centre.y() - 0.05 + 0.01 * j, kThickness;
+        return points;
+    }
+
+    std::shared_ptr<SlidingTask> plateTask(const Eigen::Vector2d &centre)
+    {
+        return std::make_shared<SlidingTask>(SlidingTask::make(wamT42(), std::make_shared<SupportSurface>(squareTable()),
+                                                               {}, kContactLinks, squarePlate(centre), centre));
+    }
+
+    /// A sliding configuration with the fingertip at (x, y), yaw 0, pitch beta0, depth in the band.
+    Eigen::VectorXd contactConfig(const SlidingTask &task, const PlannerParams &params, double x, double y)
+    {
+        Eigen::Isometry3d target = Eigen::Isometry3d::Identity();
+        target.linear() = contactRotation(0.0, params.beta0);
+        target.translation() << x, y, task.surfaceZ - 0.5 * (params.dzMin + params.dzMax);
+        std::mt19937_64 rng(1);
+        Eigen::VectorXd seed(7), q;
+        seed << 0.0, 1.2, 0.0, 1.8, 0.0, 0.3, 0.0;
+        EXPECT_TRUE(task.robot->ik(target, seed, rng, q));
+        return q;
+    }
+
+    ompl::base::PlannerTerminationCondition within(double seconds)
+    {
+        return ompl::base::timedPlannerTerminationCondition(seconds);
+    }
+
+    /// Every constraint of a solved plan, checked on the dense path with the planner's own tools.
+    void expectValidPlan(const SlidingTask &task, const PlannerParams &params, const PlanResult &result)
+    {
+        ASSERT_EQ(result.status, "solved");
+        ASSERT_GE(result.trajectory.size(), 2u);
+        const SlidingConstraint constraint(task.robot, task.surfaceZ, params);
+        CollisionWorld world(task.robot, *task.table, task.obstacles, task.contactLinks);
+        for (std::size_t i = 0; i < result.trajectory.size(); ++i)
+        {
+            const Eigen::VectorXd &q = result.trajectory[i];
+            const Eigen::Isometry3d tip = task.robot->fk(q);
+            EXPECT_TRUE(constraint.satisfied(tip)) << "waypoint " << i << " residual " << constraint.residual(tip).transpose();
+            EXPECT_TRUE(task.table->contains(tip.translation().head<2>())) << "waypoint " << i;
+            EXPECT_TRUE(world.isValid(q)) << "waypoint " << i;
+            EXPECT_TRUE(task.robot->withinLimits(q)) << "waypoint " << i;
+            if (i > 0)
+            {
+                EXPECT_LE((q - result.trajectory[i - 1]).cwiseAbs().maxCoeff(), params.maxJointStep + 1e-12);
+                EXPECT_LE((tip.translation() - task.robot->fk(result.trajectory[i - 1]).translation()).norm(),
+                          params.maxTipStep + 1e-12);
+            }
+        }
+        const PlanarMotion motion = objectMotion(task.robot->fk(result.trajectory.front()), task.robot->fk(result.trajectory.back()));
+        EXPECT_NEAR(motion.x, result.objectMotion.x, 1e-12);
+        EXPECT_NEAR(motion.yaw, result.objectMotion.yaw, 1e-12);
+        EXPECT_GE(result.overhang, params.uStar);
+        EXPECT_TRUE(task.table->contains(result.objectMotion.apply(task.objectCom)));
+        EXPECT_TRUE(task.robot->linkPose(result.graspConfig, task.graspLink).isApprox(result.graspPose, 1e-6));
+        ASSERT_FALSE(result.approach.empty());
+        EXPECT_EQ(result.approach.front(), result.goalConfig);
+        EXPECT_EQ(result.approach.back(), result.graspConfig);
+    }
+}  // namespace
+
+TEST(CanAddRoot, FollowsEquationFive)
+{
+    std::mt19937_64 rng(3);
+    for (int i = 0; i < 1000; ++i)
+        EXPECT_TRUE(canAddRoot(0, 0, 100.0, rng));  // exp(0) = 1 > U[0, 1)
+    constexpr int draws = 40000;
+    for (const auto &[roots, nStar] : std::vector<std::pair<int, double>>{{100, 100.0}, {50, 10.0}, {30, 100.0}})
+    {
+        int added = 0;
+        for (int i = 0; i < draws; ++i)
+            added += canAddRoot(roots / 2, roots - roots / 2, nStar, rng);
+        const double expected = std::exp(-roots / nStar);
+        EXPECT_NEAR(static_cast<double>(added) / draws, expected, 4 * std::sqrt(expected * (1 - expected) / draws) + 1e-4);
+    }
+}
+
+TEST(ObjectMotion, IsThePlanarMotionOfTheContactFrame)
+{
+    Eigen::Isometry3d start = Eigen::Isometry3d::Identity(), goal = Eigen::Isometry3d::Identity();
+    start.linear() = contactRotation(0.3, 1.0);
+    start.translation() << 0.5, 0.1, 0.0;
+    goal.linear() = contactRotation(0.3 + 0.7, 1.1);
+    goal.translation() << 0.4, -0.2, -0.01;
+    const PlanarMotion motion = objectMotion(start, goal);
+    EXPECT_NEAR(motion.yaw, 0.7, 1e-12);
+    // The contact point itself is carried from its start to its goal position.
+    EXPECT_TRUE(motion.apply(Eigen::Vector2d(0.5, 0.1)).isApprox(Eigen::Vector2d(0.4, -0.2), 1e-12));
+}
+
+TEST(SlidingConstraint, ProjectsNearbyConfigurationsIntoTheBands)
+{
+    const auto task = plateTask({0.6, 0.0});
+    PlannerParams params;
+    const SlidingConstraint constraint(task->robot, task->surfaceZ, params);
+    const Eigen::VectorXd onManifold = contactConfig(*task, params, 0.6, 0.0);
+    EXPECT_TRUE(constraint.satisfied(task->robot->fk(onManifold)));
+    std::mt19937_64 rng(5);
+    std::normal_distribution<double> noise(0.0, 0.05);
+    int projected = 0;
+    for (int i = 0; i < 100; ++i)
+    {
+        Eigen::VectorXd q = onManifold;
+        for (int j = 0; j < 7; ++j)
+            q(j) += noise(rng);
+        if (!constraint.project(q))
+            continue;
+        ++projected;
+        const ContactAngles angles = contactAngles(task->robot->fk(q).linear());
+        const double depth = task->surfaceZ - task->robot->fk(q).translation().z();
+        EXPECT_GE(depth, params.dzMin - params.projectionTolerance);
+        EXPECT_LE(depth, params.dzMax + params.projectionTolerance);
+        EXPECT_NEAR(angles.roll, 0.0, 2 * params.projectionTolerance);
+        EXPECT_LE(std::abs(angles.pitch - params.beta0), params.deltaBeta + 2 * params.projectionTolerance);
+    }
+    EXPECT_GE(projected, 95);
+}
+
+TEST(PairValidator, AcceptsASlideThatLeavesAGraspableOverhang)
+{
+    // Plate centred at (0.45, -0.005); the finger pushes it 17 cm towards the side edge y = -0.20, so
+    // its grid rows at y = -0.225, -0.215, -0.205 end beyond the edge (none lies on it).
+    const auto task = plateTask({0.45, -0.005});
+    PlannerParams params;
+    const PairValidator validator(task, params);
+    std::mt19937_64 rng(2);
+    const PairVerdict verdict = validator.check(contactConfig(*task, params, 0.45, 0.025),
+                                                contactConfig(*task, params, 0.45, -0.145), rng, within(5.0));
+    EXPECT_TRUE(verdict.valid) << verdict.reason;
+    EXPECT_NEAR(verdict.overhang.overhang, 0.025, 1e-6);
+    EXPECT_EQ(verdict.overhang.outsideCount, 33);
+    EXPECT_TRUE(verdict.overhang.comInside);
+    EXPECT_TRUE(verdict.overhang.edge.outwardNormal.isApprox(Eigen::Vector2d(0, -1), 1e-12));
+    // H_g approaches perpendicular to the edge, in the table plane, at the centroid of P_out.
+    EXPECT_TRUE(verdict.graspPose.linear().col(2).isApprox(Eigen::Vector3d(0, 1, 0), 1e-9));
+    EXPECT_NEAR(verdict.graspPose.translation().y(), -0.215, 1e-6);
+    EXPECT_NEAR(verdict.graspPose.translation().z(), 0.5 * kThickness, 1e-12);
+    ASSERT_FALSE(verdict.approach.empty());
+    EXPECT_TRUE(task->robot->linkPose(verdict.approach.back(), "t42_grasp").isApprox(verdict.graspPose, 1e-6));
+}
+
+TEST(PairValidator, RejectsTooLittleOverhangAndACentreOfMassOffTheTable)
+{
+    const auto task = plateTask({0.505, 0.0});
+    PlannerParams params;
+    const PairValidator validator(task, params);
+    std::mt19937_64 rng(2);
+    const Eigen::VectorXd start = contactConfig(*task, params, 0.535, 0.0);
+    const PairVerdict shortSlide = validator.check(start, contactConfig(*task, params, 0.435, 0.0), rng, within(5.0));
+    EXPECT_FALSE(shortSlide.valid);
+    EXPECT_EQ(shortSlide.reason, "overhang below u*");
+    const PairVerdict tooFar = validator.check(start, contactConfig(*task, params, 0.315, 0.0), rng, within(5.0));
+    EXPECT_FALSE(tooFar.valid);  // plate centre at 0.285: beyond the edge x = 0.30
+    EXPECT_EQ(tooFar.reason, "centre of mass off the table");
+}
+
+TEST(SlidingPlanner, SolvesAndEveryWaypointSatisfiesTheConstraints)
+{
+    const auto task = plateTask({0.6, 0.05});
+    PlannerParams params;
+    const PlanResult result = planSliding(task, params, 7, within(30.0));
+    expectValidPlan(*task, params, result);
+    EXPECT_GE(result.stats.pairsChecked, 1);
+    EXPECT_EQ(result.planner, "slideplan");
+}
+
+TEST(SlidingPlanner, SameSeedSameTrajectory)
+{
+    const auto task = plateTask({0.6, -0.05});
+    PlannerParams params;
+    const PlanResult first = planSliding(task, params, 11, within(30.0));
+    const PlanResult second = planSliding(task, params, 11, within(30.0));
+    ASSERT_EQ(first.status, "solved");
+    ASSERT_EQ(first.trajectory.size(), second.trajectory.size());
+    for (std::size_t i = 0; i < first.trajectory.size(); ++i)
+        EXPECT_EQ(first.trajectory[i], second.trajectory[i]);
+    EXPECT_EQ(first.approach.size(), second.approach.size());
+}
+
+TEST(SlidingPlanner, AsPublishedWithoutPairScreening)
+{
+    const auto task = plateTask({0.6, 0.0});
+    PlannerParams params;
+    params.screenPairs = false;
+    expectValidPlan(*task, params, planSliding(task, params, 3, within(30.0)));
+}
+
+TEST(SlidingPlanner, BaselinesProduceValidPlansWhenTheySolve)
+{
+    const auto task = plateTask({0.6, 0.0});
+    for (const char *name : {"cbirrt", "cbirrt2"})
+    {
+        int solved = 0;
+        for (std::uint64_t seed = 0; seed < 4; ++seed)
+        {
+            PlannerParams params;
+            params.policy = rootPolicyFromName(name);
+            const PlanResult result = planSliding(task, params, seed, within(5.0));
+            EXPECT_EQ(result.planner, name);
+            EXPECT_EQ(result.stats.startRoots, 1);
+            if (params.policy == RootPolicy::Fixed)
+                EXPECT_LE(result.stats.goalRoots, 1);
+            if (result.status != "solved")
+                continue;
+            ++solved;
+            expectValidPlan(*task, params, result);
+            EXPECT_GT(result.stats.precomputeTime, 0.0);
+        }
+        // Fig. 11: the baselines fail more often than Algorithm 1, but not always.
+        EXPECT_GE(solved, 1) << name;
+    }
+}
+
+TEST(SlidingPlanner, TimesOutCleanlyWithoutReachableRoots)
+{
+    // A reconfiguration range of zero and a needle-thin pitch band: valid, but no roots will be found
+    // within 0.3 s; the planner must stop on time and report a timeout.
+    const auto task = plateTask({0.6, 0.0});
+    PlannerParams params;
+    params.dzMax = params.dzMin;
+    params.deltaBeta = 0.0;
+    params.uStar = 0.09;
+    const PlanResult result = planSliding(task, params, 1, within(0.3));
+    EXPECT_LT(result.planningTime, 1.5);
+    if (result.status != "solved")
+        EXPECT_TRUE(result.trajectory.empty());
+}
+
+TEST(SlidingPlanner, RejectsBadInput)
+{
+    const auto task = plateTask({0.6, 0.0});
+    PlannerParams params;
+    params.uStar = 0.5;  // larger than the plate
+    EXPECT_THROW(planSliding(task, params, 1, within(1.0)), std::invalid_argument);
+    params = PlannerParams();
+    params.dzMin = 0.03;  // dz_min > dz_max
+    EXPECT_THROW(planSliding(task, params, 1, within(1.0)), std::invalid_argument);
+    EXPECT_THROW(plateTask({0.85, 0.0}), std::invalid_argument);  // half the plate off the table
+    // A table far out of reach: the object on it cannot be touched.
+    Polygon2 far(4, 2);
+    far << 3.0, -0.3, 3.6, -0.3, 3.6, 0.3, 3.0, 0.3;
+    const auto unreachable = std::make_shared<SlidingTask>(SlidingTask::make(
+        wamT42(), std::make_shared<SupportSurface>(far, 0.0), {}, kContactLinks, squarePlate({3.3, 0.0}), {3.3, 0.0}));
+    try
+    {
+        planSliding(unreachable, PlannerParams(), 1, within(1.0));
+        FAIL() << "an unreachable object was accepted";
+    }
+    catch (const std::invalid_argument &error)
+    {
+        EXPECT_NE(std::string(error.what()).find("reach"), std::string::npos);
+    }
+}

@@ -1,0 +1,81 @@
+"""The command line: help, and bad input giving exit code 2 with one clear line on stderr."""
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from slideplan.cli import app
+
+runner = CliRunner()
+
+
+def run(*args):
+    return runner.invoke(app, list(args))
+
+
+def test_help_lists_plan_and_demo():
+    result = run("--help")
+    assert result.exit_code == 0
+    assert "plan" in result.output and "demo" in result.output
+
+
+def assert_bad_input(result, *fragments):
+    assert result.exit_code == 2, (result.exit_code, result.output, result.stderr)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("slideplan: error: "), result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], (fragment, lines[0])
+    assert "Traceback" not in result.output + result.stderr
+
+
+def test_missing_scene_file(tmp_path):
+    missing = tmp_path / "nope.toml"
+    assert_bad_input(run("plan", "--scene", str(missing), "--object", "crescent"), str(missing), "no such file")
+
+
+def test_self_intersecting_table(tmp_path):
+    scene = tmp_path / "bowtie.toml"
+    scene.write_text("[table]\npolygon = [[0.4, -0.2], [0.8, 0.2], [0.8, -0.2], [0.4, 0.2]]\n")
+    assert_bad_input(run("plan", "--scene", str(scene), "--object", "crescent"), str(scene), "table.polygon",
+                     "self-intersecting")
+
+
+def test_nan_cloud_file(tmp_path):
+    cloud = tmp_path / "cloud.npy"
+    points = np.array([[0.6, 0.0, 0.004], [0.61, 0.0, 0.004], [np.nan, 0.01, 0.004]])
+    np.save(cloud, points)
+    assert_bad_input(run("plan", "--scene", "square", "--object", str(cloud)), str(cloud), "NaN")
+
+
+@pytest.mark.parametrize(
+    "option, value, fragments",
+    [
+        ("--time-limit", "0", ("--time-limit", "must be > 0")),
+        ("--time-limit", "nan", ("--time-limit", "finite")),
+        ("--reconfiguration-range", "-1", ("--reconfiguration-range", ">= 0")),
+        ("--planner", "rrtstar", ("--planner", "unknown planner 'rrtstar'", "cbirrt2")),
+        ("--seed", "-3", ("--seed", "must be in")),
+    ],
+)
+def test_bad_option_values(option, value, fragments):
+    assert_bad_input(run("plan", "--scene", "square", "--object", "crescent", option, value), *fragments)
+
+
+def test_object_larger_than_the_table(tmp_path):
+    scene = tmp_path / "tiny.toml"
+    scene.write_text("[table]\npolygon = [[0.6, -0.03], [0.66, -0.03], [0.66, 0.03], [0.6, 0.03]]\n")
+    assert_bad_input(run("plan", "--scene", str(scene), "--object", "square"), "larger than the table")
+    assert_bad_input(
+        run("plan", "--scene", str(scene), "--object", "square", "--pose", "0.63", "0", "0"),
+        str(scene), "object points lie outside the table",
+    )
+
+
+def test_pose_given_for_a_cloud(tmp_path):
+    cloud = tmp_path / "cloud.csv"
+    cloud.write_text("x,y,z\n0.6,0,0.004\n0.61,0,0.004\n0.6,0.01,0.004\n")
+    assert_bad_input(run("plan", "--scene", "square", "--object", str(cloud), "--pose", "0.6", "0", "0"), "pose")
+
+
+def test_unknown_object_name():
+    assert_bad_input(run("plan", "--scene", "square", "--object", "banana"), "banana", "built-in object")

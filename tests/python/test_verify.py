@@ -1,0 +1,131 @@
+"""The verifier accepts a genuinely valid hand-made plan and reports each deliberate corruption."""
+
+import copy
+
+import numpy as np
+import pytest
+from handmade_plan import DEPTH_M, PITCH, THICKNESS, build_plan, contact_target
+
+from slideplan.planning import robot_model
+from slideplan.scenes import load_scene
+from slideplan.transforms import pose_to_row
+from slideplan.verify import overhang, planar_motion, verify
+from slideplan.geometry import SupportSurface
+from slideplan.viz import draw_plan
+
+
+@pytest.fixture(scope="module")
+def valid_plan():
+    return build_plan()
+
+
+@pytest.fixture
+def plan(valid_plan):
+    return copy.deepcopy(valid_plan)
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return robot_model(load_scene("square"))
+
+
+def replace_waypoint(plan, robot, index, target):
+    """Move waypoint ``index`` to the IK solution of ``target``, keeping the recorded pose consistent."""
+    config = robot.ik(target, seed=plan.trajectory[index], rng_seed=1)
+    assert config is not None
+    plan.trajectory[index] = config
+    plan.fingertip_poses[index] = pose_to_row(robot.fk(config))
+
+
+def assert_reported(plan, *fragments):
+    violations = verify(plan).violations
+    for fragment in fragments:
+        assert any(fragment in violation for violation in violations), (fragment, violations)
+
+
+def test_valid_handmade_plan_passes(valid_plan):
+    verification = verify(valid_plan)
+    assert verification.ok, str(verification)
+    assert valid_plan.overhang_m > valid_plan.params["u_star"]
+
+
+def test_waypoint_out_of_depth_band_is_reported(plan, robot):
+    x, y = plan.fingertip_poses[5][:2]
+    replace_waypoint(plan, robot, 5, contact_target(x, y, THICKNESS - 0.04))
+    assert_reported(plan, "trajectory[5]: contact depth 0.04")
+
+
+def test_pitch_off_is_reported(plan, robot):
+    x, y = plan.fingertip_poses[5][:2]
+    replace_waypoint(plan, robot, 5, contact_target(x, y, THICKNESS - DEPTH_M, pitch=PITCH + 0.3))
+    assert_reported(plan, "trajectory[5]: pitch 1.3")
+
+
+def test_skipped_waypoint_breaks_density(plan):
+    plan.trajectory = np.delete(plan.trajectory, 6, axis=0)
+    plan.fingertip_poses = np.delete(plan.fingertip_poses, 6, axis=0)
+    assert_reported(plan, "trajectory[5]->[6]: a joint moves")
+
+
+def test_fingertip_jump_breaks_tip_density(plan):
+    plan.params["max_tip_step"] = 0.002  # the hand-made path moves 2.5 mm per waypoint
+    assert_reported(plan, "trajectory[0]->[1]: fingertip moves 0.0025")
+
+
+def test_wrong_object_motion_is_reported(plan):
+    plan.object_motion["x"] += 0.01
+    assert_reported(plan, "object_motion:", "overhang_m: recorded")
+
+
+def test_joint_beyond_limit_is_reported(plan, robot):
+    plan.trajectory[3][0] = robot.upper_limits[0] + 0.1
+    plan.fingertip_poses[3] = pose_to_row(robot.fk(plan.trajectory[3]))
+    assert_reported(plan, "trajectory[3]: joint 0 =")
+
+
+def test_fingertip_outside_table_is_reported(plan):
+    # Move the table's right edge to x = 0.77: the fingertip (0.76 -> 0.795) crosses it.
+    polygon = plan.table["polygon"].copy()
+    polygon[polygon[:, 0] > 0.8, 0] = 0.77
+    plan.table["polygon"] = polygon
+    assert_reported(plan, "trajectory[5]: fingertip (0.7725", "trajectory[14]: fingertip (0.7950")
+    assert not any(violation.startswith("trajectory[3]:") for violation in verify(plan).violations)
+
+
+def test_wrong_recorded_pose_is_reported(plan):
+    plan.fingertip_poses[2][2] += 0.001
+    assert_reported(plan, "trajectory[2]: forward kinematics differs from fingertip_poses[2] by 0.001 m")
+
+
+def test_too_small_overhang_is_reported(plan):
+    plan.params["u_star"] = 0.03
+    assert_reported(plan, "final object pose: overhang 0.025")
+
+
+def test_approach_must_start_at_goal_and_reach_grasp(plan):
+    plan.grasp["approach"] = plan.grasp["approach"][1:]
+    plan.grasp["config"] = plan.grasp["config"] + 0.01
+    assert_reported(plan, "approach[0]: differs from goal_config", "differs from grasp.config", "grasp.pose:")
+
+
+def test_timeout_plan_is_not_ok(plan):
+    plan.status = "timeout"
+    assert not verify(plan).ok
+
+
+def test_planar_motion_and_overhang_on_known_numbers():
+    first, last = np.eye(4), np.eye(4)
+    first[:3, 3] = (1.0, 0.0, 0.0)
+    last[:2, :2] = [[0.0, -1.0], [1.0, 0.0]]  # yaw +90 degrees
+    last[:3, 3] = (0.0, 2.0, 0.0)
+    x, y, yaw = planar_motion(first, last)
+    assert (x, y, yaw) == pytest.approx((0.0, 1.0, np.pi / 2))
+    table = SupportSurface.from_vertices([[0, 0], [1, 0], [1, 1], [0, 1]])
+    u, outside = overhang(table, np.array([[0.5, 0.5], [1.02, 0.5], [1.05, 0.4]]))
+    assert u == pytest.approx(0.05)
+    assert outside.tolist() == [False, True, True]
+
+
+def test_draw_plan_writes_png_and_svg(valid_plan, tmp_path):
+    assert draw_plan(valid_plan, tmp_path / "plan.png").stat().st_size > 1000
+    assert draw_plan(valid_plan, tmp_path / "plan.svg").read_text().lstrip().startswith("<?xml")
