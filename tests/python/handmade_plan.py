@@ -1,7 +1,7 @@
 """A genuinely valid sliding plan built without the planner, for the verifier and plot tests.
 
 On the square scene, a 10 cm x 6 cm plate lies with its right side 1 cm from the table
-edge x = 0.85. The fingertip presses 1 cm deep at pitch 1.0, yaw 0, and slides 3.5 cm
+edge x = 0.70. The fingertip presses 1 cm deep at pitch 1.0, yaw 0, and slides 3.5 cm
 along +x in 2.5 mm steps (IK waypoint by waypoint, each seeded with the previous one), so
 the plate ends 2.5 cm over the edge with its centre of mass on the table. The approach
 then lifts the fingertip straight up 7 cm; its last configuration is the "grasp".
@@ -23,9 +23,9 @@ SLIDE_STEPS = 14
 LIFT_STEPS = 28
 DEPTH_M = 0.01
 PITCH = 1.0
-TABLE_EDGE_X = 0.85
+TABLE_EDGE_X = 0.70
 THICKNESS = 0.004
-START_TIP_X = 0.76
+START_TIP_X = 0.61
 
 
 def contact_target(x: float, y: float, z: float, yaw: float = 0.0, pitch: float = PITCH) -> np.ndarray:
@@ -48,8 +48,8 @@ def follow(robot, targets, seed) -> np.ndarray:
 
 
 def plate_points() -> np.ndarray:
-    """(N, 3) grid on a 10 cm x 6 cm plate, x in [0.74, 0.84], y in [-0.03, 0.03], at z_s."""
-    xs, ys = np.meshgrid(np.linspace(0.74, 0.84, 21), np.linspace(-0.03, 0.03, 13))
+    """(N, 3) grid on a 10 cm x 6 cm plate, x in [0.59, 0.69], y in [-0.03, 0.03], at z_s."""
+    xs, ys = np.meshgrid(np.linspace(0.59, 0.69, 21), np.linspace(-0.03, 0.03, 13))
     return np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, THICKNESS)])
 
 

@@ -10,10 +10,10 @@ from slideplan.paths import builtin_scenes, data_dir
 from slideplan.scenes import Scene, load_scene
 
 TABLE_AREAS = {
-    "square": 0.5 * 0.5,
-    "long": 0.3 * 1.0,
-    "triangle": 0.5 * 0.6 * 0.55,
-    "round": 0.5 * 100 * 0.27**2 * math.sin(2 * math.pi / 100),
+    "square": 0.4 * 0.4,
+    "long": 0.25 * 0.8,
+    "triangle": 0.5 * 0.5 * 0.45,
+    "round": 0.5 * 100 * 0.22**2 * math.sin(2 * math.pi / 100),
 }
 
 
@@ -27,7 +27,7 @@ def test_builtin_scene_loads_with_defaults(name):
     assert scene.name == name
     assert scene.table.area == pytest.approx(TABLE_AREAS[name])
     assert scene.table.height == 0.0
-    np.testing.assert_array_equal(scene.base_pose, [0.0, 0.0, 0.30, 0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(scene.base_pose, [0.0, 0.0, 0.20, 0.0, 0.0, 0.0])
     assert scene.urdf_path == data_dir() / "robots" / "wam_t42.urdf"
     assert scene.tip_link == "fingertip_contact"
     assert scene.contact_links == ("t42_finger1_proximal", "t42_finger1_distal")

@@ -61,10 +61,11 @@ def test_pitch_off_is_reported(plan, robot):
     assert_reported(plan, "trajectory[5]: pitch 1.3")
 
 
-def test_skipped_waypoint_breaks_density(plan):
-    plan.trajectory = np.delete(plan.trajectory, 6, axis=0)
-    plan.fingertip_poses = np.delete(plan.fingertip_poses, 6, axis=0)
-    assert_reported(plan, "trajectory[5]->[6]: a joint moves")
+def test_skipped_waypoints_break_density(plan):
+    # Dropping four waypoints leaves a 12.5 mm fingertip jump, over the 1 cm bound.
+    plan.trajectory = np.delete(plan.trajectory, [6, 7, 8, 9], axis=0)
+    plan.fingertip_poses = np.delete(plan.fingertip_poses, [6, 7, 8, 9], axis=0)
+    assert_reported(plan, "trajectory[5]->[6]: fingertip moves 0.0125")
 
 
 def test_fingertip_jump_breaks_tip_density(plan):
@@ -84,11 +85,11 @@ def test_joint_beyond_limit_is_reported(plan, robot):
 
 
 def test_fingertip_outside_table_is_reported(plan):
-    # Move the table's right edge to x = 0.77: the fingertip (0.76 -> 0.795) crosses it.
+    # Move the table's right edge to x = 0.62: the fingertip (0.61 -> 0.645) crosses it.
     polygon = plan.table["polygon"].copy()
-    polygon[polygon[:, 0] > 0.8, 0] = 0.77
+    polygon[polygon[:, 0] > 0.65, 0] = 0.62
     plan.table["polygon"] = polygon
-    assert_reported(plan, "trajectory[5]: fingertip (0.7725", "trajectory[14]: fingertip (0.7950")
+    assert_reported(plan, "trajectory[5]: fingertip (0.6225", "trajectory[14]: fingertip (0.6450")
     assert not any(violation.startswith("trajectory[3]:") for violation in verify(plan).violations)
 
 
