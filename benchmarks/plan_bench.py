@@ -1,0 +1,106 @@
+"""Planning benchmark of issue 3: square table, 5 objects x N seeded poses, reconfiguration range
+dz* in {2, 0.5, 0} cm for Algorithm 1 and both baselines at 2 cm.
+
+Prints and writes (docs/benchmarks/plan_bench.md) the success rate within 1, 5, 10 and 60 s and the
+median / p90 / p99 planning time, with the CPU named. Unsolved runs count as never finishing
+(infinite time), so a quantile reads "inf" when more runs than it failed. Not a test: `make bench`.
+
+    python benchmarks/plan_bench.py [--poses 20] [--time-limit 60] [--workers 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import platform
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from slideplan import PlannerConfig, load_object, load_scene, plan
+from slideplan.objects import load_outline, sample_pose_on_table
+
+OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")
+VARIANTS = (  # (label, planner, reconfiguration range dz* in metres)
+    ("slideplan dz*=2cm", "slideplan", 0.02),
+    ("slideplan dz*=0.5cm", "slideplan", 0.005),
+    ("slideplan dz*=0cm", "slideplan", 0.0),
+    ("cbirrt dz*=2cm", "cbirrt", 0.02),
+    ("cbirrt2 dz*=2cm", "cbirrt2", 0.02),
+)
+THRESHOLDS_S = (1.0, 5.0, 10.0, 60.0)
+
+
+def cpu_name() -> str:
+    """The CPU model from /proc/cpuinfo, or the platform's processor string."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
+def run_one(job: tuple[str, str, float, str, int, float]) -> tuple[str, bool, float]:
+    """Plan one benchmark problem; returns (variant label, solved, planning time in seconds)."""
+    label, planner, reconfiguration, object_name, pose_index, time_limit = job
+    scene = load_scene("square")
+    outline, _, _ = load_outline(object_name)
+    pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([pose_index, OBJECTS.index(object_name)]))
+    obj = load_object(object_name, table_height=scene.table.height, pose=pose)
+    config = PlannerConfig(planner=planner, seed=pose_index, time_limit_s=time_limit).with_reconfiguration_range(reconfiguration)
+    result = plan(scene, obj, config)
+    return label, result.solved, result.planning_time_s
+
+
+def summarise(times: np.ndarray, limit: float) -> dict[str, str]:
+    """Success rates and quantiles of one variant; `times` holds inf for unsolved runs."""
+    row = {}
+    for threshold in THRESHOLDS_S:
+        row[f"<= {threshold:g} s"] = f"{np.mean(times <= threshold):.0%}" if threshold <= limit else "n/a"
+    for name, q in (("median", 50), ("p90", 90), ("p99", 99)):
+        value = np.percentile(times, q, method="higher")
+        row[name] = "inf" if np.isinf(value) else f"{value:.3f} s"
+    return row
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--poses", type=int, default=20, help="seeded initial poses per object")
+    parser.add_argument("--time-limit", type=float, default=60.0, help="planning budget per run (s)")
+    parser.add_argument("--workers", type=int, default=1, help="parallel runs (1 keeps timings clean)")
+    parser.add_argument("--out", type=Path, default=Path("docs/benchmarks/plan_bench.md"))
+    args = parser.parse_args()
+
+    jobs = [(label, planner, dz, name, pose, args.time_limit)
+            for label, planner, dz in VARIANTS for name in OBJECTS for pose in range(args.poses)]
+    times: dict[str, list[float]] = {label: [] for label, _, _ in VARIANTS}
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        for label, solved, seconds in pool.map(run_one, jobs):
+            times[label].append(seconds if solved else np.inf)
+
+    header = ["variant", *[f"<= {t:g} s" for t in THRESHOLDS_S], "median", "p90", "p99"]
+    lines = [
+        f"# Planning benchmark ({datetime.date.today().isoformat()})",
+        "",
+        f"CPU: {cpu_name()}, {os.cpu_count()} cores; {args.workers} run(s) at a time. Square table, objects "
+        f"{', '.join(OBJECTS)}, {args.poses} seeded poses each ({len(OBJECTS) * args.poses} runs per variant), "
+        f"budget {args.time_limit:g} s per run. Unsolved runs count as infinite time.",
+        "",
+        "| " + " | ".join(header) + " |",
+        "|" + "---|" * len(header),
+    ]
+    for label, values in times.items():
+        row = summarise(np.array(values), args.time_limit)
+        lines.append("| " + " | ".join([label, *row.values()]) + " |")
+    report = "\n".join(lines) + "\n"
+    print(report)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(report)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,40 @@
+"""Ctrl-C during a long C++ solve: the GIL is released, the termination condition polls Python's
+signal handlers, and KeyboardInterrupt reaches the caller promptly."""
+
+import signal
+import subprocess
+import sys
+import time
+
+# An impossible task: 10 cm of overhang with the centre of mass on the table cannot be had with a
+# 9 cm square, so the planner would run to its 60 s limit unless interrupted.
+SCRIPT = """
+import sys, time
+from slideplan import PlannerConfig, load_object, load_scene, plan
+scene = load_scene("square")
+obj = load_object("square", table_height=0.0, pose=(0.5, 0.0, 0.3))
+print("planning", flush=True)
+started = time.monotonic()
+try:
+    plan(scene, obj, PlannerConfig(u_star=0.10, time_limit_s=60.0))
+except KeyboardInterrupt:
+    print("interrupted after %.3f" % (time.monotonic() - started), flush=True)
+    sys.exit(42)
+print("not interrupted", flush=True)
+"""
+
+
+def test_ctrl_c_stops_planning_within_half_a_second():
+    process = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout.readline().strip() == "planning"
+        time.sleep(1.5)  # well inside the solve
+        signalled = time.monotonic()
+        process.send_signal(signal.SIGINT)
+        output = process.stdout.readline()
+        latency = time.monotonic() - signalled
+        assert process.wait(timeout=10) == 42, process.stderr.read()
+    finally:
+        process.kill()
+    assert output.startswith("interrupted after"), output
+    assert latency < 0.5, f"planning stopped {latency:.3f} s after Ctrl-C"
