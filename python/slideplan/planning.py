@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from . import _core
 from ._fields import is_number
 from .errors import InputError
 from .objects import ThinObject
@@ -36,6 +37,9 @@ _POSITIVE_FIELDS = (
 _INT_FIELDS = ("projection_iterations", "root_ik_attempts")
 # PlannerConfig fields that are not PlannerParams attributes (or are named differently there).
 _NOT_PARAMS = ("planner", "seed", "time_limit_s")
+
+
+_CORE_DEFAULTS = _core.PlannerParams()
 
 
 @dataclass(frozen=True)
@@ -61,6 +65,8 @@ class PlannerConfig:
         projection_tolerance: constraint residual tolerance of the projection.
         projection_iterations: Newton iterations of one projection.
         root_ik_attempts: IK attempts per root sample.
+        screen_pairs: beyond the paper, NearestTree skips trees whose root pair is known to fail
+            (docs/paper-to-code.md); False runs Algorithm 1 as published.
         planner: ``"slideplan"`` (Algorithm 1), ``"cbirrt"`` or ``"cbirrt2"`` (baselines, paper V-6).
         seed: random seed; the same seed gives the same plan.
         time_limit_s: planning time budget (s).
@@ -70,22 +76,24 @@ class PlannerConfig:
             ``dz_min > dz_max``, an unknown planner, a non-integer count or seed.
     """
 
-    beta0: float = 1.0
-    delta_beta: float = 0.1
-    dz_min: float = 0.005
-    dz_max: float = 0.025
-    n_star: float = 100.0
-    d_goal: float = 0.05
-    u_star: float = 0.02
-    grasp_lift: float = 0.05
-    grasp_backoff: float = 0.06
-    transfer_time: float = 0.2
-    max_joint_step: float = 0.02
-    max_tip_step: float = 0.01
-    projection_tolerance: float = 1e-4
-    projection_iterations: int = 30
-    root_ik_attempts: int = 3
-    planner: str = "slideplan"
+    # Defaults come from the C++ PlannerParams: every parameter is declared once, in params.hpp.
+    beta0: float = _CORE_DEFAULTS.beta0
+    delta_beta: float = _CORE_DEFAULTS.delta_beta
+    dz_min: float = _CORE_DEFAULTS.dz_min
+    dz_max: float = _CORE_DEFAULTS.dz_max
+    n_star: float = _CORE_DEFAULTS.n_star
+    d_goal: float = _CORE_DEFAULTS.d_goal
+    u_star: float = _CORE_DEFAULTS.u_star
+    grasp_lift: float = _CORE_DEFAULTS.grasp_lift
+    grasp_backoff: float = _CORE_DEFAULTS.grasp_backoff
+    transfer_time: float = _CORE_DEFAULTS.transfer_time
+    max_joint_step: float = _CORE_DEFAULTS.max_joint_step
+    max_tip_step: float = _CORE_DEFAULTS.max_tip_step
+    projection_tolerance: float = _CORE_DEFAULTS.projection_tolerance
+    projection_iterations: int = _CORE_DEFAULTS.projection_iterations
+    root_ik_attempts: int = _CORE_DEFAULTS.root_ik_attempts
+    screen_pairs: bool = _CORE_DEFAULTS.screen_pairs
+    planner: str = _CORE_DEFAULTS.policy
     seed: int = 0
     time_limit_s: float = 60.0
 
@@ -95,6 +103,9 @@ class PlannerConfig:
             if name == "planner":
                 if value not in PLANNERS:
                     raise InputError(f"unknown planner {value!r} (expected one of: {', '.join(PLANNERS)})", field=name)
+            elif name == "screen_pairs":
+                if not isinstance(value, (bool, np.bool_)):
+                    raise InputError(f"expected True or False, got {value!r}", field=name)
             elif name in _INT_FIELDS or name == "seed":
                 if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
                     raise InputError(f"expected an integer, got {value!r}", field=name)
@@ -142,8 +153,6 @@ class PlannerConfig:
             ``_core.PlannerParams`` with every field but ``seed`` and ``time_limit_s``
             (``planner`` becomes ``policy``).
         """
-        from . import _core
-
         params = _core.PlannerParams()
         for item in dataclasses.fields(self):
             if item.name not in _NOT_PARAMS:

@@ -64,6 +64,15 @@ class _PlanWorld:
     object_top_z: float  # z_s = table height + object thickness
 
 
+
+def _pose_mismatch(computed: np.ndarray, recorded: np.ndarray) -> str:
+    """Describe how far two 4x4 poses differ, or return "" when within POSE_TOLERANCE."""
+    position_error = float(np.linalg.norm(computed[:3, 3] - recorded[:3, 3]))
+    angle_error = rotation_angle_between(computed, recorded)
+    if position_error > POSE_TOLERANCE or angle_error > POSE_TOLERANCE:
+        return f"{position_error:.3g} m and {angle_error:.3g} rad"
+    return ""
+
 def verify(result: PlanResult) -> Verification:
     """Re-check every claim of a solved plan from its data.
 
@@ -228,14 +237,9 @@ def check_sliding_path(result: PlanResult, world: _PlanWorld) -> list[str]:
         name = f"trajectory[{index}]"
         pose = np.asarray(world.robot.fk(config))
         tips.append(pose[:3, 3])
-        recorded = row_to_pose(result.fingertip_poses[index])
-        position_error = float(np.linalg.norm(pose[:3, 3] - recorded[:3, 3]))
-        angle_error = rotation_angle_between(pose, recorded)
-        if position_error > POSE_TOLERANCE or angle_error > POSE_TOLERANCE:
-            violations.append(
-                f"{name}: forward kinematics differs from fingertip_poses[{index}] by "
-                f"{position_error:.3g} m and {angle_error:.3g} rad"
-            )
+        mismatch = _pose_mismatch(pose, row_to_pose(result.fingertip_poses[index]))
+        if mismatch:
+            violations.append(f"{name}: forward kinematics differs from fingertip_poses[{index}] by {mismatch}")
         depth = world.object_top_z - pose[2, 3]
         if not params["dz_min"] - DEPTH_TOLERANCE_M <= depth <= params["dz_max"] + DEPTH_TOLERANCE_M:
             violations.append(
@@ -391,14 +395,9 @@ def check_grasp(result: PlanResult, world: _PlanWorld) -> list[str]:
     approach = np.asarray(result.grasp["approach"])
     grasp_link = result.robot["grasp_link"]
     pose = np.asarray(world.robot.link_pose(config, grasp_link))
-    recorded = row_to_pose(result.grasp["pose"])
-    position_error = float(np.linalg.norm(pose[:3, 3] - recorded[:3, 3]))
-    angle_error = rotation_angle_between(pose, recorded)
-    if position_error > POSE_TOLERANCE or angle_error > POSE_TOLERANCE:
-        violations.append(
-            f"grasp.pose: forward kinematics of {grasp_link} at grasp.config differs by "
-            f"{position_error:.3g} m and {angle_error:.3g} rad"
-        )
+    mismatch = _pose_mismatch(pose, row_to_pose(result.grasp["pose"]))
+    if mismatch:
+        violations.append(f"grasp.pose: forward kinematics of {grasp_link} at grasp.config differs by {mismatch}")
     violations += _joint_limit_violations("grasp.config", config, world.robot)
     if len(approach) == 0:
         return violations + ["grasp.approach: empty"]
