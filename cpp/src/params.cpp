@@ -32,6 +32,7 @@ namespace slideplan
         require(finite(projectionTolerance) && projectionTolerance > 0.0, "projection_tolerance must be > 0");
         require(projectionIterations > 0, "projection_iterations must be > 0");
         require(rootIkAttempts > 0, "root_ik_attempts must be > 0");
+        require(shortcutAttempts >= 0, "shortcut_attempts must be >= 0");
     }
 
     RootPolicy rootPolicyFromName(const std::string &name)

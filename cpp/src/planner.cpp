@@ -96,42 +96,80 @@ namespace slideplan
         return true;
     }
 
+    bool SlidingPlanner::constrainedStep(const Eigen::VectorXd &from, const Eigen::Isometry3d &fromTip,
+                                         const Eigen::VectorXd &target, Eigen::VectorXd &q, Eigen::Isometry3d &tip) const
+    {
+        const Eigen::VectorXd towards = target - from;
+        // Aim inside the step bounds: projection moves the state a little further.
+        double scale = std::min(1.0, 0.9 * params_.maxJointStep / towards.cwiseAbs().maxCoeff());
+        bool withinStep = false;
+        for (int halving = 0; halving < 4 && !withinStep; ++halving, scale *= 0.5)
+        {
+            q = from + scale * towards;
+            if (!constraint_->project(q))
+                return false;
+            tip = task_->robot->fk(q);
+            withinStep = (q - from).cwiseAbs().maxCoeff() <= params_.maxJointStep &&
+                         (tip.translation() - fromTip.translation()).norm() <= params_.maxTipStep;
+        }
+        if (!withinStep)
+            return false;  // the manifold bends away too fast here: a jump, not a step
+        const double step = (q - from).norm(), before = towards.norm(), after = (target - q).norm();
+        if (step < 1e-3 * params_.maxJointStep || after > before - 0.25 * step)
+            return false;  // stalled: the projection (or a joint limit) undoes the step
+        return validity_->isValid(q, tip);
+    }
+
     SlidingPlanner::Node *SlidingPlanner::constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target,
                                                             bool &reached)
     {
         reached = false;
         Node *current = near;
+        Eigen::VectorXd q;
+        Eigen::Isometry3d tip;
         for (;;)
         {
-            const Eigen::VectorXd towards = target - current->q;
-            const double distance = towards.cwiseAbs().maxCoeff();
-            if (distance < 1e-9)
+            if ((target - current->q).cwiseAbs().maxCoeff() < 1e-9)
             {
                 reached = true;
                 return current;
             }
-            // Aim inside the step bounds: projection moves the state a little further.
-            double scale = std::min(1.0, 0.9 * params_.maxJointStep / distance);
-            Eigen::VectorXd q;
-            Eigen::Isometry3d tip;
-            bool withinStep = false;
-            for (int halving = 0; halving < 4 && !withinStep; ++halving, scale *= 0.5)
-            {
-                q = current->q + scale * towards;
-                if (!constraint_->project(q))
-                    return current;
-                tip = task_->robot->fk(q);
-                withinStep = (q - current->q).cwiseAbs().maxCoeff() <= params_.maxJointStep &&
-                             (tip.translation() - current->tip.translation()).norm() <= params_.maxTipStep;
-            }
-            if (!withinStep)
-                return current;  // the manifold bends away too fast here: a jump, not a step
-            const double step = (q - current->q).norm(), before = towards.norm(), after = (target - q).norm();
-            if (step < 1e-3 * params_.maxJointStep || after > before - 0.25 * step)
-                return current;  // stalled: the projection (or a joint limit) undoes the step
-            if (!validity_->isValid(q, tip))
+            if (!constrainedStep(current->q, current->tip, target, q, tip))
                 return current;
             current = forest.add(q, tip, current);
+        }
+    }
+
+    void SlidingPlanner::shortcut(std::vector<Eigen::VectorXd> &path, std::vector<Eigen::Isometry3d> &tips)
+    {
+        for (int attempt = 0; attempt < params_.shortcutAttempts && path.size() > 2; ++attempt)
+        {
+            std::uniform_int_distribution<std::size_t> pick(0, path.size() - 1);
+            std::size_t i = pick(rng_), j = pick(rng_);
+            if (i > j)
+                std::swap(i, j);
+            if (j < i + 2)
+                continue;
+            // Walk the constraint manifold from waypoint i to waypoint j; keep the walk if it arrives
+            // in fewer steps. The endpoints stay, so the object motion of Eq. 2 is unchanged.
+            std::vector<Eigen::VectorXd> walk{path[i]};
+            std::vector<Eigen::Isometry3d> walkTips{tips[i]};
+            Eigen::VectorXd q;
+            Eigen::Isometry3d tip;
+            while (walk.size() < j - i && (path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9 &&
+                   constrainedStep(walk.back(), walkTips.back(), path[j], q, tip))
+            {
+                walk.push_back(q);
+                walkTips.push_back(tip);
+            }
+            if (walk.size() >= j - i || (path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9)
+                continue;
+            walk.back() = path[j];  // arrived: the last step landed on waypoint j itself
+            walkTips.back() = tips[j];
+            path.erase(path.begin() + i, path.begin() + j + 1);
+            path.insert(path.begin() + i, walk.begin(), walk.end());
+            tips.erase(tips.begin() + i, tips.begin() + j + 1);
+            tips.insert(tips.begin() + i, walkTips.begin(), walkTips.end());
         }
     }
 
@@ -236,13 +274,17 @@ namespace slideplan
         std::reverse(nodes.begin(), nodes.end());
         for (Node *node = goalNode->parent; node; node = node->parent)  // goalNode duplicates startNode
             nodes.push_back(node);
-        auto path = std::make_shared<ompl::geometric::PathGeometric>(si_);
         for (Node *node : nodes)
         {
             result_.trajectory.push_back(node->q);
             result_.fingertipPoses.push_back(node->tip);
+        }
+        shortcut(result_.trajectory, result_.fingertipPoses);
+        auto path = std::make_shared<ompl::geometric::PathGeometric>(si_);
+        for (const Eigen::VectorXd &q : result_.trajectory)
+        {
             ob::State *state = si_->allocState();
-            std::copy(node->q.data(), node->q.data() + node->q.size(), state->as<ob::RealVectorStateSpace::StateType>()->values);
+            std::copy(q.data(), q.data() + q.size(), state->as<ob::RealVectorStateSpace::StateType>()->values);
             path->append(state);
             si_->freeState(state);
         }

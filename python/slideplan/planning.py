@@ -34,7 +34,7 @@ _POSITIVE_FIELDS = (
     "delta_beta", "n_star", "d_goal", "u_star", "grasp_lift", "grasp_backoff", "transfer_time",
     "max_joint_step", "max_tip_step", "projection_tolerance", "time_limit_s",
 )
-_INT_FIELDS = ("projection_iterations", "root_ik_attempts")
+_INT_FIELDS = {"projection_iterations": 1, "root_ik_attempts": 1, "shortcut_attempts": 0}  # smallest value
 # PlannerConfig fields that are not PlannerParams attributes (or are named differently there).
 _NOT_PARAMS = ("planner", "seed", "time_limit_s")
 
@@ -67,6 +67,8 @@ class PlannerConfig:
         root_ik_attempts: IK attempts per root sample.
         screen_pairs: beyond the paper, NearestTree skips trees whose root pair is known to fail
             (docs/paper-to-code.md); False runs Algorithm 1 as published.
+        shortcut_attempts: beyond the paper, tries to shorten the solved path by constrained walks
+            between two of its waypoints; 0 returns the tree path.
         planner: ``"slideplan"`` (Algorithm 1), ``"cbirrt"`` or ``"cbirrt2"`` (baselines, paper V-6).
         seed: random seed; the same seed gives the same plan.
         time_limit_s: planning time budget (s).
@@ -93,6 +95,7 @@ class PlannerConfig:
     projection_iterations: int = _CORE_DEFAULTS.projection_iterations
     root_ik_attempts: int = _CORE_DEFAULTS.root_ik_attempts
     screen_pairs: bool = _CORE_DEFAULTS.screen_pairs
+    shortcut_attempts: int = _CORE_DEFAULTS.shortcut_attempts
     planner: str = _CORE_DEFAULTS.policy
     seed: int = 0
     time_limit_s: float = 60.0
@@ -109,7 +112,7 @@ class PlannerConfig:
             elif name in _INT_FIELDS or name == "seed":
                 if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
                     raise InputError(f"expected an integer, got {value!r}", field=name)
-                low, high = (0, 2**64) if name == "seed" else (1, 2**31)  # C++: uint64 seed, int counts
+                low, high = (0, 2**64) if name == "seed" else (_INT_FIELDS[name], 2**31)  # C++: uint64 seed, int counts
                 if not low <= value < high:
                     raise InputError(f"must be in [{low}, {high}), got {value!r}", field=name)
             else:

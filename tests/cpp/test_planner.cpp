@@ -187,6 +187,25 @@ TEST(SlidingPlanner, SolvesAndEveryWaypointSatisfiesTheConstraints)
     EXPECT_EQ(result.planner, "slideplan");
 }
 
+TEST(SlidingPlanner, ShortcutKeepsTheEndpointsAndShortensThePath)
+{
+    const auto task = plateTask({0.55, 0.05});
+    PlannerParams raw;
+    raw.shortcutAttempts = 0;
+    PlannerParams shortened;
+    shortened.shortcutAttempts = 100;
+    const PlanResult before = planSliding(task, raw, 4, within(30.0));
+    const PlanResult after = planSliding(task, shortened, 4, within(30.0));
+    expectValidPlan(*task, shortened, after);  // every new waypoint is a checked constrained step
+    ASSERT_EQ(before.status, "solved");
+    // Same seed: the same tree path was found, then shortened between its unchanged endpoints.
+    EXPECT_EQ(before.startConfig, after.startConfig);
+    EXPECT_EQ(before.goalConfig, after.goalConfig);
+    EXPECT_EQ(after.trajectory.front(), after.startConfig);
+    EXPECT_EQ(after.trajectory.back(), after.goalConfig);
+    EXPECT_LE(after.trajectory.size(), before.trajectory.size());
+}
+
 TEST(SlidingPlanner, SameSeedSameTrajectory)
 {
     const auto task = plateTask({0.6, -0.05});

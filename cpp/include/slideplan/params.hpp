@@ -48,6 +48,10 @@ namespace slideplan
         /// Algorithm 1 exactly as published.
         bool screenPairs{true};
 
+        /// Beyond the paper: attempts to shorten the solved path by constrained walks between two of
+        /// its waypoints (same step bounds and checks as extension); 0 returns the tree path as is.
+        int shortcutAttempts{50};
+
         /// \throws std::invalid_argument naming the first inconsistent parameter.
         void validate() const;
     };

@@ -46,9 +46,16 @@ namespace slideplan
 
         /// Pi.AddFromRegion(): one draw from the forest's region; a valid configuration becomes a root.
         bool addRoot(Forest &forest);
-        /// T.ConstrainedExtend(target, near): project every step onto the relaxed constraint and stop
-        /// when projection fails, the step jumps, progress stalls or the state is invalid.
+        /// One step of ConstrainedExtend from `from` towards `target`: interpolate, project onto the
+        /// relaxed constraint, and refuse the step if projection fails, it jumps (joint or fingertip
+        /// bound), progress stalls or the state is invalid.
+        bool constrainedStep(const Eigen::VectorXd &from, const Eigen::Isometry3d &fromTip, const Eigen::VectorXd &target,
+                             Eigen::VectorXd &q, Eigen::Isometry3d &tip) const;
+        /// T.ConstrainedExtend(target, near): constrained steps until the target is reached or a step is refused.
         Node *constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target, bool &reached);
+        /// Beyond the paper: replace stretches of the path by shorter constrained walks between two of
+        /// its waypoints (params.shortcutAttempts tries).
+        void shortcut(std::vector<Eigen::VectorXd> &path, std::vector<Eigen::Isometry3d> &tips);
         /// Baselines: draw roots until the policy's fixed roots exist (and, for CBiRRT, form a valid pair).
         bool precomputeRoots(const ompl::base::PlannerTerminationCondition &ptc);
         /// Pi_b.NearestTree(q) for the connection step: with screenPairs, only among trees whose root

@@ -99,6 +99,8 @@ namespace slideplan::bindings
             .def_readwrite("screen_pairs", &PlannerParams::screenPairs,
                            "Beyond the paper: NearestTree skips trees whose root pair is known to fail; False gives "
                            "Algorithm 1 as published.")
+            .def_readwrite("shortcut_attempts", &PlannerParams::shortcutAttempts,
+                           "Beyond the paper: tries to shorten the solved path by constrained walks (0: off).")
             .def_property(
                 "policy", [](const PlannerParams &p) { return rootPolicyName(p.policy); },
                 [](PlannerParams &p, const std::string &name) { p.policy = rootPolicyFromName(name); },
