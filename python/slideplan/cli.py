@@ -1,9 +1,11 @@
-"""Command line: ``slideplan plan`` and ``slideplan demo`` (DESIGN.md 5).
+"""Command line: ``slideplan plan``, ``demo``, ``experiment`` and ``plot`` (DESIGN.md 5).
 
 Exit codes of ``plan``: 0 solved (and verified), 1 not solved within the time limit,
 2 bad input (one line ``slideplan: error: ...`` on stderr), 3 solved but the plan fails
 the independent verification (a planner bug; the violations go to stderr and the JSON
 is written with status ``"invalid"``).
+
+``experiment`` and ``plot`` need the ``experiments`` extra (pandas, pyarrow, dask).
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ _OPTION_OF_FIELD = {
     "reconfiguration_range": "--reconfiguration-range",
     "dz_max": "--reconfiguration-range",
     "planner": "--planner",
+    "workers": "--workers",
+    "scheduler": "--scheduler",
 }
 
 app = typer.Typer(
@@ -179,6 +183,80 @@ def demo_command(
     else:
         typer.echo(_summary(result))
         raise typer.Exit(EXIT_NOT_SOLVED)
+
+
+def _experiment_executor(workers: int | None, scheduler: str | None):
+    """The executor the options ask for: a Dask scheduler, or local processes (default: all cores).
+
+    Raises:
+        InputError: both options given, or a worker count < 1.
+    """
+    from .experiments import DaskExecutor, LocalPoolExecutor
+
+    if workers is not None and scheduler is not None:
+        raise InputError("give at most one of --workers and --scheduler", field="--workers")
+    return DaskExecutor(scheduler) if scheduler is not None else LocalPoolExecutor(workers)
+
+
+@app.command("experiment")
+def experiment_command(
+    figure: str = typer.Argument(..., help="Which experiment: fig10, fig11 or fig12 (paper section V)."),
+    out: Path = typer.Option(..., "--out", help="Output directory; results go to OUT/results/ (one Parquet file per task)."),
+    quick: bool = typer.Option(False, "--quick", help="A small subset: 2 objects x 2 poses per cell, 5 s limit."),
+    time_limit: Optional[float] = typer.Option(
+        None, "--time-limit", help="Planning time budget per task (s); default 60 (the paper's), 5 with --quick."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Experiment seed: initial poses and planner seeds derive from it."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes (default: all cores)."),
+    scheduler: Optional[str] = typer.Option(
+        None, "--scheduler", help="Run on a Dask cluster at this scheduler address instead (e.g. tcp://host:8786)."
+    ),
+) -> None:
+    """Run the planning tasks of one figure, resuming: tasks with a result in OUT/results/ are skipped.
+
+    Exit codes: 0 every task has a result, 1 some tasks raised or were lost (see the
+    summary; rerun the same command to run lost tasks), 2 bad input.
+    """
+    try:
+        from .experiments import build_spec, run_experiment
+
+        spec = build_spec(figure, quick=quick, time_limit_s=time_limit, seed=seed)
+        executor = _experiment_executor(workers, scheduler)
+        typer.echo(f"{figure}: {len(spec.tasks)} tasks on {executor.description}, results in {out / 'results'}")
+        summary = run_experiment(spec, out, executor)
+    except InputError as error:
+        raise _fail(InputError(error.problem, source=error.source, field=_OPTION_OF_FIELD.get(error.field, error.field))) from None
+    except (ImportError, OSError) as error:
+        raise _fail(error) from None
+    typer.echo(
+        f"{summary.executed} run ({summary.solved} solved, {summary.errors} raised), "
+        f"{summary.skipped} already done, {summary.lost} lost"
+    )
+    if summary.lost:
+        typer.echo(f"slideplan: {summary.lost} tasks lost, first: {summary.first_loss}; rerun to resume", err=True)
+    if summary.errors or summary.lost:
+        raise typer.Exit(EXIT_NOT_SOLVED)
+
+
+@app.command("plot")
+def plot_command(
+    results: Path = typer.Argument(..., help="An experiment output directory, its results/ directory, or a Parquet file."),
+    out: Path = typer.Option(..., "--out", help="Directory for the figures (PNG and SVG)."),
+) -> None:
+    """Draw Figs. 10-12 from experiment results, each figure whose experiment is present.
+
+    Exit codes: 0 figures written, 2 bad input (no such path, or no results of fig10-12 in it).
+    """
+    try:
+        from .plots import plot_results
+
+        paths = plot_results(results, out)
+    except (ImportError, OSError, ValueError) as error:  # pyarrow's unreadable-file errors are ValueErrors
+        raise _fail(error) from None
+    if not paths:
+        raise _fail(InputError("no planning results of fig10, fig11 or fig12", source=str(results)))
+    for path in paths:
+        typer.echo(str(path))
 
 
 if __name__ == "__main__":

@@ -1,0 +1,303 @@
+"""Planning tasks and the experiment specifications of the paper's section V (Figs. 10-12).
+
+A :class:`Task` is one planning problem with everything that determines its result, so
+its :attr:`Task.task_id` can name its result file and a resumed run can skip it. Initial
+poses and planner seeds are drawn from a generator seeded by (experiment seed, scene,
+object, scale, pose index) alone: they do not depend on the order tasks are built or run,
+and the conditions of one figure (and Figs. 11 and 12) share the same poses.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import json
+from dataclasses import dataclass
+
+import numpy as np
+import shapely.affinity
+from shapely.geometry import Polygon
+
+from ..errors import InputError
+from ..objects import load_outline, sample_pose_on_table
+from ..planning import PlannerConfig
+from ..scenes import Scene, load_scene
+
+FIGURES = ("fig10", "fig11", "fig12")
+OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")  # the paper's 5 test objects (Fig. 7)
+TABLES = ("square", "round", "triangle", "long")  # the paper's 4 support surfaces (Fig. 9)
+SCALES = (1.0, 0.5)  # Fig. 10: full size and half size
+RECONFIGURATION_RANGES_M = (0.0, 0.005, 0.02)  # Fig. 11: dz* = 0, 0.5 and 2 cm
+BASELINES = ("cbirrt", "cbirrt2")  # Fig. 11: the baselines of paper V-6, run at dz* = 2 cm
+BASELINE_RANGE_M = 0.02
+N_STAR_VALUES = (1.0, 10.0, 100.0, 1000.0, 10000.0)  # Fig. 12, see fig12_spec
+PAPER_TIME_LIMIT_S = 60.0  # the paper's time budget (V-5)
+QUICK_OBJECTS = ("square", "crescent")  # an easy and a hard (non-convex) shape
+QUICK_POSES = 2
+QUICK_TIME_LIMIT_S = 5.0
+
+
+@dataclass(frozen=True)
+class Task:
+    """One planning problem: a scene, an object at an initial pose, and a planner setting.
+
+    Every field that changes the result is here; the planner parameters not listed are
+    :class:`~slideplan.planning.PlannerConfig` defaults (and enter :attr:`task_id` too).
+
+    Attributes:
+        experiment: the figure the task belongs to (``"fig10"``, ...).
+        scene: built-in scene name (the table).
+        object: built-in object name.
+        scale: factor on the object outline's x and y.
+        pose_index: index of the initial pose among the poses of this (scene, object, scale).
+        x, y, yaw: initial object pose on the table (m, m, rad).
+        seed: planner seed.
+        planner: ``"slideplan"``, ``"cbirrt"`` or ``"cbirrt2"``.
+        dz_min, dz_max: contact depth band (m); ``dz_max - dz_min`` is ``Delta_Z^*``.
+        n_star: ``N*`` of Eq. 5.
+        time_limit_s: planning time budget (s).
+    """
+
+    experiment: str
+    scene: str
+    object: str
+    scale: float
+    pose_index: int
+    x: float
+    y: float
+    yaw: float
+    seed: int
+    planner: str
+    dz_min: float
+    dz_max: float
+    n_star: float
+    time_limit_s: float
+
+    def planner_config(self) -> PlannerConfig:
+        """Return the planner configuration of this task.
+
+        Raises:
+            InputError: a field out of the planner's range.
+        """
+        return PlannerConfig(
+            dz_min=self.dz_min,
+            dz_max=self.dz_max,
+            n_star=self.n_star,
+            planner=self.planner,
+            seed=self.seed,
+            time_limit_s=self.time_limit_s,
+        )
+
+    @functools.cached_property
+    def task_id(self) -> str:
+        """A 16-hex-digit id, the same in every process and Python session.
+
+        It hashes the fields and the full planner configuration, so changing a planner
+        default gives new ids (old results are not mistaken for new ones on resume).
+        """
+        content = {"task": dataclasses.asdict(self), "config": self.planner_config().to_dict()}
+        text = json.dumps(content, sort_keys=True)  # floats print as repr: exact and stable
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    @property
+    def reconfiguration_range_m(self) -> float:
+        """``Delta_Z^* = dz_max - dz_min`` (m), rounded to 1e-9 m so equal settings compare equal."""
+        return round(self.dz_max - self.dz_min, 9)
+
+    def fields(self) -> dict:
+        """Return the task as a flat dict: ``task_id``, the fields and ``reconfiguration_range_m``."""
+        return {"task_id": self.task_id, **dataclasses.asdict(self), "reconfiguration_range_m": self.reconfiguration_range_m}
+
+
+@dataclass(frozen=True)
+class ExperimentSpec:
+    """The tasks of one figure.
+
+    Attributes:
+        name: ``"fig10"``, ``"fig11"`` or ``"fig12"``.
+        tasks: the tasks, each with a distinct ``task_id``.
+        seed: the experiment seed the poses and planner seeds derive from.
+        quick: True for the small smoke-test subset.
+    """
+
+    name: str
+    tasks: tuple[Task, ...]
+    seed: int
+    quick: bool
+
+
+@dataclass(frozen=True)
+class _Setting:
+    """A planner setting compared within a figure; None takes the PlannerConfig default."""
+
+    planner: str = "slideplan"
+    reconfiguration_range_m: float | None = None
+    n_star: float | None = None
+
+
+@functools.lru_cache(maxsize=None)
+def cached_scene(name: str) -> Scene:
+    """Return a built-in scene, loaded once per process (do not mutate it).
+
+    Raises:
+        InputError: unknown scene.
+    """
+    return load_scene(name)
+
+
+@functools.lru_cache(maxsize=None)
+def scaled_outline(name: str, scale: float) -> tuple[Polygon, float]:
+    """Return an object's outline scaled in x and y about its origin, and its thickness (cached).
+
+    The same scaling as :func:`slideplan.objects.load_object`, so a pose sampled for this
+    outline keeps the loaded object on the table.
+
+    Raises:
+        InputError: unknown object.
+    """
+    outline, thickness, _ = load_outline(name)
+    return shapely.affinity.scale(outline, scale, scale, origin=(0.0, 0.0)), thickness
+
+
+def _name_key(text: str) -> int:
+    """A 64-bit integer from a string, stable across processes (unlike ``hash``)."""
+    return int.from_bytes(hashlib.sha256(text.encode()).digest()[:8], "little")
+
+
+@functools.lru_cache(maxsize=None)
+def initial_pose_and_seed(
+    scene: str, object_name: str, scale: float, pose_index: int, experiment_seed: int
+) -> tuple[tuple[float, float, float], int]:
+    """Draw the initial pose and planner seed of one (scene, object, scale, pose index).
+
+    Uniform position and yaw with the whole (scaled) object on the table, by
+    :func:`slideplan.objects.sample_pose_on_table`.
+
+    Args:
+        scene: built-in scene name.
+        object_name: built-in object name.
+        scale: object scale.
+        pose_index: which pose (0, 1, ...).
+        experiment_seed: the experiment seed, >= 0.
+
+    Returns:
+        ((x, y, yaw), planner seed): the same for the same arguments in any process.
+
+    Raises:
+        InputError: unknown scene or object, or an object larger than the table.
+    """
+    entropy = [experiment_seed, _name_key(scene), _name_key(object_name), _name_key(repr(float(scale))), pose_index]
+    pose_sequence, planner_sequence = np.random.SeedSequence(entropy).spawn(2)
+    outline, _ = scaled_outline(object_name, scale)
+    pose = sample_pose_on_table(outline, cached_scene(scene).table, np.random.default_rng(pose_sequence))
+    return pose, int(planner_sequence.generate_state(1, dtype=np.uint32)[0])
+
+
+def _tasks(
+    experiment: str,
+    *,
+    scenes: tuple[str, ...],
+    objects: tuple[str, ...],
+    scales: tuple[float, ...],
+    poses: int,
+    settings: tuple[_Setting, ...],
+    base: PlannerConfig,
+) -> tuple[Task, ...]:
+    """Every combination of scene x object x scale x pose x setting, in that order."""
+    tasks = []
+    for scene in scenes:
+        for object_name in objects:
+            for scale in scales:
+                for pose_index in range(poses):
+                    (x, y, yaw), planner_seed = initial_pose_and_seed(scene, object_name, scale, pose_index, base.seed)
+                    for setting in settings:
+                        config = base.with_reconfiguration_range(
+                            base.reconfiguration_range if setting.reconfiguration_range_m is None
+                            else setting.reconfiguration_range_m
+                        )
+                        tasks.append(Task(
+                            experiment=experiment, scene=scene, object=object_name, scale=scale,
+                            pose_index=pose_index, x=x, y=y, yaw=yaw, seed=planner_seed,
+                            planner=setting.planner, dz_min=config.dz_min, dz_max=config.dz_max,
+                            n_star=base.n_star if setting.n_star is None else setting.n_star,
+                            time_limit_s=base.time_limit_s,
+                        ))
+    return tuple(tasks)
+
+
+def fig10_spec(base: PlannerConfig, quick: bool) -> tuple[Task, ...]:
+    """Fig. 10: 5 objects x 4 tables x 50 poses x scales 1 and 0.5, paper defaults (2000 tasks).
+
+    Args:
+        base: supplies the seed, the time limit and ``dz_min``.
+        quick: 2 objects x 2 poses per table and scale instead (32 tasks).
+    """
+    return _tasks(
+        "fig10", scenes=TABLES, objects=QUICK_OBJECTS if quick else OBJECTS, scales=SCALES,
+        poses=QUICK_POSES if quick else 50, settings=(_Setting(),), base=base,
+    )
+
+
+def fig11_spec(base: PlannerConfig, quick: bool) -> tuple[Task, ...]:
+    """Fig. 11: square table, 5 objects x 100 poses, slideplan at ``dz*`` = 0, 0.5, 2 cm and the
+    CBiRRT and CBiRRT2 baselines at 2 cm (``dz_min`` = 0.5 cm; 2500 tasks).
+
+    Args:
+        base: supplies the seed, the time limit and ``dz_min``.
+        quick: 2 objects x 2 poses instead (20 tasks).
+    """
+    settings = tuple(_Setting(reconfiguration_range_m=value) for value in RECONFIGURATION_RANGES_M)
+    settings += tuple(_Setting(planner=name, reconfiguration_range_m=BASELINE_RANGE_M) for name in BASELINES)
+    return _tasks(
+        "fig11", scenes=("square",), objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
+        poses=QUICK_POSES if quick else 100, settings=settings, base=base,
+    )
+
+
+def fig12_spec(base: PlannerConfig, quick: bool) -> tuple[Task, ...]:
+    """Fig. 12: fig11's 2 cm slideplan runs (same poses and seeds) for N* in {1, 10, 100, 1000, 10000}.
+
+    The paper reports 5 values of ``N*`` without listing them and finds the best at 100, the
+    default; we take the decades from 1 to 10000, centred on it, so the figure shows both
+    failure modes it describes: too conservative (few roots) and too distracted (many roots).
+
+    Args:
+        base: supplies the seed, the time limit and ``dz_min``.
+        quick: 2 objects x 2 poses instead (20 tasks).
+    """
+    return _tasks(
+        "fig12", scenes=("square",), objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
+        poses=QUICK_POSES if quick else 100, settings=tuple(_Setting(n_star=value) for value in N_STAR_VALUES),
+        base=base,
+    )
+
+
+_SPEC_BUILDERS = {"fig10": fig10_spec, "fig11": fig11_spec, "fig12": fig12_spec}
+
+
+def build_spec(figure: str, *, quick: bool = False, time_limit_s: float | None = None, seed: int = 0) -> ExperimentSpec:
+    """Build the tasks of one figure.
+
+    Args:
+        figure: ``"fig10"``, ``"fig11"`` or ``"fig12"``.
+        quick: the small subset (2 objects x 2 poses per cell, 5 s limit).
+        time_limit_s: planning time budget per task (s), > 0; default 60 s (the paper's),
+            5 s with ``quick``.
+        seed: experiment seed, >= 0; poses and planner seeds derive from it.
+
+    Returns:
+        The spec.
+
+    Raises:
+        InputError: unknown figure (field ``figure``), a time limit that is not a positive
+            finite number (``time_limit_s``), or a bad seed (``seed``).
+    """
+    if figure not in _SPEC_BUILDERS:
+        raise InputError(f"unknown figure {figure!r} (expected one of: {', '.join(FIGURES)})", field="figure")
+    if time_limit_s is None:
+        time_limit_s = QUICK_TIME_LIMIT_S if quick else PAPER_TIME_LIMIT_S
+    base = PlannerConfig(seed=seed, time_limit_s=time_limit_s)  # validates both, naming the field
+    tasks = _SPEC_BUILDERS[figure](base, quick)
+    assert len({task.task_id for task in tasks}) == len(tasks), "task ids must be distinct"
+    return ExperimentSpec(name=figure, tasks=tasks, seed=seed, quick=quick)

@@ -1,0 +1,222 @@
+"""Experiments: specs, local and Dask runs, resume, statistics, plots and the CLI.
+
+One quick fig11 run (2 objects x 2 poses x 5 settings, 3 s limit) on a 2-process local
+pool is shared by the tests that need real results; the Dask test runs the same tasks on a
+LocalCluster and must give the same rows (planning is seeded and deterministic).
+"""
+
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.stats import binomtest
+from typer.testing import CliRunner
+
+from slideplan.cli import app
+from slideplan.experiments import (
+    ROW_SCHEMA,
+    DaskExecutor,
+    LocalPoolExecutor,
+    build_spec,
+    initial_pose_and_seed,
+    load_results,
+    part_path,
+    run_experiment,
+    success_rate_curve,
+    wilson_interval,
+)
+from slideplan.experiments.tasks import cached_scene, scaled_outline
+from slideplan.objects import place_outline
+from slideplan.plots import (
+    plot_planning_time_by_geometry,
+    plot_planning_time_vs_n_star,
+    plot_results,
+    plot_success_rate_vs_time,
+)
+
+TIME_LIMIT_S = 3.0
+CLI_ARGS = ["experiment", "fig11", "--quick", "--time-limit", str(TIME_LIMIT_S), "--seed", "0", "--workers", "2"]
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def quick_spec():
+    return build_spec("fig11", quick=True, time_limit_s=TIME_LIMIT_S, seed=0)
+
+
+@pytest.fixture(scope="module")
+def local_run(quick_spec, tmp_path_factory):
+    out = tmp_path_factory.mktemp("local")
+    summary = run_experiment(quick_spec, out, LocalPoolExecutor(workers=2), progress=False)
+    return out, summary
+
+
+def test_quick_run_on_the_local_pool_writes_one_verified_row_per_task(quick_spec, local_run):
+    out, summary = local_run
+    results = load_results(out)
+    assert summary.executed == len(quick_spec.tasks) == 20 and summary.lost == 0 and summary.errors == 0
+    assert list(results.columns) == ROW_SCHEMA.names
+    assert sorted(results["task_id"]) == sorted(task.task_id for task in quick_spec.tasks)
+    assert results["error"].isna().all()
+    solved = results[results["solved"]]
+    assert len(solved) >= 10, results[["planner", "reconfiguration_range_m", "status"]]
+    assert solved["verified"].eq(True).all() and (solved["planning_time_s"] <= TIME_LIMIT_S).all()
+    assert (solved["iterations"] > 0).all() and (solved["overhang_m"] > 0).all()
+    assert set(zip(results["planner"], results["reconfiguration_range_m"])) == {
+        ("slideplan", 0.0), ("slideplan", 0.005), ("slideplan", 0.02), ("cbirrt", 0.02), ("cbirrt2", 0.02)}
+
+
+def test_dask_cluster_gives_the_same_rows_as_the_local_pool(quick_spec, local_run, tmp_path):
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None, local_directory=str(tmp_path / "dask")) as cluster:
+        summary = run_experiment(quick_spec, tmp_path, DaskExecutor(cluster.scheduler_address), progress=False)
+    assert summary.executed == len(quick_spec.tasks) and summary.lost == 0
+    local = load_results(local_run[0]).set_index("task_id").sort_index()
+    dask = load_results(tmp_path).set_index("task_id").sort_index()
+    assert list(dask.index) == list(local.index)
+    assert (dask["solved"] == local["solved"]).all()
+    solved = local["solved"]
+    assert (dask.loc[solved, "iterations"] == local.loc[solved, "iterations"]).all()
+    assert (dask.loc[solved, "overhang_m"] == local.loc[solved, "overhang_m"]).all()
+
+
+def test_rerun_runs_nothing_and_a_deleted_part_runs_again(quick_spec, local_run):
+    out, _ = local_run
+    first = runner.invoke(app, [*CLI_ARGS, "--out", str(out)])
+    assert first.exit_code == 0, first.output
+    assert "0 run (0 solved, 0 raised), 20 already done, 0 lost" in first.output
+    task = quick_spec.tasks[7]
+    part = part_path(out, task.task_id)
+    before = pd.read_parquet(part)
+    part.unlink()
+    summary = run_experiment(quick_spec, out, LocalPoolExecutor(workers=1), progress=False)
+    assert (summary.executed, summary.skipped) == (1, len(quick_spec.tasks) - 1)
+    after = pd.read_parquet(part)
+    assert after.loc[0, "task_id"] == task.task_id and after.loc[0, "solved"] == before.loc[0, "solved"]
+
+
+def test_task_ids_are_stable_across_processes(quick_spec):
+    code = ("from slideplan.experiments import build_spec; "
+            f"print(' '.join(t.task_id for t in build_spec('fig11', quick=True, time_limit_s={TIME_LIMIT_S}).tasks))")
+    other = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert other == [task.task_id for task in quick_spec.tasks]
+    assert len(set(other)) == len(other)
+
+
+def test_task_id_changes_with_any_field(quick_spec):
+    import dataclasses
+
+    task = quick_spec.tasks[0]
+    assert dataclasses.replace(task, seed=task.seed + 1).task_id != task.task_id
+    assert dataclasses.replace(task, time_limit_s=4.0).task_id != task.task_id
+    assert dataclasses.replace(task, n_star=10.0).task_id != task.task_id
+
+
+@pytest.mark.parametrize("scene, object_name, scale", [("round", "crescent", 1.0), ("triangle", "irregular", 0.5),
+                                                       ("long", "square", 1.0)])
+def test_initial_poses_lie_on_the_table_and_are_reproducible(scene, object_name, scale):
+    table = cached_scene(scene).table.polygon
+    outline, _ = scaled_outline(object_name, scale)
+    poses = [initial_pose_and_seed(scene, object_name, scale, index, 3) for index in range(20)]
+    for pose, _ in poses:
+        assert table.contains(place_outline(outline, pose))
+    initial_pose_and_seed.cache_clear()
+    assert [initial_pose_and_seed(scene, object_name, scale, index, 3) for index in range(20)] == poses
+    assert len({pose for pose, _ in poses}) == 20  # independent draws, not one pose repeated
+    assert initial_pose_and_seed(scene, object_name, scale, 0, 4)[0] != poses[0][0]  # the seed matters
+
+
+def test_fig11_and_fig12_share_poses_and_the_paper_sizes():
+    assert len(build_spec("fig10").tasks) == 5 * 4 * 50 * 2
+    fig11, fig12 = build_spec("fig11"), build_spec("fig12")
+    assert len(fig11.tasks) == 5 * 100 * 5 and len(fig12.tasks) == 5 * 100 * 5
+    assert {(t.object, t.pose_index, t.x, t.seed) for t in fig11.tasks} == {(t.object, t.pose_index, t.x, t.seed) for t in fig12.tasks}
+    assert sorted({t.n_star for t in fig12.tasks}) == [1, 10, 100, 1000, 10000]
+    assert all(t.time_limit_s == 60 for t in fig11.tasks)
+
+
+@pytest.mark.parametrize("k, n", [(0, 1), (1, 1), (0, 10), (10, 10), (3, 10), (1, 100), (57, 100), (999, 1000)])
+@pytest.mark.parametrize("confidence", [0.95, 0.8])
+def test_wilson_interval_matches_scipy(k, n, confidence):
+    expected = binomtest(k, n).proportion_ci(confidence_level=confidence, method="wilson")
+    low, high = wilson_interval(k, n, confidence)
+    assert low == pytest.approx(expected.low, abs=1e-9) and high == pytest.approx(expected.high, abs=1e-9)
+
+
+def test_wilson_interval_rejects_impossible_counts():
+    for k, n in [(1, 0), (-1, 5), (6, 5)]:
+        with pytest.raises(ValueError):
+            wilson_interval(k, n)
+
+
+def fixture_results():
+    """A small results table in the schema, not from a run: 3 settings x 2 objects x 2 scenes x 2 scales."""
+    rng = np.random.default_rng(0)
+    rows = []
+    for experiment, planner, reconfiguration_range, n_star in [
+        ("fig10", "slideplan", 0.02, 100.0), ("fig11", "slideplan", 0.0, 100.0), ("fig11", "slideplan", 0.02, 100.0),
+        ("fig11", "cbirrt", 0.02, 100.0), ("fig12", "slideplan", 0.02, 1.0), ("fig12", "slideplan", 0.02, 100.0),
+    ]:
+        for index in range(16):
+            solved = bool(rng.random() < 0.8)
+            rows.append({name: None for name in ROW_SCHEMA.names} | {
+                "task_id": f"{experiment}-{planner}-{reconfiguration_range}-{n_star}-{index}", "experiment": experiment,
+                "scene": ("square", "round")[index % 2], "object": ("square", "crescent")[index // 2 % 2],
+                "scale": (1.0, 0.5)[index // 4 % 2], "planner": planner, "n_star": n_star, "time_limit_s": 60.0,
+                "reconfiguration_range_m": reconfiguration_range, "solved": solved,
+                "status": "solved" if solved else "timeout",
+                "planning_time_s": float(rng.uniform(0.01, 5)) if solved else 60.0,
+            })
+    return pd.DataFrame(rows)
+
+
+@pytest.mark.parametrize("plot", [plot_planning_time_by_geometry, plot_success_rate_vs_time, plot_planning_time_vs_n_star])
+def test_each_plot_writes_png_and_svg(plot, tmp_path):
+    results = fixture_results()
+    paths = plot(results, tmp_path, "figure")
+    assert [path.name for path in paths] == ["figure.png", "figure.svg"]
+    assert paths[0].read_bytes().startswith(b"\x89PNG") and paths[0].stat().st_size > 10_000
+    assert "<svg" in paths[1].read_text()[:1000]
+
+
+def test_plot_results_draws_the_figures_the_data_supports(tmp_path):
+    results = fixture_results()
+    assert {path.name for path in plot_results(results, tmp_path / "all")} == {
+        f"fig1{digit}.{suffix}" for digit in "012" for suffix in ("png", "svg")}
+    only_fig11 = results[results["experiment"] == "fig11"]
+    assert {path.name for path in plot_results(only_fig11, tmp_path / "one")} == {"fig11.png", "fig11.svg"}
+
+
+def test_success_curve_counts_runs_solved_within_the_budget():
+    results = fixture_results().query("experiment == 'fig11' and planner == 'cbirrt'")
+    curve = success_rate_curve(results, [0.0, 1.0, 60.0])
+    solved_times = results.loc[results["solved"], "planning_time_s"]
+    assert list(curve["successes"]) == [0, int((solved_times <= 1.0).sum()), len(solved_times)]
+    assert (curve["low"] <= curve["rate"]).all() and (curve["rate"] <= curve["high"]).all()
+
+
+def assert_bad_input(result, fragment):
+    assert result.exit_code == 2, (result.exit_code, result.output)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("slideplan: error: ") and fragment in lines[0], result.stderr
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["experiment", "fig13"], "unknown figure 'fig13'"),
+    (["experiment", "fig11", "--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "at most one of --workers and --scheduler"),
+    (["experiment", "fig11", "--time-limit", "0"], "--time-limit: must be > 0"),
+    (["experiment", "fig11", "--time-limit", "-2"], "--time-limit: must be > 0"),
+    (["experiment", "fig11", "--workers", "0"], "--workers: must be >= 1"),
+])
+def test_experiment_bad_input_exits_2(args, fragment, tmp_path):
+    assert_bad_input(runner.invoke(app, [*args, "--out", str(tmp_path)]), fragment)
+    assert not (tmp_path / "results").exists()
+
+
+def test_plot_bad_input_exits_2(tmp_path):
+    assert_bad_input(runner.invoke(app, ["plot", str(tmp_path / "missing"), "--out", str(tmp_path)]), "no such file")
+    assert_bad_input(runner.invoke(app, ["plot", str(tmp_path), "--out", str(tmp_path)]), "no planning results")
