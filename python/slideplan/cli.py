@@ -203,6 +203,9 @@ def experiment_command(
     figure: str = typer.Argument(..., help="Which experiment: fig10, fig11 or fig12 (paper section V)."),
     out: Path = typer.Option(..., "--out", help="Output directory; results go to OUT/results/ (one Parquet file per task)."),
     quick: bool = typer.Option(False, "--quick", help="A small subset: 2 objects x 2 poses per cell, 5 s limit."),
+    poses: Optional[int] = typer.Option(
+        None, "--poses", help="Initial poses per cell instead of the paper's (fewer poses, same budget)."
+    ),
     time_limit: Optional[float] = typer.Option(
         None, "--time-limit", help="Planning time budget per task (s); default 60 (the paper's), 5 with --quick."
     ),
@@ -220,7 +223,7 @@ def experiment_command(
     try:
         from .experiments import build_spec, run_experiment
 
-        spec = build_spec(figure, quick=quick, time_limit_s=time_limit, seed=seed)
+        spec = build_spec(figure, quick=quick, time_limit_s=time_limit, seed=seed, poses=poses)
         executor = _experiment_executor(workers, scheduler)
         typer.echo(f"{figure}: {len(spec.tasks)} tasks on {executor.description}, results in {out / 'results'}")
         summary = run_experiment(spec, out, executor)

@@ -11,6 +11,8 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
+
+from slideplan import InputError
 from scipy.stats import binomtest
 from typer.testing import CliRunner
 
@@ -137,6 +139,14 @@ def test_fig11_and_fig12_share_poses_and_the_paper_sizes():
     assert {(t.object, t.pose_index, t.x, t.seed) for t in fig11.tasks} == {(t.object, t.pose_index, t.x, t.seed) for t in fig12.tasks}
     assert sorted({t.n_star for t in fig12.tasks}) == [1, 10, 100, 1000, 10000]
     assert all(t.time_limit_s == 60 for t in fig11.tasks)
+
+
+def test_fewer_poses_are_a_prefix_of_the_full_figure():
+    reduced, full = build_spec("fig11", poses=3), build_spec("fig11")
+    assert len(reduced.tasks) == 5 * 3 * 5
+    assert {t.task_id for t in reduced.tasks} <= {t.task_id for t in full.tasks}  # a full run resumes on top
+    with pytest.raises(InputError, match="poses"):
+        build_spec("fig11", poses=0)
 
 
 @pytest.mark.parametrize("k, n", [(0, 1), (1, 1), (0, 10), (10, 10), (3, 10), (1, 100), (57, 100), (999, 1000)])

@@ -226,36 +226,45 @@ def _tasks(
     return tuple(tasks)
 
 
-def fig10_spec(base: PlannerConfig, quick: bool) -> tuple[Task, ...]:
+def _pose_count(poses: int | None, quick: bool, paper: int) -> int:
+    """Poses per cell: as asked, else the quick subset's, else the paper's."""
+    if poses is not None:
+        return poses
+    return QUICK_POSES if quick else paper
+
+
+def fig10_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
     """Fig. 10: 5 objects x 4 tables x 50 poses x scales 1 and 0.5, paper defaults (2000 tasks).
 
     Args:
         base: supplies the seed, the time limit and ``dz_min``.
         quick: 2 objects x 2 poses per table and scale instead (32 tasks).
+        poses: poses per cell instead of the paper's 50 (None: the paper's, or the quick count).
     """
     return _tasks(
         "fig10", scenes=TABLES, objects=QUICK_OBJECTS if quick else OBJECTS, scales=SCALES,
-        poses=QUICK_POSES if quick else 50, settings=(_Setting(),), base=base,
+        poses=_pose_count(poses, quick, 50), settings=(_Setting(),), base=base,
     )
 
 
-def fig11_spec(base: PlannerConfig, quick: bool) -> tuple[Task, ...]:
+def fig11_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
     """Fig. 11: square table, 5 objects x 100 poses, slideplan at ``dz*`` = 0, 0.5, 2 cm and the
     CBiRRT and CBiRRT2 baselines at 2 cm (``dz_min`` = 0.5 cm; 2500 tasks).
 
     Args:
         base: supplies the seed, the time limit and ``dz_min``.
         quick: 2 objects x 2 poses instead (20 tasks).
+        poses: poses per cell instead of the paper's 100 (None: the paper's, or the quick count).
     """
     settings = tuple(_Setting(reconfiguration_range_m=value) for value in RECONFIGURATION_RANGES_M)
     settings += tuple(_Setting(planner=name, reconfiguration_range_m=BASELINE_RANGE_M) for name in BASELINES)
     return _tasks(
         "fig11", scenes=("square",), objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
-        poses=QUICK_POSES if quick else 100, settings=settings, base=base,
+        poses=_pose_count(poses, quick, 100), settings=settings, base=base,
     )
 
 
-def fig12_spec(base: PlannerConfig, quick: bool) -> tuple[Task, ...]:
+def fig12_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
     """Fig. 12: fig11's 2 cm slideplan runs (same poses and seeds) for N* in {1, 10, 100, 1000, 10000}.
 
     The paper reports 5 values of ``N*`` without listing them and finds the best at 100, the
@@ -265,10 +274,11 @@ def fig12_spec(base: PlannerConfig, quick: bool) -> tuple[Task, ...]:
     Args:
         base: supplies the seed, the time limit and ``dz_min``.
         quick: 2 objects x 2 poses instead (20 tasks).
+        poses: poses per cell instead of the paper's 100 (None: the paper's, or the quick count).
     """
     return _tasks(
         "fig12", scenes=("square",), objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
-        poses=QUICK_POSES if quick else 100, settings=tuple(_Setting(n_star=value) for value in N_STAR_VALUES),
+        poses=_pose_count(poses, quick, 100), settings=tuple(_Setting(n_star=value) for value in N_STAR_VALUES),
         base=base,
     )
 
@@ -276,7 +286,9 @@ def fig12_spec(base: PlannerConfig, quick: bool) -> tuple[Task, ...]:
 _SPEC_BUILDERS = {"fig10": fig10_spec, "fig11": fig11_spec, "fig12": fig12_spec}
 
 
-def build_spec(figure: str, *, quick: bool = False, time_limit_s: float | None = None, seed: int = 0) -> ExperimentSpec:
+def build_spec(
+    figure: str, *, quick: bool = False, time_limit_s: float | None = None, seed: int = 0, poses: int | None = None
+) -> ExperimentSpec:
     """Build the tasks of one figure.
 
     Args:
@@ -285,19 +297,24 @@ def build_spec(figure: str, *, quick: bool = False, time_limit_s: float | None =
         time_limit_s: planning time budget per task (s), > 0; default 60 s (the paper's),
             5 s with ``quick``.
         seed: experiment seed, >= 0; poses and planner seeds derive from it.
+        poses: initial poses per cell instead of the paper's count (fewer poses, same budget,
+            when a full run would take too long); pose i is the same whatever the count, so a
+            run with more poses resumes on top of one with fewer.
 
     Returns:
         The spec.
 
     Raises:
         InputError: unknown figure (field ``figure``), a time limit that is not a positive
-            finite number (``time_limit_s``), or a bad seed (``seed``).
+            finite number (``time_limit_s``), a bad seed (``seed``) or pose count (``poses``).
     """
     if figure not in _SPEC_BUILDERS:
         raise InputError(f"unknown figure {figure!r} (expected one of: {', '.join(FIGURES)})", field="figure")
     if time_limit_s is None:
         time_limit_s = QUICK_TIME_LIMIT_S if quick else PAPER_TIME_LIMIT_S
     base = PlannerConfig(seed=seed, time_limit_s=time_limit_s)  # validates both, naming the field
-    tasks = _SPEC_BUILDERS[figure](base, quick)
+    if poses is not None and (isinstance(poses, bool) or not isinstance(poses, int) or poses < 1):
+        raise InputError(f"must be a whole number >= 1, got {poses!r}", field="poses")
+    tasks = _SPEC_BUILDERS[figure](base, quick, poses)
     assert len({task.task_id for task in tasks}) == len(tasks), "task ids must be distinct"
     return ExperimentSpec(name=figure, tasks=tasks, seed=seed, quick=quick)
