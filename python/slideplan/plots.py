@@ -65,6 +65,14 @@ def _grouped_bars(axes, summary: pd.DataFrame, category: str, order: list[str]) 
     axes.legend(title="object size")
 
 
+
+def _runs_to_plot(results: pd.DataFrame) -> pd.DataFrame:
+    """The planning runs of ``results``; ValueError if there are none."""
+    runs = planning_runs(results)
+    if runs.empty:
+        raise ValueError("no planning runs to plot")
+    return runs
+
 def plot_planning_time_by_geometry(results: pd.DataFrame, out_dir: str | Path, name: str = "fig10") -> list[Path]:
     """Fig. 10: mean planning time +- standard error per object (top) and per table (bottom).
 
@@ -82,9 +90,7 @@ def plot_planning_time_by_geometry(results: pd.DataFrame, out_dir: str | Path, n
     Raises:
         ValueError: no planning runs.
     """
-    runs = planning_runs(results)
-    if runs.empty:
-        raise ValueError("no planning runs to plot")
+    runs = _runs_to_plot(results)
     figure = Figure(figsize=(8, 7), layout="constrained")
     top, bottom = figure.subplots(2, 1)
     for axes, category, order, title in (
@@ -117,9 +123,7 @@ def plot_success_rate_vs_time(results: pd.DataFrame, out_dir: str | Path, name: 
     Raises:
         ValueError: no planning runs.
     """
-    runs = planning_runs(results)
-    if runs.empty:
-        raise ValueError("no planning runs to plot")
+    runs = _runs_to_plot(results)
     solved_times = runs.loc[runs["solved"].astype(bool), "planning_time_s"]
     start = max(min(solved_times.min() if len(solved_times) else 1e-2, 1e-2), 1e-4)
     times = np.geomspace(start, runs["time_limit_s"].max(), _CURVE_POINTS)
@@ -159,9 +163,7 @@ def plot_planning_time_vs_n_star(results: pd.DataFrame, out_dir: str | Path, nam
     Raises:
         ValueError: no planning runs.
     """
-    runs = planning_runs(results)
-    if runs.empty:
-        raise ValueError("no planning runs to plot")
+    runs = _runs_to_plot(results)
     summary = planning_time_summary(runs, ["n_star"])
     figure = Figure(figsize=(7, 4.5), layout="constrained")
     axes = figure.add_subplot()
