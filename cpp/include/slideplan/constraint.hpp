@@ -31,8 +31,6 @@ namespace slideplan
         Eigen::Vector3d residual(const Eigen::Isometry3d &tip, double margin = 0.0) const;
         bool satisfied(const Eigen::Isometry3d &tip) const;
 
-        double zLow() const { return zLow_; }
-        double zHigh() const { return zHigh_; }
 
     private:
         Eigen::Matrix<double, 3, Eigen::Dynamic> taskJacobian(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip,
