@@ -75,11 +75,17 @@ namespace slideplan
 
     bool SlidingConstraint::project(Eigen::Ref<Eigen::VectorXd> q) const
     {
+        Eigen::Isometry3d tip;
+        return projectWithTip(q, tip);
+    }
+
+    bool SlidingConstraint::projectWithTip(Eigen::Ref<Eigen::VectorXd> q, Eigen::Isometry3d &tip) const
+    {
         Eigen::VectorXd joints = q;
         constexpr double damping = 1e-6;
         for (int iteration = 0; iteration <= iterations_; ++iteration)
         {
-            const Eigen::Isometry3d tip = robot_->fk(joints);
+            tip = robot_->fk(joints);
             if (satisfied(tip))
             {
                 q = joints;

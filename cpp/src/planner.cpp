@@ -106,9 +106,8 @@ namespace slideplan
         for (int halving = 0; halving < 4 && !withinStep; ++halving, scale *= 0.5)
         {
             q = from + scale * towards;
-            if (!constraint_->project(q))
+            if (!constraint_->projectWithTip(q, tip))
                 return false;
-            tip = task_->robot->fk(q);
             withinStep = (q - from).cwiseAbs().maxCoeff() <= params_.maxJointStep &&
                          (tip.translation() - fromTip.translation()).norm() <= params_.maxTipStep;
         }

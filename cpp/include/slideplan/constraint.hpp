@@ -27,6 +27,9 @@ namespace slideplan
         /// Replaces OMPL's SVD-based projection (DESIGN.md 7, 8).
         bool project(Eigen::Ref<Eigen::VectorXd> q) const override;
 
+        /// project(), also returning Gamma(q) of the projected state (computed on the way).
+        bool projectWithTip(Eigen::Ref<Eigen::VectorXd> q, Eigen::Isometry3d &tip) const;
+
         /// Residual of a fingertip pose (no FK): the same rows as function().
         Eigen::Vector3d residual(const Eigen::Isometry3d &tip, double margin = 0.0) const;
         bool satisfied(const Eigen::Isometry3d &tip) const;
