@@ -389,18 +389,6 @@ def _box_obstacles(scene: Scene) -> list:
     ]
 
 
-def _check_object_on_table(scene: Scene, obj: ThinObject) -> None:
-    """Reject an object that does not lie wholly on the table (sliding starts from rest on it)."""
-    outside = int(np.count_nonzero(~scene.table.contains(obj.points[:, :2])))
-    if outside:
-        raise InputError(
-            f"{outside} of {len(obj.points)} object points lie outside the table "
-            f"(object {obj.name or 'cloud'} must lie wholly on table {scene.name})",
-            source=scene.source,
-            field="object",
-        )
-
-
 def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> PlanResult:
     """Plan a pre-grasp sliding motion (paper Algorithm 1 with IsPairValid).
 
@@ -421,7 +409,6 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> 
     from . import _core
 
     config = config or PlannerConfig()
-    _check_object_on_table(scene, obj)
     robot = robot_model(scene)
     try:
         core_result = _core.plan_sliding(

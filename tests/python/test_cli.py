@@ -67,7 +67,7 @@ def test_object_larger_than_the_table(tmp_path):
     assert_bad_input(run("plan", "--scene", str(scene), "--object", "square"), "larger than the table")
     assert_bad_input(
         run("plan", "--scene", str(scene), "--object", "square", "--pose", "0.63", "0", "0"),
-        str(scene), "object points lie outside the table",
+        str(scene), "points lie outside the table polygon",
     )
 
 
