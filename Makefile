@@ -5,7 +5,7 @@ BUILD_DIR := build/py
 export CMAKE_BUILD_PARALLEL_LEVEL ?= 2
 
 APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev libompl-dev \
-                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev
+                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev libassimp-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps install test test-cpp test-python demo bench clean

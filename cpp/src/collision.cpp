@@ -1,6 +1,7 @@
 #include "slideplan/collision.hpp"
 
 #include <algorithm>
+#include <fcl/geometry/bvh/BVH_model.h>
 #include <fcl/geometry/shape/box.h>
 #include <fcl/geometry/shape/convex.h>
 #include <fcl/geometry/shape/cylinder.h>
@@ -25,6 +26,16 @@ namespace slideplan
                     return std::make_shared<fcl::Cylinderd>(shape.size.x(), shape.size.y());
                 case LinkShape::Type::Sphere:
                     return std::make_shared<fcl::Sphered>(shape.size.x());
+                case LinkShape::Type::Mesh:
+                {
+                    // Exact triangles in an OBB-RSS tree: correct for any mesh, convex or not.
+                    auto model = std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>();
+                    model->beginModel(static_cast<int>(shape.mesh->triangles.size()), static_cast<int>(shape.mesh->vertices.size()));
+                    for (const Eigen::Vector3i &t : shape.mesh->triangles)
+                        model->addTriangle(shape.mesh->vertices[t.x()], shape.mesh->vertices[t.y()], shape.mesh->vertices[t.z()]);
+                    model->endModel();
+                    return model;
+                }
             }
             throw std::logic_error("unknown shape type");
         }
@@ -187,7 +198,7 @@ namespace slideplan
         // configuration (modelling overlap, e.g. a shoulder sphere and the upper arm).
         std::vector<int> body(links.size());
         for (std::size_t i = 0; i < links.size(); ++i)
-            body[i] = links[i].parent >= 0 && links[i].segment.getJoint().getType() == KDL::Joint::None
+            body[i] = links[i].parent >= 0 && links[i].jointType == RobotLink::JointType::Fixed
                           ? body[links[i].parent]
                           : static_cast<int>(i);
         const auto bodyParent = [&](int b) { return links[b].parent >= 0 ? body[links[b].parent] : -1; };

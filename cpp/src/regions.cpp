@@ -2,6 +2,8 @@
 
 #include "slideplan/contact_frame.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace slideplan
@@ -11,8 +13,19 @@ namespace slideplan
     {
         const RobotModel &robot = *validity_->task().robot;
         const int tip = robot.linkIndex(robot.tipLink());
-        for (int link = tip; link > 0; link = robot.links()[link].parent)
-            reach_ += robot.links()[link].segment.getFrameToTip().p.Norm();
+        // An upper bound of the contact frame's distance from the base: every joint origin, every
+        // prismatic travel and the tip offset, end to end.
+        for (const int index : robot.pathTo(tip))
+        {
+            const RobotLink &link = robot.links()[index];
+            reach_ += link.origin.translation().norm();
+            if (link.jointType == RobotLink::JointType::Prismatic)
+                reach_ += link.jointIndex >= 0 ? std::abs(link.multiplier) * std::max(std::abs(robot.lowerLimits()(link.jointIndex)),
+                                                                                      std::abs(robot.upperLimits()(link.jointIndex))) +
+                                                     std::abs(link.offset)
+                                               : std::abs(link.offset);
+        }
+        reach_ += robot.tipOffset().translation().norm();
     }
 
     bool ContactRegion::sample(std::mt19937_64 &rng, const Eigen::VectorXd &seed, Eigen::VectorXd &q) const

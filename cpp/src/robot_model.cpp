@@ -1,10 +1,15 @@
 #include "slideplan/robot_model.hpp"
 
+#include "slideplan/mesh.hpp"
+
 #include <algorithm>
+#include <cmath>
 #include <fstream>
+#include <kdl/chain.hpp>
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <kdl/chainjnttojacsolver.hpp>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <urdf_parser/urdf_parser.h>
@@ -37,8 +42,14 @@ namespace slideplan
             return toEigen(toKdl(pose));
         }
 
+        bool movable(const urdf::Joint &joint)
+        {
+            return joint.type == urdf::Joint::REVOLUTE || joint.type == urdf::Joint::CONTINUOUS ||
+                   joint.type == urdf::Joint::PRISMATIC;
+        }
+
         /// The KDL joint for a URDF joint, expressed in the parent link frame as kdl_parser does.
-        KDL::Joint toKdlJoint(const urdf::Joint &joint)
+        KDL::Joint toKdlJoint(const std::string &source, const urdf::Joint &joint)
         {
             const KDL::Frame origin = toKdl(joint.parent_to_joint_origin_transform);
             const KDL::Vector axis(joint.axis.x, joint.axis.y, joint.axis.z);
@@ -52,11 +63,12 @@ namespace slideplan
                 case urdf::Joint::FIXED:
                     return KDL::Joint(joint.name, KDL::Joint::None);
                 default:
-                    throw std::invalid_argument("joint '" + joint.name + "': only revolute, continuous, prismatic and fixed joints are supported");
+                    throw std::invalid_argument(source + ": joint '" + joint.name +
+                                                "': only revolute, continuous, prismatic and fixed joints are supported");
             }
         }
 
-        void addShape(const std::string &source, const std::string &link, const urdf::Collision &collision,
+        void addShape(const RobotSpec &spec, const std::string &link, const urdf::Collision &collision,
                       std::vector<LinkShape> &shapes)
         {
             if (!collision.geometry)
@@ -86,13 +98,25 @@ namespace slideplan
                     shape.size.x() = static_cast<const urdf::Sphere &>(*collision.geometry).radius;
                     break;
                 }
+                case urdf::Geometry::MESH:
+                {
+                    const auto &mesh = static_cast<const urdf::Mesh &>(*collision.geometry);
+                    const std::string where = spec.source + ": link '" + link + "' <mesh filename='" + mesh.filename + "'>";
+                    const Eigen::Vector3d scale(mesh.scale.x, mesh.scale.y, mesh.scale.z);
+                    if (!scale.allFinite() || (scale.array() <= 0).any())
+                        throw std::invalid_argument(where + ": scale must be positive");
+                    shape.type = LinkShape::Type::Mesh;
+                    shape.meshFile = resolveMeshUri(mesh.filename, spec.directory, spec.packageDirs, where);
+                    shape.mesh = loadMesh(shape.meshFile, scale, where);
+                    break;
+                }
                 default:
-                    throw std::invalid_argument(source + ": link '" + link +
-                                                "': mesh collision geometry is not supported; use box, cylinder or sphere primitives");
+                    throw std::invalid_argument(spec.source + ": link '" + link + "': unknown collision geometry");
             }
             if (!shape.size.allFinite() || (shape.size.array() < 0).any() || !shape.origin.matrix().allFinite())
-                throw std::invalid_argument(source + ": link '" + link + "': collision geometry has a negative or non-finite size");
-            shapes.push_back(shape);
+                throw std::invalid_argument(spec.source + ": link '" + link +
+                                            "': collision geometry has a negative or non-finite size");
+            shapes.push_back(std::move(shape));
         }
     }  // namespace
 
@@ -107,15 +131,30 @@ namespace slideplan
 
     RobotModel::RobotModel(const std::string &urdfXml, const std::string &tipLink, const Eigen::Isometry3d &basePose,
                            const std::string &source)
-      : source_(source), tipLink_(tipLink), basePose_(basePose)
+      : RobotModel([&] {
+          RobotSpec spec;
+          spec.urdf = urdfXml;
+          spec.source = source;
+          spec.basePose = basePose;
+          spec.tipLink = tipLink;
+          return spec;
+      }())
     {
-        if (!basePose.matrix().allFinite())
-            throw std::invalid_argument(source + ": base pose is not finite");
+    }
+
+    RobotModel::RobotModel(const RobotSpec &spec)
+      : source_(spec.source), tipLink_(spec.tipLink), basePose_(spec.basePose)
+    {
+        const std::string &source = spec.source;
+        if (!basePose_.matrix().allFinite())
+            throw std::invalid_argument(source + ": base_pose is not finite");
+        if (!spec.tipOffset.matrix().allFinite())
+            throw std::invalid_argument(source + ": tip_offset is not finite");
         // urdfdom reports parse errors on stderr and returns null; it can also throw on bad numbers.
         urdf::ModelInterfaceSharedPtr model;
         try
         {
-            model = urdf::parseURDF(urdfXml);
+            model = urdf::parseURDF(spec.urdf);
         }
         catch (const std::exception &error)
         {
@@ -135,74 +174,132 @@ namespace slideplan
             entry.name = link->name;
             if (link->parent_joint)
             {
-                entry.parent = index.at(link->getParent()->name);
                 const urdf::Joint &joint = *link->parent_joint;
-                entry.segment = KDL::Segment(link->name, toKdlJoint(joint), toKdl(joint.parent_to_joint_origin_transform));
+                entry.parent = index.at(link->getParent()->name);
+                entry.jointName = joint.name;
+                entry.segment = KDL::Segment(link->name, toKdlJoint(source, joint), toKdl(joint.parent_to_joint_origin_transform));
+                entry.origin = toEigen(joint.parent_to_joint_origin_transform);
+                if (movable(joint))
+                {
+                    const Eigen::Vector3d axis(joint.axis.x, joint.axis.y, joint.axis.z);
+                    if (!(axis.norm() > 1e-9) || !axis.allFinite())
+                        throw std::invalid_argument(source + ": joint '" + joint.name + "' has a zero or non-finite axis");
+                    entry.axis = axis.normalized();
+                    entry.jointType = joint.type == urdf::Joint::PRISMATIC ? RobotLink::JointType::Prismatic
+                                                                           : RobotLink::JointType::Revolute;
+                }
             }
             else
                 entry.segment = KDL::Segment(link->name, KDL::Joint(KDL::Joint::None));
             for (const auto &collision : link->collision_array)
-                addShape(source, link->name, *collision, entry.shapes);
+                addShape(spec, link->name, *collision, entry.shapes);
             if (link->collision_array.empty() && link->collision)
-                addShape(source, link->name, *link->collision, entry.shapes);
+                addShape(spec, link->name, *link->collision, entry.shapes);
             index[link->name] = static_cast<int>(links_.size());
             links_.push_back(std::move(entry));
             for (auto it = link->child_links.rbegin(); it != link->child_links.rend(); ++it)
                 stack.push_back(*it);
         }
-        if (linkIndex(tipLink) < 0)
-            throw std::invalid_argument(source + ": tip link '" + tipLink + "' is not a link of the URDF");
 
-        chain_ = chainTo(tipLink);
-        if (chain_.getNrOfJoints() == 0)
-            throw std::invalid_argument(source + ": no movable joint between the root and '" + tipLink + "'");
+        const int tip = linkIndex(spec.tipLink);
+        if (tip < 0)
+            throw std::invalid_argument(source + ": [hand] tip_link '" + spec.tipLink + "' is not a link of the URDF");
+        const int base = spec.baseLink.empty() ? 0 : linkIndex(spec.baseLink);
+        if (base < 0)
+            throw std::invalid_argument(source + ": [robot] base_link '" + spec.baseLink + "' is not a link of the URDF");
+        const std::vector<int> tipPath = pathTo(tip);
+        const auto baseOnPath = std::find(tipPath.begin(), tipPath.end(), base);
+        if (base != 0 && baseOnPath == tipPath.end())
+            throw std::invalid_argument(source + ": [hand] tip_link '" + spec.tipLink + "' is not downstream of base_link '" +
+                                        spec.baseLink + "'");
 
-        // Joint names, limits and each link's index into q.
-        std::map<std::string, int> chainJoint;
-        lower_.resize(chain_.getNrOfJoints());
-        upper_.resize(chain_.getNrOfJoints());
-        for (const KDL::Segment &segment : chain_.segments)
+        // Held joints: fixed_joints must name movable joints off the chain, within their limits.
+        const auto limits = [&](const urdf::Joint &joint) -> std::pair<double, double> {
+            if (joint.type == urdf::Joint::CONTINUOUS)
+                return {-M_PI, M_PI};  // one turn each way suffices
+            if (!joint.limits)
+                throw std::invalid_argument(source + ": joint '" + joint.name + "' has no <limit>");
+            const double lower = joint.limits->lower, upper = joint.limits->upper;
+            if (!(lower <= upper) || !std::isfinite(lower) || !std::isfinite(upper))
+                throw std::invalid_argument(source + ": joint '" + joint.name + "' has invalid limits");
+            return {lower, upper};
+        };
+        std::map<std::string, double> held;
+        for (const auto &[name, value] : spec.fixedJoints)
         {
-            if (segment.getJoint().getType() == KDL::Joint::None)
-                continue;
-            const int i = static_cast<int>(jointNames_.size());
-            const std::string &name = segment.getJoint().getName();
             const urdf::JointConstSharedPtr joint = model->getJoint(name);
-            double lower = -M_PI, upper = M_PI;  // continuous joints: one turn each way suffices
-            if (joint->type != urdf::Joint::CONTINUOUS)
-            {
-                if (!joint->limits)
-                    throw std::invalid_argument(source + ": joint '" + name + "' has no <limit>");
-                lower = joint->limits->lower;
-                upper = joint->limits->upper;
-                if (!(lower <= upper) || !std::isfinite(lower) || !std::isfinite(upper))
-                    throw std::invalid_argument(source + ": joint '" + name + "' has invalid limits");
-            }
-            lower_(i) = lower;
-            upper_(i) = upper;
-            jointNames_.push_back(name);
-            chainJoint[name] = i;
+            const std::string key = source + ": [robot] fixed_joints." + name;
+            if (!joint)
+                throw std::invalid_argument(key + ": no such joint in the URDF");
+            if (!movable(*joint))
+                throw std::invalid_argument(key + ": the joint is fixed in the URDF");
+            if (joint->mimic)
+                throw std::invalid_argument(key + ": a mimic joint follows '" + joint->mimic->joint_name + "'; set that joint");
+            const auto [lower, upper] = limits(*joint);
+            if (!std::isfinite(value) || value < lower || value > upper)
+                throw std::invalid_argument(key + ": value " + std::to_string(value) + " is outside the joint limits [" +
+                                            std::to_string(lower) + ", " + std::to_string(upper) + "]");
+            held[name] = value;
         }
+
+        // The chain: movable, non-mimic joints between the base link and the tip link.
+        std::map<std::string, int> chainJoint;
+        for (auto it = base == 0 ? tipPath.begin() : std::next(baseOnPath); it != tipPath.end(); ++it)
+        {
+            const RobotLink &link = links_[*it];
+            const urdf::JointConstSharedPtr joint = model->getJoint(link.jointName);
+            if (link.jointType == RobotLink::JointType::Fixed || joint->mimic)
+                continue;
+            if (held.count(link.jointName))
+                throw std::invalid_argument(source + ": [robot] fixed_joints." + link.jointName +
+                                            ": the joint is on the planned chain from the base link to the tip link");
+            const auto [lower, upper] = limits(*joint);
+            chainJoint[link.jointName] = static_cast<int>(jointNames_.size());
+            jointNames_.push_back(link.jointName);
+            lower_.conservativeResize(dof());
+            upper_.conservativeResize(dof());
+            velocity_.conservativeResize(dof());
+            lower_(dof() - 1) = lower;
+            upper_(dof() - 1) = upper;
+            velocity_(dof() - 1) = joint->limits && std::isfinite(joint->limits->velocity) ? joint->limits->velocity : 0.0;
+        }
+        if (dof() == 0)
+            throw std::invalid_argument(source + ": no movable joint between the base link and '" + spec.tipLink + "'");
+
+        // Every other movable joint: a mimic follows its master; the rest are held (fixed_joints, else 0
+        // clamped into the limits, e.g. a closed gripper).
         for (RobotLink &link : links_)
         {
-            const auto it = chainJoint.find(link.segment.getJoint().getName());
-            if (link.segment.getJoint().getType() != KDL::Joint::None && it != chainJoint.end())
-                link.jointIndex = it->second;
-            // Movable joints off the chain (e.g. finger joints) stay at 0: the hand's compliance is
-            // modelled by the planner's relaxations, not by joints.
-        }
-        for (const RobotLink &link : links_)
-        {
-            KDL::Chain chain = chainTo(link.name);
-            if (chain.getNrOfJoints() != dof())
+            if (link.jointType == RobotLink::JointType::Fixed)
                 continue;
-            bool same = true;
-            for (unsigned s = 0, j = 0; s < chain.getNrOfSegments(); ++s)
-                if (chain.getSegment(s).getJoint().getType() != KDL::Joint::None)
-                    same = same && chain.getSegment(s).getJoint().getName() == jointNames_[j++];
-            if (same)
-                ikChains_.emplace_back(link.name, std::move(chain));
+            const urdf::JointConstSharedPtr joint = model->getJoint(link.jointName);
+            const auto heldValue = [&](const std::string &name) {
+                const auto found = held.find(name);
+                if (found != held.end())
+                    return found->second;
+                const auto [lower, upper] = limits(*model->getJoint(name));
+                return std::clamp(0.0, lower, upper);
+            };
+            std::string master = link.jointName;
+            if (joint->mimic)
+            {
+                master = joint->mimic->joint_name;
+                if (!model->getJoint(master))
+                    throw std::invalid_argument(source + ": joint '" + link.jointName + "' mimics unknown joint '" + master + "'");
+                link.multiplier = joint->mimic->multiplier;
+                link.offset = joint->mimic->offset;
+            }
+            const auto inChain = chainJoint.find(master);
+            if (inChain != chainJoint.end())
+                link.jointIndex = inChain->second;
+            else
+            {
+                link.offset += link.multiplier * heldValue(master);
+                link.multiplier = 1.0;
+            }
         }
+
+        tip_ = framePath(spec.tipLink, spec.tipOffset);
     }
 
     RobotModel RobotModel::fromFile(const std::string &path, const std::string &tipLink, const Eigen::Isometry3d &basePose)
@@ -212,7 +309,13 @@ namespace slideplan
             throw std::invalid_argument(path + ": cannot open URDF file");
         std::stringstream text;
         text << file.rdbuf();
-        return RobotModel(text.str(), tipLink, basePose, path);
+        RobotSpec spec;
+        spec.urdf = text.str();
+        spec.source = path;
+        spec.directory = path.substr(0, path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/'));
+        spec.basePose = basePose;
+        spec.tipLink = tipLink;
+        return RobotModel(spec);
     }
 
     int RobotModel::linkIndex(const std::string &name) const
@@ -223,23 +326,21 @@ namespace slideplan
         return -1;
     }
 
-    KDL::Chain RobotModel::chainTo(const std::string &link) const
+    std::vector<int> RobotModel::pathTo(int link) const
     {
         std::vector<int> path;
-        for (int i = linkIndex(link); i > 0; i = links_[i].parent)
+        for (int i = link; i > 0; i = links_[i].parent)
             path.push_back(i);
-        KDL::Chain chain;
-        for (auto it = path.rbegin(); it != path.rend(); ++it)
-            chain.addSegment(links_[*it].segment);
-        return chain;
+        std::reverse(path.begin(), path.end());
+        return path;
     }
 
-    const KDL::Chain &RobotModel::ikChain(const std::string &link) const
+    RobotModel::FramePath RobotModel::framePath(const std::string &link, const Eigen::Isometry3d &offset) const
     {
-        for (const auto &[name, chain] : ikChains_)
-            if (name == link)
-                return chain;
-        throw std::invalid_argument(source_ + ": link '" + link + "' is unknown or not moved by exactly the joints of the chain to '" + tipLink_ + "'");
+        const int index = linkIndex(link);
+        if (index < 0)
+            throw std::invalid_argument(source_ + ": unknown link '" + link + "'");
+        return {pathTo(index), offset};
     }
 
     bool RobotModel::withinLimits(const Eigen::VectorXd &q, double tolerance) const
@@ -248,64 +349,148 @@ namespace slideplan
                (q.array() <= upper_.array() + tolerance).all();
     }
 
-    Eigen::Isometry3d RobotModel::chainFk(const KDL::Chain &chain, const Eigen::VectorXd &q) const
+    Eigen::Isometry3d RobotModel::jointMotion(const RobotLink &link, double value) const
     {
-        KDL::ChainFkSolverPos_recursive solver(chain);
-        KDL::JntArray joints(chain.getNrOfJoints());
-        joints.data = q;
-        KDL::Frame frame;
-        solver.JntToCart(joints, frame);
-        return basePose_ * toEigen(frame);
+        Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
+        if (link.jointType == RobotLink::JointType::Revolute)
+            motion.linear() = Eigen::AngleAxisd(value, link.axis).toRotationMatrix();
+        else if (link.jointType == RobotLink::JointType::Prismatic)
+            motion.translation() = value * link.axis;
+        return motion;
     }
 
-    Eigen::Matrix<double, 6, Eigen::Dynamic> RobotModel::chainJacobian(const KDL::Chain &chain, const Eigen::VectorXd &q) const
+    Eigen::Isometry3d RobotModel::pathPose(const FramePath &path, const Eigen::VectorXd &q) const
     {
-        KDL::ChainJntToJacSolver solver(chain);
-        KDL::JntArray joints(chain.getNrOfJoints());
-        joints.data = q;
-        KDL::Jacobian jacobian(chain.getNrOfJoints());
-        solver.JntToJac(joints, jacobian);
-        Eigen::Matrix<double, 6, Eigen::Dynamic> world(6, chain.getNrOfJoints());
-        const Eigen::Matrix3d rotation = basePose_.linear();
-        world.topRows<3>() = rotation * jacobian.data.topRows<3>();
-        world.bottomRows<3>() = rotation * jacobian.data.bottomRows<3>();
-        return world;
+        Eigen::Isometry3d pose = basePose_;
+        for (const int i : path.links)
+        {
+            const RobotLink &link = links_[i];
+            pose = pose * link.origin;
+            if (link.jointType != RobotLink::JointType::Fixed)
+                pose = pose * jointMotion(link, jointValue(link, q));
+        }
+        return pose * path.offset;
+    }
+
+    Eigen::Matrix<double, 6, Eigen::Dynamic> RobotModel::pathJacobian(const FramePath &path, const Eigen::VectorXd &q) const
+    {
+        // Column of a revolute joint: (a x (p_tip - p), a) = (-a x p, a) + (a x p_tip, 0); the second
+        // term is added once p_tip is known, so one pass over the path suffices.
+        Eigen::Matrix<double, 6, Eigen::Dynamic> jacobian = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, dof());
+        Eigen::Isometry3d pose = basePose_;
+        for (const int i : path.links)
+        {
+            const RobotLink &link = links_[i];
+            pose = pose * link.origin;
+            if (link.jointType == RobotLink::JointType::Fixed)
+                continue;
+            if (link.jointIndex >= 0)
+            {
+                const Eigen::Vector3d axis = pose.linear() * link.axis;
+                auto column = jacobian.col(link.jointIndex);
+                if (link.jointType == RobotLink::JointType::Revolute)
+                {
+                    column.head<3>() -= link.multiplier * axis.cross(pose.translation());
+                    column.tail<3>() += link.multiplier * axis;
+                }
+                else
+                    column.head<3>() += link.multiplier * axis;
+            }
+            pose = pose * jointMotion(link, jointValue(link, q));
+        }
+        const Eigen::Vector3d tip = (pose * path.offset).translation();
+        for (Eigen::Index j = 0; j < jacobian.cols(); ++j)
+            jacobian.col(j).head<3>() += jacobian.col(j).tail<3>().cross(tip);
+        return jacobian;
     }
 
     Eigen::Isometry3d RobotModel::fk(const Eigen::VectorXd &q) const
     {
-        return chainFk(chain_, q);
+        return pathPose(tip_, q);
     }
 
     Eigen::Matrix<double, 6, Eigen::Dynamic> RobotModel::jacobian(const Eigen::VectorXd &q) const
     {
-        return chainJacobian(chain_, q);
+        return pathJacobian(tip_, q);
     }
 
-    Eigen::Isometry3d RobotModel::linkPose(const Eigen::VectorXd &q, const std::string &link) const
+    Eigen::Isometry3d RobotModel::framePose(const Eigen::VectorXd &q, const std::string &link,
+                                            const Eigen::Isometry3d &offset) const
     {
-        const int index = linkIndex(link);
-        if (index < 0)
-            throw std::invalid_argument(source_ + ": unknown link '" + link + "'");
-        std::vector<Eigen::Isometry3d> poses;
-        linkPoses(q, poses);
-        return poses[index];
+        return pathPose(framePath(link, offset), q);
     }
 
     void RobotModel::linkPoses(const Eigen::VectorXd &q, std::vector<Eigen::Isometry3d> &poses) const
     {
         poses.resize(links_.size());
-        for (std::size_t i = 0; i < links_.size(); ++i)
+        poses[0] = basePose_;
+        for (std::size_t i = 1; i < links_.size(); ++i)
         {
             const RobotLink &link = links_[i];
-            if (link.parent < 0)
-            {
-                poses[i] = basePose_;
-                continue;
-            }
-            const double value = link.jointIndex >= 0 ? q(link.jointIndex) : 0.0;
-            poses[i] = poses[link.parent] * toEigen(link.segment.pose(value));
+            poses[i] = poses[link.parent] * link.origin;
+            if (link.jointType != RobotLink::JointType::Fixed)
+                poses[i] = poses[i] * jointMotion(link, jointValue(link, q));
         }
+    }
+
+    Eigen::Isometry3d RobotModel::referenceFramePose(const Eigen::VectorXd &q, const std::string &link,
+                                                     const Eigen::Isometry3d &offset) const
+    {
+        // A local KDL chain from the root: KDL caches joint poses in mutable members (not thread-safe).
+        const FramePath path = framePath(link, offset);
+        KDL::Chain chain;
+        std::vector<double> values;
+        for (const int i : path.links)
+        {
+            chain.addSegment(links_[i].segment);
+            if (links_[i].jointType != RobotLink::JointType::Fixed)
+                values.push_back(jointValue(links_[i], q));
+        }
+        KDL::JntArray joints(chain.getNrOfJoints());
+        for (std::size_t j = 0; j < values.size(); ++j)
+            joints(static_cast<unsigned>(j)) = values[j];
+        KDL::Frame frame;
+        KDL::ChainFkSolverPos_recursive(chain).JntToCart(joints, frame);
+        return basePose_ * toEigen(frame) * offset;
+    }
+
+    Eigen::Matrix<double, 6, Eigen::Dynamic> RobotModel::referenceJacobian(const Eigen::VectorXd &q) const
+    {
+        KDL::Chain chain;
+        std::vector<int> column;  // chain joint index of each KDL joint, -1 if held or a mimic
+        std::vector<double> values;
+        for (const int i : tip_.links)
+        {
+            chain.addSegment(links_[i].segment);
+            if (links_[i].jointType != RobotLink::JointType::Fixed)
+            {
+                values.push_back(jointValue(links_[i], q));
+                column.push_back(links_[i].jointIndex >= 0 && links_[i].multiplier == 1.0 && links_[i].offset == 0.0
+                                     ? links_[i].jointIndex
+                                     : -1);
+            }
+        }
+        KDL::Frame offset;
+        for (int r = 0; r < 3; ++r)
+        {
+            offset.p(r) = tip_.offset.translation()(r);
+            for (int c = 0; c < 3; ++c)
+                offset.M(r, c) = tip_.offset.linear()(r, c);
+        }
+        chain.addSegment(KDL::Segment(KDL::Joint(KDL::Joint::None), offset));
+        KDL::JntArray joints(chain.getNrOfJoints());
+        for (std::size_t j = 0; j < values.size(); ++j)
+            joints(static_cast<unsigned>(j)) = values[j];
+        KDL::Jacobian kdl(chain.getNrOfJoints());
+        KDL::ChainJntToJacSolver(chain).JntToJac(joints, kdl);
+        Eigen::Matrix<double, 6, Eigen::Dynamic> world = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, dof());
+        for (std::size_t j = 0; j < column.size(); ++j)
+            if (column[j] >= 0)
+            {
+                world.col(column[j]).head<3>() = basePose_.linear() * kdl.data.col(static_cast<long>(j)).head<3>();
+                world.col(column[j]).tail<3>() = basePose_.linear() * kdl.data.col(static_cast<long>(j)).tail<3>();
+            }
+        return world;
     }
 
     Eigen::VectorXd RobotModel::randomConfiguration(std::mt19937_64 &rng) const
@@ -320,16 +505,25 @@ namespace slideplan
     bool RobotModel::ik(const Eigen::Isometry3d &target, const Eigen::VectorXd &seed, std::mt19937_64 &rng,
                         Eigen::VectorXd &solution, const IkOptions &options) const
     {
-        return solveIk(chain_, target, seed, rng, solution, options);
+        return solveIk(tip_, target, seed, rng, solution, options);
     }
 
     bool RobotModel::ikForLink(const std::string &link, const Eigen::Isometry3d &target, const Eigen::VectorXd &seed,
-                               std::mt19937_64 &rng, Eigen::VectorXd &solution, const IkOptions &options) const
+                               std::mt19937_64 &rng, Eigen::VectorXd &solution, const IkOptions &options,
+                               const Eigen::Isometry3d &offset) const
     {
-        return solveIk(ikChain(link), target, seed, rng, solution, options);
+        const FramePath path = framePath(link, offset);
+        std::set<int> moving;
+        for (const int i : path.links)
+            if (links_[i].jointIndex >= 0)
+                moving.insert(links_[i].jointIndex);
+        if (moving.size() != dof())
+            throw std::invalid_argument(source_ + ": link '" + link + "' is not moved by every joint of the chain to '" +
+                                        tipLink_ + "'");
+        return solveIk(path, target, seed, rng, solution, options);
     }
 
-    bool RobotModel::solveIk(const KDL::Chain &chain, const Eigen::Isometry3d &target, const Eigen::VectorXd &seed,
+    bool RobotModel::solveIk(const FramePath &path, const Eigen::Isometry3d &target, const Eigen::VectorXd &seed,
                              std::mt19937_64 &rng, Eigen::VectorXd &solution, const IkOptions &options) const
     {
         if (!target.matrix().allFinite())
@@ -341,17 +535,17 @@ namespace slideplan
         {
             Eigen::VectorXd q = attempt == 0 && seed.size() == static_cast<long>(dof()) ? seed : randomConfiguration(rng);
             q = q.cwiseMax(lower_).cwiseMin(upper_);
-            Eigen::Matrix<double, 6, 1> error = poseError(chainFk(chain, q), target);
+            Eigen::Matrix<double, 6, 1> error = poseError(pathPose(path, q), target);
             double cost = error.squaredNorm();
             // Levenberg-Marquardt damping: shrink after a good step, grow after a bad one.
             double lambda = 1e-2;
             for (int iteration = 0; iteration < options.maxIterations && !converged(error); ++iteration)
             {
-                const Eigen::Matrix<double, 6, Eigen::Dynamic> jac = chainJacobian(chain, q);
+                const Eigen::Matrix<double, 6, Eigen::Dynamic> jac = pathJacobian(path, q);
                 const Eigen::Matrix<double, 6, 6> jjt = jac * jac.transpose() + lambda * Eigen::Matrix<double, 6, 6>::Identity();
                 const Eigen::VectorXd step = jac.transpose() * jjt.ldlt().solve(error);
                 const Eigen::VectorXd candidate = (q + step).cwiseMax(lower_).cwiseMin(upper_);
-                const Eigen::Matrix<double, 6, 1> candidateError = poseError(chainFk(chain, candidate), target);
+                const Eigen::Matrix<double, 6, 1> candidateError = poseError(pathPose(path, candidate), target);
                 const double candidateCost = candidateError.squaredNorm();
                 if (candidateCost < cost)
                 {

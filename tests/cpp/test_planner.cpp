@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 #include <ompl/base/PlannerTerminationCondition.h>
+#include <thread>
 
 using namespace slideplan;
 using slideplan::testing::squareTable;
@@ -217,6 +218,41 @@ TEST(SlidingPlanner, SameSeedSameTrajectory)
     for (std::size_t i = 0; i < first.trajectory.size(); ++i)
         EXPECT_EQ(first.trajectory[i], second.trajectory[i]);
     EXPECT_EQ(first.approach.size(), second.approach.size());
+}
+
+TEST(SlidingPlanner, PlansInThreadsEqualTheirSequentialTwins)
+{
+    // One robot model shared by every task, as the Python API shares it (DESIGN.md 9).
+    const auto robot = wamT42();
+    const std::vector<Eigen::Vector2d> centres{{0.6, -0.05}, {0.55, 0.08}, {0.62, 0.02}, {0.5, -0.1}};
+    std::vector<std::shared_ptr<const SlidingTask>> tasks;
+    for (const auto &centre : centres)
+        tasks.push_back(std::make_shared<SlidingTask>(SlidingTask::make(
+            robot, std::make_shared<SupportSurface>(squareTable()), {}, kContactLinks, squarePlate(centre), centre)));
+    PlannerParams params;
+    constexpr int kRuns = 3;
+    std::vector<std::vector<PlanResult>> sequential(tasks.size()), threaded(tasks.size());
+    for (std::size_t t = 0; t < tasks.size(); ++t)
+        for (int run = 0; run < kRuns; ++run)
+            sequential[t].push_back(planSliding(tasks[t], params, 20 + run, within(30.0)));
+    std::vector<std::thread> threads;
+    for (std::size_t t = 0; t < tasks.size(); ++t)
+        threads.emplace_back([&, t] {
+            for (int run = 0; run < kRuns; ++run)
+                threaded[t].push_back(planSliding(tasks[t], params, 20 + run, within(30.0)));
+        });
+    for (auto &thread : threads)
+        thread.join();
+    for (std::size_t t = 0; t < tasks.size(); ++t)
+        for (int run = 0; run < kRuns; ++run)
+        {
+            const PlanResult &alone = sequential[t][run], &beside = threaded[t][run];
+            ASSERT_EQ(alone.status, "solved") << "task " << t << " run " << run;
+            ASSERT_EQ(beside.status, alone.status) << "task " << t << " run " << run;
+            EXPECT_EQ(beside.trajectory, alone.trajectory) << "task " << t << " run " << run;
+            EXPECT_EQ(beside.approach, alone.approach) << "task " << t << " run " << run;
+            expectValidPlan(*tasks[t], params, beside);
+        }
 }
 
 TEST(SlidingPlanner, AsPublishedWithoutPairScreening)

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <cmath>
 #include <random>
+#include <thread>
 
 using namespace slideplan;
 using slideplan::testing::wamT42;
@@ -140,4 +141,49 @@ TEST(RobotModel, RejectsBadUrdfs)
     {
         EXPECT_NE(std::string(error.what()).find("mesh"), std::string::npos);
     }
+}
+
+TEST(RobotModel, KernelMatchesKdlForEveryLinkAndTheJacobian)
+{
+    const auto robot = wamT42();
+    std::mt19937_64 rng(11);
+    std::vector<Eigen::Isometry3d> poses;
+    for (int i = 0; i < 50; ++i)
+    {
+        const Eigen::VectorXd q = robot->randomConfiguration(rng);
+        robot->linkPoses(q, poses);
+        for (std::size_t l = 0; l < robot->links().size(); ++l)
+        {
+            const Eigen::Isometry3d kdl = robot->referenceFramePose(q, robot->links()[l].name);
+            EXPECT_LT((poses[l].matrix() - kdl.matrix()).cwiseAbs().maxCoeff(), 1e-12) << robot->links()[l].name;
+        }
+        EXPECT_LT((robot->fk(q).matrix() - robot->referenceFramePose(q, robot->tipLink()).matrix()).cwiseAbs().maxCoeff(), 1e-12);
+        EXPECT_LT((robot->jacobian(q) - robot->referenceJacobian(q)).cwiseAbs().maxCoeff(), 1e-12) << "configuration " << i;
+    }
+}
+
+TEST(RobotModel, ConstCallsFromManyThreadsGiveTheSequentialAnswers)
+{
+    // KDL caches joint poses in mutable members; a shared model must still answer every thread exactly.
+    const auto robot = wamT42();
+    std::mt19937_64 rng(3);
+    std::vector<Eigen::VectorXd> configurations;
+    for (int i = 0; i < 400; ++i)
+        configurations.push_back(robot->randomConfiguration(rng));
+    std::vector<Eigen::Matrix4d> expected;
+    for (const auto &q : configurations)
+        expected.push_back(robot->fk(q).matrix());
+    std::vector<int> mismatches(4, 0);
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 4; ++t)
+        threads.emplace_back([&, t] {
+            for (int repeat = 0; repeat < 20; ++repeat)
+                for (std::size_t i = 0; i < configurations.size(); ++i)
+                    mismatches[t] += robot->fk(configurations[(i + t * 97) % configurations.size()]).matrix() !=
+                                     expected[(i + t * 97) % configurations.size()];
+        });
+    for (auto &thread : threads)
+        thread.join();
+    for (int t = 0; t < 4; ++t)
+        EXPECT_EQ(mismatches[t], 0) << "thread " << t;
 }

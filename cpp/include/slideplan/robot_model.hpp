@@ -1,13 +1,18 @@
 /// \file robot_model.hpp
-/// The arm: URDF (urdfdom) -> KDL chain; Gamma(phi) (forward kinematics to a named frame), its
-/// geometric Jacobian, and Gamma~(omega) (inverse kinematics, written here: DESIGN.md 7 forbids
-/// KDL's SVD-based solvers).
+/// The arm: a URDF (urdfdom) read into an immutable kinematic tree; Gamma(phi) (forward kinematics to
+/// the contact frame), its geometric Jacobian, and Gamma~(omega) (inverse kinematics, written here:
+/// DESIGN.md 7 forbids KDL's SVD-based solvers). KDL is kept as the reference the kernel is tested
+/// against (`referenceFramePose`, `referenceJacobian`).
+///
+/// Thread safety: every const member may be called from any number of threads at once. (KDL's
+/// `Joint::pose` caches its last result in mutable members, so a KDL chain shared between threads
+/// returns wrong poses; the hot path therefore never calls KDL.)
 #pragma once
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <kdl/chain.hpp>
 #include <kdl/segment.hpp>
+#include <map>
 #include <memory>
 #include <random>
 #include <string>
@@ -15,28 +20,66 @@
 
 namespace slideplan
 {
-    /// One collision primitive of a link, posed in the link frame.
+    /// A triangle mesh in its link's collision frame (already scaled).
+    struct TriangleMesh
+    {
+        std::vector<Eigen::Vector3d> vertices;
+        std::vector<Eigen::Vector3i> triangles;
+    };
+
+    /// One collision shape of a link, posed in the link frame.
     struct LinkShape
     {
         enum class Type
         {
             Box,
             Cylinder,
-            Sphere
+            Sphere,
+            Mesh
         };
         Type type;
         Eigen::Vector3d size;  ///< box: full extents; cylinder: (radius, length, 0); sphere: (radius, 0, 0)
         Eigen::Isometry3d origin{Eigen::Isometry3d::Identity()};
+        std::shared_ptr<const TriangleMesh> mesh;  ///< Mesh only
+        std::string meshFile;                      ///< Mesh only: the resolved file, for messages
     };
 
-    /// A link of the robot tree with its collision primitives.
+    /// A link of the robot tree, its parent joint and its collision shapes.
     struct RobotLink
     {
+        enum class JointType
+        {
+            Fixed,
+            Revolute,
+            Prismatic
+        };
         std::string name;
-        int parent{-1};       ///< index into RobotModel::links(), -1 for the root
-        int jointIndex{-1};   ///< index into the chain's joint vector, -1 if the joint is fixed or off the chain
-        KDL::Segment segment; ///< joint and origin relative to the parent link
+        int parent{-1};            ///< index into RobotModel::links(), -1 for the root
+        std::string jointName;     ///< the parent joint ("" for the root)
+        JointType jointType{JointType::Fixed};
+        Eigen::Isometry3d origin{Eigen::Isometry3d::Identity()};  ///< parent frame -> joint frame
+        Eigen::Vector3d axis{Eigen::Vector3d::UnitZ()};           ///< unit axis in the joint frame
+        /// Joint value = multiplier * q(jointIndex) + offset; jointIndex -1: the constant `offset`
+        /// (fixed_joints, mimic joints of held joints, unlisted joints off the chain).
+        int jointIndex{-1};
+        double multiplier{1.0};
+        double offset{0.0};
         std::vector<LinkShape> shapes;
+        KDL::Segment segment;      ///< the same joint for KDL (reference computations only)
+    };
+
+    /// What a scene says about its robot (DESIGN.md 5, [robot] and [hand]).
+    struct RobotSpec
+    {
+        std::string urdf;                   ///< URDF text
+        std::string source{"<urdf>"};       ///< file name for messages
+        std::string directory;              ///< where relative mesh file names resolve ("" : the working directory)
+        std::vector<std::string> packageDirs;  ///< package://NAME/... resolves to DIR/NAME/... or DIR/... if DIR is named NAME
+        Eigen::Isometry3d basePose{Eigen::Isometry3d::Identity()};  ///< world pose of the URDF root link
+        std::string baseLink;               ///< root of the planned chain ("": the URDF root)
+        std::string tipLink;                ///< contact frame F = tipLink * tipOffset
+        Eigen::Isometry3d tipOffset{Eigen::Isometry3d::Identity()};
+        std::map<std::string, double> fixedJoints;  ///< joints off the chain held at a value
     };
 
     /// Options of the damped-least-squares inverse kinematics.
@@ -48,15 +91,17 @@ namespace slideplan
         double orientationTolerance{1e-8};  ///< radians
     };
 
-    /// A serial arm from a URDF, moving the frame `tipLink`; every link is kept for collision checking.
+    /// A serial arm (the chain from the base link to the tip link) inside a robot tree; every link is
+    /// kept for collision checking. Immutable after construction.
     class RobotModel
     {
     public:
-        /// \param urdfXml   the URDF text
-        /// \param tipLink   the frame Gamma() moves (the chain runs from the URDF root to it)
-        /// \param basePose  world pose of the URDF root link
-        /// \param source    file name used in error messages
-        /// \throws std::invalid_argument on malformed URDF, unknown tip link, unsupported geometry.
+        /// \throws std::invalid_argument naming the file and the key for a malformed URDF, unknown
+        ///         links or joints, a base link not upstream of the tip, bad fixed joint values, an
+        ///         unreadable or unsupported mesh.
+        explicit RobotModel(const RobotSpec &spec);
+
+        /// The contact frame is `tipLink` itself, the chain starts at the URDF root.
         RobotModel(const std::string &urdfXml, const std::string &tipLink,
                    const Eigen::Isometry3d &basePose = Eigen::Isometry3d::Identity(),
                    const std::string &source = "<urdf>");
@@ -64,59 +109,86 @@ namespace slideplan
         static RobotModel fromFile(const std::string &path, const std::string &tipLink,
                                    const Eigen::Isometry3d &basePose = Eigen::Isometry3d::Identity());
 
-        unsigned int dof() const { return chain_.getNrOfJoints(); }
+        unsigned int dof() const { return static_cast<unsigned int>(jointNames_.size()); }
         const std::vector<std::string> &jointNames() const { return jointNames_; }
         const Eigen::VectorXd &lowerLimits() const { return lower_; }
         const Eigen::VectorXd &upperLimits() const { return upper_; }
+        /// URDF velocity limits of the chain joints (0 where the URDF gives none).
+        const Eigen::VectorXd &velocityLimits() const { return velocity_; }
         const std::string &tipLink() const { return tipLink_; }
+        const Eigen::Isometry3d &tipOffset() const { return tip_.offset; }
         const Eigen::Isometry3d &basePose() const { return basePose_; }
+        const std::string &source() const { return source_; }
         bool withinLimits(const Eigen::VectorXd &q, double tolerance = 1e-9) const;
 
-        /// Gamma(phi): world pose of the tip frame.
+        /// Gamma(phi): world pose of the contact frame.
         Eigen::Isometry3d fk(const Eigen::VectorXd &q) const;
 
-        /// World pose of any link, e.g. the grasp frame `t42_grasp`.
+        /// World pose of `link` * `offset` (e.g. the grasp frame).
         /// \throws std::invalid_argument for an unknown link.
-        Eigen::Isometry3d linkPose(const Eigen::VectorXd &q, const std::string &link) const;
+        Eigen::Isometry3d framePose(const Eigen::VectorXd &q, const std::string &link,
+                                    const Eigen::Isometry3d &offset = Eigen::Isometry3d::Identity()) const;
+        Eigen::Isometry3d linkPose(const Eigen::VectorXd &q, const std::string &link) const
+        {
+            return framePose(q, link);
+        }
 
-        /// Geometric Jacobian of the tip frame in the world frame (rows: linear, angular velocity).
+        /// Geometric Jacobian of the contact frame in the world frame (rows: linear, angular velocity).
         Eigen::Matrix<double, 6, Eigen::Dynamic> jacobian(const Eigen::VectorXd &q) const;
 
         /// World poses of all links, indexed like links().
         void linkPoses(const Eigen::VectorXd &q, std::vector<Eigen::Isometry3d> &poses) const;
 
-        /// Gamma~(omega): a configuration within the joint limits whose tip pose equals target.
+        /// KDL's answers for the same frame and Jacobian: the reference the kernel is tested against.
+        Eigen::Isometry3d referenceFramePose(const Eigen::VectorXd &q, const std::string &link,
+                                             const Eigen::Isometry3d &offset = Eigen::Isometry3d::Identity()) const;
+        Eigen::Matrix<double, 6, Eigen::Dynamic> referenceJacobian(const Eigen::VectorXd &q) const;
+
+        /// Gamma~(omega): a configuration within the joint limits whose contact frame pose equals target.
         /// Damped least squares (Levenberg-Marquardt damping), starting from `seed`, then from random
         /// configurations drawn from `rng`. Returns false if no attempt converged.
         bool ik(const Eigen::Isometry3d &target, const Eigen::VectorXd &seed, std::mt19937_64 &rng,
                 Eigen::VectorXd &solution, const IkOptions &options = IkOptions()) const;
 
-        /// The same, for a link moved by exactly the tip chain's joints (e.g. a grasp frame on the palm).
-        /// \throws std::invalid_argument if the link is unknown or moved by other joints.
+        /// The same for `link` * `offset` (e.g. the grasp frame on the palm), a frame moved by every
+        /// joint of the chain. \throws std::invalid_argument if the link is unknown or not moved by
+        /// every chain joint.
         bool ikForLink(const std::string &link, const Eigen::Isometry3d &target, const Eigen::VectorXd &seed,
-                       std::mt19937_64 &rng, Eigen::VectorXd &solution, const IkOptions &options = IkOptions()) const;
+                       std::mt19937_64 &rng, Eigen::VectorXd &solution, const IkOptions &options = IkOptions(),
+                       const Eigen::Isometry3d &offset = Eigen::Isometry3d::Identity()) const;
 
         Eigen::VectorXd randomConfiguration(std::mt19937_64 &rng) const;
 
         const std::vector<RobotLink> &links() const { return links_; }
         int linkIndex(const std::string &name) const;  ///< -1 if unknown
+        /// Links from the root to `link` (root excluded, `link` included), root first.
+        std::vector<int> pathTo(int link) const;
 
     private:
-        KDL::Chain chainTo(const std::string &link) const;
-        const KDL::Chain &ikChain(const std::string &link) const;
-        bool solveIk(const KDL::Chain &chain, const Eigen::Isometry3d &target, const Eigen::VectorXd &seed,
+        /// A frame fixed to a link: the links moving it (root first) and the offset.
+        struct FramePath
+        {
+            std::vector<int> links;
+            Eigen::Isometry3d offset{Eigen::Isometry3d::Identity()};
+        };
+        FramePath framePath(const std::string &link, const Eigen::Isometry3d &offset) const;
+        Eigen::Isometry3d pathPose(const FramePath &path, const Eigen::VectorXd &q) const;
+        Eigen::Matrix<double, 6, Eigen::Dynamic> pathJacobian(const FramePath &path, const Eigen::VectorXd &q) const;
+        bool solveIk(const FramePath &path, const Eigen::Isometry3d &target, const Eigen::VectorXd &seed,
                      std::mt19937_64 &rng, Eigen::VectorXd &solution, const IkOptions &options) const;
-        Eigen::Isometry3d chainFk(const KDL::Chain &chain, const Eigen::VectorXd &q) const;
-        Eigen::Matrix<double, 6, Eigen::Dynamic> chainJacobian(const KDL::Chain &chain, const Eigen::VectorXd &q) const;
+        double jointValue(const RobotLink &link, const Eigen::VectorXd &q) const
+        {
+            return link.jointIndex >= 0 ? link.multiplier * q(link.jointIndex) + link.offset : link.offset;
+        }
+        Eigen::Isometry3d jointMotion(const RobotLink &link, double value) const;
 
         std::string source_;
         std::string tipLink_;
         Eigen::Isometry3d basePose_;
-        KDL::Chain chain_;
+        FramePath tip_;
         std::vector<std::string> jointNames_;
-        Eigen::VectorXd lower_, upper_;
+        Eigen::VectorXd lower_, upper_, velocity_;
         std::vector<RobotLink> links_;  ///< topological order: parents before children
-        std::vector<std::pair<std::string, KDL::Chain>> ikChains_;  ///< links moved by exactly the tip joints
     };
 
     /// 6-vector pose error (position, rotation vector) of `current` towards `target`, world frame.

@@ -1,0 +1,26 @@
+/// \file mesh.hpp
+/// Collision meshes of a URDF: resolving `package://`, `file://` and relative file names, and reading
+/// STL, OBJ and DAE files (assimp, as the ROS ecosystem does) into triangles.
+#pragma once
+
+#include "slideplan/robot_model.hpp"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace slideplan
+{
+    /// The file a URDF mesh URI names. `package://NAME/rest` resolves to `DIR/NAME/rest`, or to
+    /// `DIR/rest` when DIR itself is named NAME, for the first DIR of `packageDirs` where it exists;
+    /// `file://` URIs are absolute; other names are relative to `directory`.
+    /// \throws std::invalid_argument starting with `where` if the file does not exist.
+    std::string resolveMeshUri(const std::string &uri, const std::string &directory,
+                               const std::vector<std::string> &packageDirs, const std::string &where);
+
+    /// The triangles of every mesh in the file, scaled per axis, in the file's frame.
+    /// \throws std::invalid_argument starting with `where` for an unreadable, unsupported or empty file.
+    std::shared_ptr<const TriangleMesh> loadMesh(const std::string &file, const Eigen::Vector3d &scale,
+                                                 const std::string &where);
+
+}  // namespace slideplan

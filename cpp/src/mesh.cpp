@@ -1,0 +1,85 @@
+#include "slideplan/mesh.hpp"
+
+#include <assimp/Importer.hpp>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <filesystem>
+#include <functional>
+#include <stdexcept>
+
+namespace slideplan
+{
+    namespace fs = std::filesystem;
+
+    std::string resolveMeshUri(const std::string &uri, const std::string &directory,
+                               const std::vector<std::string> &packageDirs, const std::string &where)
+    {
+        const std::string package = "package://", file = "file://";
+        if (uri.rfind(package, 0) == 0)
+        {
+            const std::string rest = uri.substr(package.size());
+            const std::string name = rest.substr(0, rest.find('/'));
+            const std::string inside = rest.find('/') == std::string::npos ? "" : rest.substr(rest.find('/') + 1);
+            for (const std::string &dir : packageDirs)
+            {
+                fs::path base = fs::path(dir).lexically_normal();
+                if (base.filename().empty())
+                    base = base.parent_path();  // "share/NAME/" names NAME too
+                if (fs::is_regular_file(base / name / inside))
+                    return (base / name / inside).string();
+                if (base.filename() == name && fs::is_regular_file(base / inside))
+                    return (base / inside).string();
+            }
+            throw std::invalid_argument(where + ": cannot resolve package '" + name +
+                                        "' (add its parent directory to [robot] package_dirs or ROS_PACKAGE_PATH, or "
+                                        "install the Python package that ships it)");
+        }
+        const fs::path path = uri.rfind(file, 0) == 0 ? fs::path(uri.substr(file.size()))
+                              : fs::path(uri).is_absolute() || directory.empty() ? fs::path(uri)
+                                                                                  : fs::path(directory) / uri;
+        if (!fs::is_regular_file(path))
+            throw std::invalid_argument(where + ": mesh file '" + path.string() + "' does not exist");
+        return path.string();
+    }
+
+    std::shared_ptr<const TriangleMesh> loadMesh(const std::string &file, const Eigen::Vector3d &scale,
+                                                 const std::string &where)
+    {
+        Assimp::Importer importer;
+        // Keep the file's own units: URDF meshes are in metres times <mesh scale>; COLLADA's <unit>
+        // is applied by assimp to the root node transform, which the walk below includes.
+        const aiScene *scene = importer.ReadFile(file, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                                           aiProcess_SortByPType);
+        if (!scene || !scene->mRootNode)
+            throw std::invalid_argument(where + ": cannot read mesh '" + file + "' (" + importer.GetErrorString() + ")");
+        auto mesh = std::make_shared<TriangleMesh>();
+        const std::function<void(const aiNode *, const aiMatrix4x4 &)> walk = [&](const aiNode *node, const aiMatrix4x4 &parent) {
+            const aiMatrix4x4 transform = parent * node->mTransformation;
+            for (unsigned m = 0; m < node->mNumMeshes; ++m)
+            {
+                const aiMesh *part = scene->mMeshes[node->mMeshes[m]];
+                const int first = static_cast<int>(mesh->vertices.size());
+                for (unsigned v = 0; v < part->mNumVertices; ++v)
+                {
+                    const aiVector3D p = transform * part->mVertices[v];
+                    mesh->vertices.emplace_back(scale.x() * p.x, scale.y() * p.y, scale.z() * p.z);
+                }
+                for (unsigned f = 0; f < part->mNumFaces; ++f)
+                    if (part->mFaces[f].mNumIndices == 3)
+                        mesh->triangles.emplace_back(first + static_cast<int>(part->mFaces[f].mIndices[0]),
+                                                     first + static_cast<int>(part->mFaces[f].mIndices[1]),
+                                                     first + static_cast<int>(part->mFaces[f].mIndices[2]));
+            }
+            for (unsigned c = 0; c < node->mNumChildren; ++c)
+                walk(node->mChildren[c], transform);
+        };
+        walk(scene->mRootNode, aiMatrix4x4());
+        if (mesh->triangles.empty())
+            throw std::invalid_argument(where + ": mesh '" + file + "' has no triangles");
+        for (const auto &v : mesh->vertices)
+            if (!v.allFinite())
+                throw std::invalid_argument(where + ": mesh '" + file + "' has non-finite vertices");
+        return mesh;
+    }
+
+}  // namespace slideplan
