@@ -8,7 +8,7 @@ APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev lib
                 libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev libassimp-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps install test test-cpp test-python demo bench clean
+.PHONY: all deps install test test-cpp test-python test-sanitize fuzz demo bench clean
 
 all: install
 
@@ -35,7 +35,20 @@ test-cpp: install
 test-python: install
 	$(PYTHON) -m pytest -q tests/python
 
-test: test-cpp test-python
+test: test-cpp test-python test-sanitize
+
+# The core and the C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (no Python module:
+# the sanitizer runtimes would have to be preloaded into Python).
+SANITIZE_DIR := build/sanitize
+test-sanitize: deps
+	cmake -S . -B $(SANITIZE_DIR) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSLIDEPLAN_BUILD_PYTHON=OFF \
+	  -DSLIDEPLAN_BUILD_TESTS=ON -DSLIDEPLAN_SANITIZE=ON > /dev/null
+	cmake --build $(SANITIZE_DIR) --target slideplan_tests
+	ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 ctest --test-dir $(SANITIZE_DIR) --output-on-failure -j2
+
+# Many more fuzz examples than `make test` runs, with fresh random seeds.
+fuzz: install
+	HYPOTHESIS_PROFILE=fuzz $(PYTHON) -m pytest -q tests/python/test_fuzz.py
 
 demo: install
 	$(VENV)/bin/slideplan demo --out out

@@ -61,35 +61,6 @@ namespace slideplan
             return std::make_shared<fcl::Convexd>(vertices, n + 2, faces);
         }
 
-        /// Andrew's monotone chain; counter-clockwise hull.
-        std::vector<Eigen::Vector2d> convexHull(std::vector<Eigen::Vector2d> points)
-        {
-            std::sort(points.begin(), points.end(), [](const auto &a, const auto &b) {
-                return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
-            });
-            if (points.size() < 3)
-                return points;
-            std::vector<Eigen::Vector2d> hull(2 * points.size());
-            std::size_t k = 0;
-            const auto turn = [&](const Eigen::Vector2d &a, const Eigen::Vector2d &b, const Eigen::Vector2d &c) {
-                return (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
-            };
-            for (const auto &p : points)
-            {
-                while (k >= 2 && turn(hull[k - 2], hull[k - 1], p) <= 0)
-                    --k;
-                hull[k++] = p;
-            }
-            for (std::size_t i = points.size() - 1, lower = k + 1; i-- > 0;)
-            {
-                while (k >= lower && turn(hull[k - 2], hull[k - 1], points[i]) <= 0)
-                    --k;
-                hull[k++] = points[i];
-            }
-            hull.resize(k - 1);
-            return hull;
-        }
-
         bool collide(const fcl::CollisionObjectd &a, const fcl::CollisionObjectd &b)
         {
             if (!a.getAABB().overlap(b.getAABB()))

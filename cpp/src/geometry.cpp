@@ -1,5 +1,6 @@
 #include "slideplan/geometry.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -175,6 +176,35 @@ namespace slideplan
     {
         const double distance = closestEdge(point).distance;
         return contains(point) ? distance : -distance;
+    }
+
+    // Andrew's monotone chain.
+    std::vector<Eigen::Vector2d> convexHull(std::vector<Eigen::Vector2d> points)
+    {
+        std::sort(points.begin(), points.end(), [](const auto &a, const auto &b) {
+            return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+        });
+        if (points.size() < 3)
+            return points;
+        std::vector<Eigen::Vector2d> hull(2 * points.size());
+        std::size_t k = 0;
+        const auto turn = [&](const Eigen::Vector2d &a, const Eigen::Vector2d &b, const Eigen::Vector2d &c) {
+            return (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+        };
+        for (const auto &p : points)
+        {
+            while (k >= 2 && turn(hull[k - 2], hull[k - 1], p) <= 0)
+                --k;
+            hull[k++] = p;
+        }
+        for (std::size_t i = points.size() - 1, lower = k + 1; i-- > 0;)
+        {
+            while (k >= lower && turn(hull[k - 2], hull[k - 1], points[i]) <= 0)
+                --k;
+            hull[k++] = points[i];
+        }
+        hull.resize(k - 1);
+        return hull;
     }
 
 }  // namespace slideplan

@@ -139,9 +139,11 @@ namespace slideplan
         }
     }
 
-    void SlidingPlanner::shortcut(std::vector<Eigen::VectorXd> &path, std::vector<Eigen::Isometry3d> &tips)
+    void SlidingPlanner::shortcut(std::vector<Eigen::VectorXd> &path, std::vector<Eigen::Isometry3d> &tips,
+                                  const ob::PlannerTerminationCondition &ptc)
     {
-        for (int attempt = 0; attempt < params_.shortcutAttempts && path.size() > 2; ++attempt)
+        // The path is valid after every attempt, so the time limit may stop the shortcut anywhere.
+        for (int attempt = 0; attempt < params_.shortcutAttempts && path.size() > 2 && !ptc; ++attempt)
         {
             std::uniform_int_distribution<std::size_t> pick(0, path.size() - 1);
             std::size_t i = pick(rng_), j = pick(rng_);
@@ -265,7 +267,8 @@ namespace slideplan
         return !startForest_->roots.empty() && !goalForest_->roots.empty();
     }
 
-    void SlidingPlanner::extractPath(Node *startNode, Node *goalNode, const PairVerdict &verdict)
+    void SlidingPlanner::extractPath(Node *startNode, Node *goalNode, const PairVerdict &verdict,
+                                     const ob::PlannerTerminationCondition &ptc)
     {
         std::vector<Node *> nodes;
         for (Node *node = startNode; node; node = node->parent)
@@ -278,7 +281,7 @@ namespace slideplan
             result_.trajectory.push_back(node->q);
             result_.fingertipPoses.push_back(node->tip);
         }
-        shortcut(result_.trajectory, result_.fingertipPoses);
+        shortcut(result_.trajectory, result_.fingertipPoses, ptc);
         auto path = std::make_shared<ompl::geometric::PathGeometric>(si_);
         for (const Eigen::VectorXd &q : result_.trajectory)
         {
@@ -331,7 +334,7 @@ namespace slideplan
                 const PairVerdict *verdict = validatePair(startNode, goalNode, ptc);
                 if (verdict->valid)
                 {
-                    extractPath(startNode, goalNode, *verdict);
+                    extractPath(startNode, goalNode, *verdict, ptc);
                     break;
                 }
             }
@@ -372,10 +375,10 @@ namespace slideplan
     {
         const auto started = std::chrono::steady_clock::now();
         params.validate();
-        if (params.uStar > task->objectExtent())
+        if (params.uStar > task->extent)
         {
             std::ostringstream message;
-            message << "u_star = " << params.uStar << " m exceeds the object's largest extent (" << task->objectExtent()
+            message << "u_star = " << params.uStar << " m exceeds the object's largest extent (" << task->extent
                     << " m): no overhang can reach it";
             throw std::invalid_argument(message.str());
         }

@@ -32,7 +32,9 @@ namespace slideplan
     {
         const SlidingTask &task = validity_->task();
         std::uniform_real_distribution<double> yaw(-M_PI, M_PI), depth(params_.dzMin, params_.dzMax);
-        const Eigen::Vector2d point = samplePoint(rng);
+        Eigen::Vector2d point;
+        if (!samplePoint(rng, point))
+            return false;
         Eigen::Isometry3d target = Eigen::Isometry3d::Identity();
         target.linear() = contactRotation(yaw(rng), params_.beta0);
         target.translation() << point, task.surfaceZ - depth(rng);
@@ -44,25 +46,28 @@ namespace slideplan
         return task.robot->ik(target, seed, rng, q, options) && validity_->isValid(q, task.robot->fk(q));
     }
 
-    Eigen::Vector2d StartRegion::samplePoint(std::mt19937_64 &rng) const
+    bool StartRegion::samplePoint(std::mt19937_64 &rng, Eigen::Vector2d &point) const
     {
         const Polygon2 &cloud = validity_->task().objectXY;
         std::uniform_int_distribution<long> index(0, cloud.rows() - 1);
-        return cloud.row(index(rng)).transpose();
+        point = cloud.row(index(rng)).transpose();
+        return true;
     }
 
-    Eigen::Vector2d GoalRegion::samplePoint(std::mt19937_64 &rng) const
+    bool GoalRegion::samplePoint(std::mt19937_64 &rng, Eigen::Vector2d &point) const
     {
         const SupportSurface &table = *validity_->task().table;
         const Eigen::Vector2d low = table.vertices().colwise().minCoeff(), high = table.vertices().colwise().maxCoeff();
         std::uniform_real_distribution<double> x(low.x(), high.x()), y(low.y(), high.y());
-        for (;;)  // the band has positive area, so this ends with probability 1 (acceptance ~ band/bbox area)
+        constexpr int kTries = 64;  // acceptance ~ band area / bounding box area: about 0.2 on our tables
+        for (int i = 0; i < kTries; ++i)
         {
-            const Eigen::Vector2d point(x(rng), y(rng));
+            point = Eigen::Vector2d(x(rng), y(rng));
             const double distance = table.signedDistance(point);
             if (distance > 0.0 && distance <= params_.dGoal)
-                return point;
+                return true;
         }
+        return false;
     }
 
 }  // namespace slideplan

@@ -1,5 +1,6 @@
 #include "slideplan/task.hpp"
 
+#include <algorithm>
 #include <sstream>
 #include <stdexcept>
 
@@ -40,16 +41,30 @@ namespace slideplan
         }
         if (!task.table->contains(objectCom))
             throw std::invalid_argument("object centre of mass lies outside the table polygon");
-        return task;
-    }
 
-    double SlidingTask::objectExtent() const
-    {
-        double extent = 0.0;
-        for (int i = 0; i < objectXY.rows(); ++i)
-            for (int j = i + 1; j < objectXY.rows(); ++j)
-                extent = std::max(extent, (objectXY.row(i) - objectXY.row(j)).norm());
-        return extent;
+        // A footprint without area (collinear or coincident points) has no overhang to grasp: say so
+        // instead of planning until the time limit.
+        std::vector<Eigen::Vector2d> points(static_cast<std::size_t>(task.objectXY.rows()));
+        for (int i = 0; i < task.objectXY.rows(); ++i)
+            points[static_cast<std::size_t>(i)] = task.objectXY.row(i).transpose();
+        const std::vector<Eigen::Vector2d> hull = convexHull(std::move(points));
+        Polygon2 hullPolygon(static_cast<long>(hull.size()), 2);
+        for (std::size_t i = 0; i < hull.size(); ++i)
+        {
+            hullPolygon.row(static_cast<long>(i)) = hull[i].transpose();
+            for (std::size_t j = 0; j < i; ++j)
+                task.extent = std::max(task.extent, (hull[i] - hull[j]).norm());
+        }
+        constexpr double kMinWidth = 1e-3;  // m: thinner than a millimetre across is a line, not a plate
+        const double area = hull.size() < 3 ? 0.0 : signedArea(hullPolygon);
+        if (!(area >= kMinWidth * task.extent) || task.extent == 0.0)
+        {
+            std::ostringstream message;
+            message << "object cloud is degenerate: its points lie on a line or a point (footprint " << area * 1e6
+                    << " mm^2 over an extent of " << task.extent * 1e3 << " mm; a thin object needs an area)";
+            throw std::invalid_argument(message.str());
+        }
+        return task;
     }
 
 }  // namespace slideplan

@@ -58,4 +58,7 @@ namespace slideplan
     /// Signed area of a polygon (positive for counter-clockwise).
     double signedArea(const Polygon2 &vertices);
 
+    /// Counter-clockwise convex hull (no collinear vertices); fewer than 3 points for a degenerate set.
+    std::vector<Eigen::Vector2d> convexHull(std::vector<Eigen::Vector2d> points);
+
 }  // namespace slideplan

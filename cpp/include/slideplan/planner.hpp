@@ -54,8 +54,9 @@ namespace slideplan
         /// T.ConstrainedExtend(target, near): constrained steps until the target is reached or a step is refused.
         Node *constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target, bool &reached);
         /// Beyond the paper: replace stretches of the path by shorter constrained walks between two of
-        /// its waypoints (params.shortcutAttempts tries).
-        void shortcut(std::vector<Eigen::VectorXd> &path, std::vector<Eigen::Isometry3d> &tips);
+        /// its waypoints (params.shortcutAttempts tries, fewer if the time limit comes first).
+        void shortcut(std::vector<Eigen::VectorXd> &path, std::vector<Eigen::Isometry3d> &tips,
+                      const ompl::base::PlannerTerminationCondition &ptc);
         /// Baselines: draw roots until the policy's fixed roots exist (and, for CBiRRT, form a valid pair).
         bool precomputeRoots(const ompl::base::PlannerTerminationCondition &ptc);
         /// Pi_b.NearestTree(q) for the connection step: with screenPairs, only among trees whose root
@@ -66,7 +67,8 @@ namespace slideplan
         /// GetRoots + IsPairValid for a connection, with the verdict cached per root pair.
         const PairVerdict *validatePair(Node *startNode, Node *goalNode, const ompl::base::PlannerTerminationCondition &ptc);
         /// ExtractPath: root of the start tree -> connection -> root of the goal tree.
-        void extractPath(Node *startNode, Node *goalNode, const PairVerdict &verdict);
+        void extractPath(Node *startNode, Node *goalNode, const PairVerdict &verdict,
+                         const ompl::base::PlannerTerminationCondition &ptc);
 
         std::shared_ptr<const SlidingTask> task_;
         PlannerParams params_;

@@ -21,8 +21,8 @@ namespace slideplan
         /// is a valid sliding state. Returns false if this draw gave no valid configuration.
         bool sample(std::mt19937_64 &rng, const Eigen::VectorXd &seed, Eigen::VectorXd &q) const;
 
-        /// The contact point (x, y) of a draw.
-        virtual Eigen::Vector2d samplePoint(std::mt19937_64 &rng) const = 0;
+        /// The contact point (x, y) of a draw; false if this draw found none.
+        virtual bool samplePoint(std::mt19937_64 &rng, Eigen::Vector2d &point) const = 0;
 
     protected:
         std::shared_ptr<const SlidingValidity> validity_;
@@ -35,7 +35,7 @@ namespace slideplan
     {
     public:
         using ContactRegion::ContactRegion;
-        Eigen::Vector2d samplePoint(std::mt19937_64 &rng) const override;
+        bool samplePoint(std::mt19937_64 &rng, Eigen::Vector2d &point) const override;
     };
 
     /// Eq. 4: contact points P_g from the band between Q and Q contracted inward by d_goal, lifted to z_s.
@@ -43,8 +43,9 @@ namespace slideplan
     {
     public:
         using ContactRegion::ContactRegion;
-        /// Uniform in the band: rejection sampling in Q's bounding box on the distance to the boundary.
-        Eigen::Vector2d samplePoint(std::mt19937_64 &rng) const override;
+        /// Uniform in the band: rejection sampling in Q's bounding box on the distance to the boundary,
+        /// a bounded number of tries per draw so that a vanishing band ends in a clean timeout.
+        bool samplePoint(std::mt19937_64 &rng, Eigen::Vector2d &point) const override;
     };
 
 }  // namespace slideplan

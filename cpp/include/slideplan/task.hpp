@@ -25,14 +25,15 @@ namespace slideplan
 
         /// Build from the N x 3 top-surface cloud; z_s is the mean z of the cloud.
         /// \throws std::invalid_argument for an empty or non-finite cloud, a cloud below the table top,
-        ///         an object not wholly on the table, or a centre of mass off the table.
+        ///         an object not wholly on the table, a centre of mass off the table, or a degenerate
+        ///         footprint (collinear or coincident points).
         static SlidingTask make(std::shared_ptr<const RobotModel> robot, std::shared_ptr<const SupportSurface> table,
                                 std::vector<BoxObstacle> obstacles, std::vector<std::string> contactLinks,
                                 const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
                                 const Eigen::Vector2d &objectCom);
 
         double thickness() const { return surfaceZ - table->height(); }
-        double objectExtent() const;  ///< largest distance between two points of P_o
+        double extent{0.0};      ///< largest distance between two points of P_o (over its convex hull)
     };
 
 }  // namespace slideplan

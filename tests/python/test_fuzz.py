@@ -1,0 +1,268 @@
+"""Property-based fuzzing of the Python entry points (hypothesis).
+
+Whatever the input, only ``InputError`` or a clean result (a plan, or a timeout within the time limit
+plus 0.5 s) may come out: no other exception, no crash, no hang. The normal suite runs the seeded
+``ci`` profile (a few thousand examples in all); ``make fuzz`` runs the ``fuzz`` profile (many more,
+random seeds).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from slideplan import InputError, PlannerConfig, SupportSurface, ThinObject, load_object, load_scene, plan
+from slideplan.objects import load_outline
+
+settings.register_profile(
+    "ci", derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large]
+)
+settings.register_profile(
+    "fuzz", deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large]
+)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+FUZZ = os.environ.get("HYPOTHESIS_PROFILE") == "fuzz"
+
+
+def examples(count: int) -> int:
+    """Examples of one test: `count` in the normal suite, ten times more under `make fuzz`."""
+    return count * 10 if FUZZ else count
+
+
+SCENE = load_scene("square")
+SLACK_S = 0.5  # a plan may overrun its time limit by at most this much
+
+finite = st.floats(min_value=-5.0, max_value=5.0, allow_nan=False)
+anything = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.floats(min_value=-1e300, max_value=1e300),
+    st.integers(min_value=-(2**70), max_value=2**70),
+    st.booleans(),
+    st.text(max_size=5),
+    st.none(),
+    st.lists(st.floats(), max_size=3),
+)
+
+
+def clean(call):
+    """Run `call`; an InputError is a clean outcome, any other exception fails the test."""
+    try:
+        return call()
+    except InputError as error:
+        assert str(error), "an InputError must say what is wrong"
+        return None
+
+
+def on_table_cloud(draw, count: int) -> np.ndarray:
+    """`count` points around a seeded centre on the square table, 4 mm above it."""
+    centre = np.array([draw(st.floats(0.45, 0.6)), draw(st.floats(-0.1, 0.1))])
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    xy = centre + rng.uniform(-0.04, 0.04, size=(count, 2))
+    return np.column_stack([xy, np.full(count, SCENE.table.height + 0.004)])
+
+
+@st.composite
+def clouds(draw):
+    """Object clouds, from sane to absurd."""
+    kind = draw(st.sampled_from(["empty", "few", "collinear", "duplicated", "nonfinite", "huge", "off_table", "random", "dense"]))
+    if kind == "empty":
+        return np.zeros((0, 3))
+    if kind == "few":
+        return on_table_cloud(draw, draw(st.integers(1, 2)))
+    if kind == "collinear":
+        t = np.linspace(0.0, 0.08, draw(st.integers(3, 60)))
+        return np.column_stack([0.5 + t, -0.05 + draw(st.floats(-1, 1)) * t, np.full(len(t), 0.004)])
+    if kind == "duplicated":
+        return np.repeat(on_table_cloud(draw, 1), draw(st.integers(3, 50)), axis=0)
+    if kind == "nonfinite":
+        cloud = on_table_cloud(draw, 20)
+        cloud[draw(st.integers(0, 19)), draw(st.integers(0, 2))] = draw(st.sampled_from([np.nan, np.inf, -np.inf]))
+        return cloud
+    if kind == "huge":
+        return on_table_cloud(draw, 20) * draw(st.sampled_from([1e6, 1e150, -1e300]))
+    if kind == "off_table":
+        cloud = on_table_cloud(draw, 40)
+        cloud[: draw(st.integers(1, 40)), 0] += draw(st.floats(0.2, 2.0))
+        return cloud
+    if kind == "dense":
+        return on_table_cloud(draw, 200_000 if FUZZ else 20_000)
+    return draw(arrays(np.float64, st.tuples(st.integers(0, 30), st.sampled_from([2, 3, 4])), elements=finite))
+
+
+@settings(max_examples=examples(400))
+@given(cloud=clouds())
+def test_object_clouds_give_an_object_or_an_input_error(cloud):
+    obj = clean(lambda: ThinObject.from_points(cloud, table_height=SCENE.table.height))
+    if obj is not None:
+        assert obj.points.shape[1] == 3 and np.all(np.isfinite(obj.points)) and obj.thickness > 0
+
+
+@settings(max_examples=examples(60))
+@given(cloud=clouds(), time_limit=st.sampled_from([0.05, 0.2]))
+def test_planning_any_cloud_is_a_plan_an_input_error_or_a_clean_timeout(cloud, time_limit):
+    obj = clean(lambda: ThinObject.from_points(cloud, table_height=SCENE.table.height))
+    if obj is None:
+        return
+    started = time.perf_counter()
+    result = clean(lambda: plan(SCENE, obj, PlannerConfig(seed=1, time_limit_s=time_limit)))
+    assert time.perf_counter() - started <= time_limit + SLACK_S + (0.0 if len(cloud) < 50_000 else 1.0)
+    if result is not None:
+        assert result.status in ("solved", "timeout")
+
+
+@st.composite
+def polygons(draw):
+    """Table polygons: regular, clockwise, with collinear or duplicate vertices, self-intersecting, random."""
+    kind = draw(st.sampled_from(["regular", "clockwise", "collinear", "duplicate", "bowtie", "random", "large"]))
+    n = draw(st.integers(3, 40))
+    angles = np.linspace(0.0, 2 * math.pi, n, endpoint=False)
+    regular = np.column_stack([0.7 + 0.4 * np.cos(angles), 0.4 * np.sin(angles)])
+    if kind == "regular":
+        return regular
+    if kind == "clockwise":
+        return regular[::-1]
+    if kind == "collinear":
+        midpoints = (regular + np.roll(regular, -1, axis=0)) / 2
+        return np.stack([regular, midpoints], axis=1).reshape(-1, 2)
+    if kind == "duplicate":
+        return np.repeat(regular, 2, axis=0)
+    if kind == "bowtie":
+        return np.array([[0.3, -0.3], [1.0, 0.3], [1.0, -0.3], [0.3, 0.3]])
+    if kind == "large":
+        count = 10_000 if FUZZ else draw(st.sampled_from([1000, 3000]))
+        angles = np.linspace(0.0, 2 * math.pi, count, endpoint=False)
+        return np.column_stack([0.7 + 0.4 * np.cos(angles), 0.4 * np.sin(angles)])
+    return draw(arrays(np.float64, st.tuples(st.integers(0, 12), st.just(2)), elements=finite))
+
+
+@settings(max_examples=examples(500))
+@given(vertices=polygons(), height=st.one_of(finite, st.sampled_from([math.nan, math.inf])))
+def test_table_polygons_give_a_table_or_an_input_error(vertices, height):
+    table = clean(lambda: SupportSurface.from_vertices(vertices, height))
+    if table is not None:
+        assert table.polygon.is_valid and table.polygon.area > 0
+
+
+@settings(max_examples=examples(40))
+@given(vertices=polygons())
+def test_planning_on_any_valid_table_is_clean(vertices, tmp_path_factory):
+    directory = tmp_path_factory.mktemp("table")
+    rows = ", ".join(f"[{x!r}, {y!r}]" for x, y in np.asarray(vertices, dtype=float).reshape(-1, 2))
+    (directory / "scene.toml").write_text(f"[table]\npolygon = [{rows}]\n")
+    scene = clean(lambda: load_scene(directory / "scene.toml"))
+    if scene is None:
+        return
+    obj = clean(lambda: load_object("square", table_height=scene.table.height, pose=(0.7, 0.0, 0.3)))
+    if obj is None:
+        return
+    started = time.perf_counter()
+    clean(lambda: plan(scene, obj, PlannerConfig(seed=2, time_limit_s=0.2)))
+    assert time.perf_counter() - started <= 0.2 + SLACK_S
+
+
+@st.composite
+def holed_outlines(draw):
+    """Outline TOML text with holes: inside, touching, outside, overlapping, degenerate."""
+    size = draw(st.floats(0.01, 0.2))
+    hole = draw(st.floats(0.001, 0.3))
+    shift = draw(st.floats(-0.2, 0.2))
+    holes = [[[shift - hole / 2, -hole / 2], [shift + hole / 2, -hole / 2], [shift + hole / 2, hole / 2], [shift - hole / 2, hole / 2]]]
+    if draw(st.booleans()):
+        holes.append(holes[0])  # a duplicate hole overlaps the first
+    outline = [[-size, -size], [size, -size], [size, size], [-size, size]]
+    return f"outline = {outline!r}\nholes = {holes!r}\nthickness = {draw(st.sampled_from([0.004, 0.0, -1.0]))!r}\n"
+
+
+@settings(max_examples=examples(300))
+@given(text=holed_outlines(), pose=st.tuples(finite, finite, finite))
+def test_outlines_with_holes_give_an_object_or_an_input_error(text, pose, tmp_path_factory):
+    path = tmp_path_factory.mktemp("outline") / "object.toml"
+    path.write_text(text)
+    obj = clean(lambda: load_object(path, table_height=0.0, pose=pose))
+    if obj is not None:
+        assert len(obj.points) >= 3 and np.all(np.isfinite(obj.points))
+
+
+SCENE_KEYS = {
+    "table": ["polygon", "height", "circle", "bogus"],
+    "robot": ["urdf", "base_pose", "tip_link", "contact_links", "base_link", "fixed_joints", "package_dirs", "bogus"],
+    "hand": ["tip_link", "tip_offset", "grasp_link", "grasp_offset", "contact_links", "params", "bogus"],
+}
+
+
+def toml_value(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else ("inf" if value == math.inf else "-inf" if value == -math.inf else repr(value))
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, list):
+        return "[" + ", ".join(toml_value(item) for item in value) + "]"
+    if value is None:
+        return '""'
+    return repr(value)
+
+
+@settings(max_examples=examples(600))
+@given(
+    section=st.sampled_from(sorted(SCENE_KEYS)),
+    data=st.data(),
+)
+def test_scene_fields_give_a_scene_or_an_input_error(section, data, tmp_path_factory):
+    key = data.draw(st.sampled_from(SCENE_KEYS[section]))
+    value = data.draw(anything)
+    base = "[table]\npolygon = [[0.35, -0.4], [1.05, -0.4], [1.05, 0.4], [0.35, 0.4]]\n"
+    if section == "table":
+        text = f"[table]\n{key} = {toml_value(value)}\n"
+    else:
+        text = base + f"[{section}]\n{key} = {toml_value(value)}\n"
+    path = tmp_path_factory.mktemp("scene") / "scene.toml"
+    path.write_text(text)
+    clean(lambda: load_scene(path))
+
+
+PARAMETERS = [name for name in PlannerConfig.__dataclass_fields__ if name not in ("planner",)]
+
+
+@settings(max_examples=examples(800))
+@given(name=st.sampled_from(PARAMETERS), value=anything)
+def test_planner_parameters_give_a_config_or_an_input_error(name, value):
+    config = clean(lambda: PlannerConfig(**{name: value}))
+    if config is not None:
+        assert getattr(config, name) == value or (isinstance(value, float) and math.isnan(value))
+
+
+@settings(max_examples=examples(40))
+@given(
+    name=st.sampled_from(["beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "n_star", "max_joint_step",
+                          "max_tip_step", "projection_iterations", "root_ik_attempts", "shortcut_attempts"]),
+    scale=st.sampled_from([1e-9, 1e-3, 0.5, 2.0, 1e3, 1e9]),
+)
+def test_planning_with_parameters_at_and_beyond_their_limits_is_clean(name, scale):
+    default = getattr(PlannerConfig(), name)
+    value = type(default)(max(1, round(default * scale)) if isinstance(default, int) else default * scale)
+    config = clean(lambda: PlannerConfig(seed=3, time_limit_s=0.2, **{name: value}))
+    if config is None:
+        return
+    obj = load_object("square", table_height=SCENE.table.height, pose=(0.6, 0.0, 0.2))
+    started = time.perf_counter()
+    clean(lambda: plan(SCENE, obj, config))
+    assert time.perf_counter() - started <= 0.2 + SLACK_S
+
+
+def test_a_collinear_cloud_is_an_input_error_not_a_timeout():
+    t = np.linspace(0.0, 0.1, 50)
+    cloud = np.column_stack([0.5 + t, 0.5 * t, np.full(len(t), 0.004)])
+    obj = ThinObject.from_points(cloud, table_height=0.0)
+    started = time.perf_counter()
+    with pytest.raises(InputError, match="degenerate"):
+        plan(SCENE, obj, PlannerConfig(seed=1, time_limit_s=5.0))
+    assert time.perf_counter() - started < 1.0
