@@ -82,15 +82,15 @@ namespace slideplan
         const RobotModel &robot = *task_->robot;
         IkOptions single;
         single.maxAttempts = 1;
-        if (robot.ikForLink(task_->graspLink, grasp, goal, rng, solution, single))
+        if (robot.ikForLink(task_->graspLink, grasp, goal, rng, solution, single, task_->graspOffset))
             return true;
         for (auto seed = graspSeeds_.rbegin(); seed != graspSeeds_.rend(); ++seed)
-            if (robot.ikForLink(task_->graspLink, grasp, *seed, rng, solution, single))
+            if (robot.ikForLink(task_->graspLink, grasp, *seed, rng, solution, single, task_->graspOffset))
                 return true;
         // Side grasps at table height are a thin part of the workspace: one restart in ~5 succeeds.
         IkOptions restarts;
         restarts.maxAttempts = 25;
-        if (!robot.ikForLink(task_->graspLink, grasp, Eigen::VectorXd(), rng, solution, restarts))
+        if (!robot.ikForLink(task_->graspLink, grasp, Eigen::VectorXd(), rng, solution, restarts, task_->graspOffset))
             return false;
         constexpr std::size_t kRemembered = 8;
         if (graspSeeds_.size() == kRemembered)
@@ -238,7 +238,8 @@ namespace slideplan
         Eigen::VectorXd preGrasp;
         IkOptions nearOptions;
         nearOptions.maxAttempts = 1;
-        if (!robot.ikForLink(task_->graspLink, preGraspPose, verdict.graspConfig, rng, preGrasp, nearOptions) ||
+        if (!robot.ikForLink(task_->graspLink, preGraspPose, verdict.graspConfig, rng, preGrasp, nearOptions,
+                            task_->graspOffset) ||
             !world_->isValid(preGrasp, ContactMode::Free))
         {
             verdict.reason = "pre-grasp configuration unreachable or in collision";

@@ -8,11 +8,16 @@ namespace slideplan
 {
     SlidingTask SlidingTask::make(std::shared_ptr<const RobotModel> robot, std::shared_ptr<const SupportSurface> table,
                                   std::vector<BoxObstacle> obstacles, std::vector<std::string> contactLinks,
+                                  std::string graspLink, const Eigen::Isometry3d &graspOffset,
                                   const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
                                   const Eigen::Vector2d &objectCom)
     {
         if (!robot || !table)
             throw std::invalid_argument("a robot and a table are required");
+        if (robot->linkIndex(graspLink) < 0)
+            throw std::invalid_argument("[hand] grasp_link '" + graspLink + "' is not a link of the robot");
+        if (!graspOffset.matrix().allFinite())
+            throw std::invalid_argument("[hand] grasp_offset is not finite");
         if (objectPoints.rows() < 3)
             throw std::invalid_argument("object point cloud needs at least 3 points, got " +
                                         std::to_string(objectPoints.rows()));
@@ -23,6 +28,8 @@ namespace slideplan
         task.table = std::move(table);
         task.obstacles = std::move(obstacles);
         task.contactLinks = std::move(contactLinks);
+        task.graspLink = std::move(graspLink);
+        task.graspOffset = graspOffset;
         task.objectXY = objectPoints.leftCols<2>();
         task.surfaceZ = objectPoints.col(2).mean();
         task.objectCom = objectCom;

@@ -27,7 +27,6 @@ from .transforms import homogeneous, pose_to_row, rotation_from_rpy, yawed_pose
 PLANNERS = ("slideplan", "cbirrt", "cbirrt2")
 PLAN_SCHEMA = "slideplan.plan/1"
 STATUSES = ("solved", "timeout", "invalid")
-GRASP_LINK = "t42_grasp"  # the hand's grasp frame in the bundled URDF (Z = approach axis)
 
 # Fields of PlannerConfig that must be > 0 (the others: beta0 and dz_min may be 0 or more).
 _POSITIVE_FIELDS = (
@@ -128,6 +127,22 @@ class PlannerConfig:
                 field="dz_max",
             )
 
+    @classmethod
+    def for_scene(cls, scene: Scene, **overrides) -> PlannerConfig:
+        """The config for a scene: built-in defaults, then the hand's ``[hand] params``, then ``overrides``.
+
+        Args:
+            scene: the scene whose hand gives parameter defaults.
+            **overrides: any field, e.g. ``seed=3, u_star=0.03``.
+
+        Raises:
+            InputError: an unknown field or a bad value, naming the field.
+        """
+        unknown = sorted(set(overrides) - {item.name for item in dataclasses.fields(cls)})
+        if unknown:
+            raise InputError(f"unknown planner parameter(s) {unknown}", field="param")
+        return cls(**{**scene.hand.params, **overrides})
+
     @property
     def reconfiguration_range(self) -> float:
         """``Delta_Z^* = dz_max - dz_min`` (m), the paper's reconfiguration range."""
@@ -185,8 +200,8 @@ class PlanResult:
         table: ``{"polygon": (n, 2) array, "height": float}``.
         object: ``{"name": str, "thickness": float, "points": (N, 3) array (input cloud, world
             frame), "com_xy": (2,) array}``.
-        robot: ``{"urdf": str, "base_pose": (4, 4) array, "tip_link": str, "grasp_link": str,
-            "contact_links": [str]}``.
+        robot: :func:`robot_description` of the scene: URDF, mount, chain, held joints, contact
+            and grasp frames (4x4 offsets), contact links.
         obstacles: the scene's boxes, ``[{"center": (3,) array, "size": (3,) array, "yaw": float}]``
             (not in DESIGN.md's field list, but a collision re-check needs them).
         object_motion: ``{"x", "y", "yaw"}``: ``p' = R(yaw) p + (x, y)`` moves the object
@@ -282,7 +297,7 @@ class PlanResult:
                     "points": _array(data["object"]["points"], 3),
                     "com_xy": _array(data["object"]["com_xy"]),
                 },
-                robot={**data["robot"], "base_pose": _array(data["robot"]["base_pose"], 4)},
+                robot=_robot_block(data["robot"]),
                 obstacles=[
                     {**box, "center": _array(box["center"]), "size": _array(box["size"])} for box in data["obstacles"]
                 ],
@@ -316,6 +331,15 @@ class PlanResult:
         except json.JSONDecodeError as error:
             raise InputError(f"invalid JSON ({error})") from None
         return cls.from_dict(data)
+
+
+def _robot_block(robot: dict[str, Any]) -> dict[str, Any]:
+    """A plan's robot block with 4x4 arrays; plans written before [hand] existed get its defaults."""
+    identity = np.eye(4)
+    block = {"base_link": "", "fixed_joints": {}, "package_dirs": [], "tip_offset": identity, "grasp_offset": identity, **robot}
+    for key in ("base_pose", "tip_offset", "grasp_offset"):
+        block[key] = _array(block[key], 4)
+    return block
 
 
 def _to_plain(value: Any) -> Any:
@@ -355,28 +379,68 @@ def base_pose_matrix(base_pose) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=16)
-def _cached_robot(urdf_path: str, base_pose: tuple[float, ...], tip_link: str):
+def _cached_robot(urdf_path: str, base_pose: tuple, base_link: str, tip_link: str, tip_offset: tuple,
+                  fixed_joints: tuple, package_dirs: tuple):
     from . import _core
 
-    return _core.RobotModel(urdf_path, tip_link=tip_link, base_pose=base_pose_matrix(base_pose))
+    return _core.RobotModel(
+        urdf_path,
+        tip_link=tip_link,
+        base_pose=base_pose_matrix(base_pose),
+        base_link=base_link,
+        tip_offset=base_pose_matrix(tip_offset),
+        fixed_joints=dict(fixed_joints),
+        package_dirs=list(package_dirs),
+    )
+
+
+def robot_description(scene: Scene) -> dict[str, Any]:
+    """The robot and hand keys of a scene as stored in the plan JSON's ``robot`` block.
+
+    Returns:
+        ``{"urdf", "base_pose" (4x4), "base_link", "fixed_joints", "package_dirs", "tip_link",
+        "tip_offset" (4x4), "grasp_link", "grasp_offset" (4x4), "contact_links"}``.
+    """
+    return {
+        "urdf": str(scene.urdf_path),
+        "base_pose": base_pose_matrix(scene.base_pose),
+        "base_link": scene.base_link,
+        "fixed_joints": dict(scene.fixed_joints),
+        "package_dirs": [str(path) for path in scene.package_dirs],
+        "tip_link": scene.hand.tip_link,
+        "tip_offset": base_pose_matrix(scene.hand.tip_offset),
+        "grasp_link": scene.hand.grasp_link,
+        "grasp_offset": base_pose_matrix(scene.hand.grasp_offset),
+        "contact_links": list(scene.hand.contact_links),
+    }
 
 
 def robot_model(scene: Scene):
-    """Return the C++ robot model of a scene, cached: parsing the URDF is not free.
+    """Return the C++ robot model of a scene, cached: parsing the URDF and its meshes is not free.
+
+    The model is immutable, so plans in any number of threads share it (DESIGN.md 9).
 
     Args:
-        scene: the scene (its URDF, base pose and tip link key the cache).
+        scene: the scene (its URDF, mount, chain, held joints and contact frame key the cache).
 
     Returns:
-        ``_core.RobotModel`` (shared: do not mutate).
+        ``_core.RobotModel``.
 
     Raises:
-        InputError: naming the URDF file, if it cannot be loaded or lacks the tip link.
+        InputError: naming the URDF file and the key, if it cannot be loaded.
     """
     try:
-        return _cached_robot(str(scene.urdf_path), tuple(float(v) for v in scene.base_pose), scene.tip_link)
+        return _cached_robot(
+            str(scene.urdf_path),
+            tuple(float(v) for v in scene.base_pose),
+            scene.base_link,
+            scene.hand.tip_link,
+            tuple(float(v) for v in scene.hand.tip_offset),
+            tuple(sorted(scene.fixed_joints.items())),
+            tuple(str(path) for path in scene.package_dirs),
+        )
     except (ValueError, RuntimeError) as error:
-        raise InputError(f"cannot load robot ({error})", source=str(scene.urdf_path), field="robot") from None
+        raise InputError(f"cannot load robot ({error})", source=scene.source or str(scene.urdf_path), field="robot") from None
 
 
 def _box_obstacles(scene: Scene) -> list:
@@ -395,7 +459,8 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> 
     Args:
         scene: table, robot and obstacles.
         obj: the thin object, lying on the scene's table.
-        config: planner parameters, seed, time limit and planner (default: :class:`PlannerConfig()`).
+        config: planner parameters, seed, time limit and planner (default:
+            :meth:`PlannerConfig.for_scene`, the hand's defaults).
 
     Returns:
         The result; ``status`` is ``"solved"`` or ``"timeout"``. The planner does not run
@@ -408,7 +473,7 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> 
     """
     from . import _core
 
-    config = config or PlannerConfig()
+    config = config or PlannerConfig.for_scene(scene)
     robot = robot_model(scene)
     try:
         core_result = _core.plan_sliding(
@@ -421,7 +486,8 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> 
             params=config.to_params(),
             seed=config.seed,
             time_limit=config.time_limit_s,
-            grasp_link=GRASP_LINK,
+            grasp_link=scene.hand.grasp_link,
+            grasp_offset=base_pose_matrix(scene.hand.grasp_offset),
         )
     except ValueError as error:
         raise InputError(f"planner rejected the input: {error}", source=scene.source) from None
@@ -446,13 +512,7 @@ def _wrap_core_result(core_result, scene: Scene, obj: ThinObject, config: Planne
             "points": np.array(obj.points, dtype=float),
             "com_xy": np.array(obj.centroid_xy, dtype=float),
         },
-        robot={
-            "urdf": str(scene.urdf_path),
-            "base_pose": base_pose_matrix(scene.base_pose),
-            "tip_link": scene.tip_link,
-            "grasp_link": GRASP_LINK,
-            "contact_links": list(scene.contact_links),
-        },
+        robot=robot_description(scene),
         obstacles=[
             {"center": np.array(box.center, dtype=float), "size": np.array(box.size, dtype=float), "yaw": float(box.yaw)}
             for box in scene.obstacles

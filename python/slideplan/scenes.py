@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import site
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -12,14 +16,16 @@ from .errors import InputError
 from .geometry import SupportSurface
 from .paths import data_dir, find_data_file
 
-DEFAULT_URDF_NAME = "wam_t42.urdf"
-DEFAULT_TIP_LINK = "fingertip_contact"
-DEFAULT_CONTACT_LINKS = ("t42_finger1_proximal", "t42_finger1_distal")
+# Planner parameters a hand may give defaults for ([hand] params).
+HAND_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "grasp_lift", "grasp_backoff")
+ROBOT_KEYS = {"urdf", "base_pose", "base_link", "fixed_joints", "package_dirs"}
+LEGACY_HAND_KEYS = ("tip_link", "contact_links")  # once in [robot], now in [hand]; still read there
+HAND_KEYS = {"tip_link", "tip_offset", "grasp_link", "grasp_offset", "contact_links", "params"}
 
 
-def default_urdf_path() -> Path:
-    """Return the bundled WAM + T42 URDF, ``data/robots/wam_t42.urdf``."""
-    return data_dir() / "robots" / DEFAULT_URDF_NAME
+def default_robot_file() -> Path:
+    """The robot and hand of scenes that do not describe their own: ``data/robots/default.toml``."""
+    return data_dir() / "robots" / "default.toml"
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,6 +43,31 @@ class BoxObstacle:
     yaw: float = 0.0
 
 
+@dataclass(frozen=True, eq=False)
+class Hand:
+    """The hand: which frames touch, grasp and may penetrate (DESIGN.md 3 and 5, ``[hand]``).
+
+    Attributes:
+        tip_link: the link carrying the contact frame ``F``.
+        tip_offset: (6,) ``F`` in that link's frame: x, y, z, roll, pitch, yaw (m, rad; URDF rpy).
+            ``X_F`` is the contact line, ``Z_F`` points from the fingertip into the object.
+        grasp_link: the link carrying the grasp frame ``H_g``.
+        grasp_offset: (6,) ``H_g`` in that link's frame; ``z`` is the approach direction and ``y``
+            the fingers' closing axis.
+        contact_links: links that may touch (virtually penetrate) the table and the object while
+            sliding: the compliant finger.
+        params: this hand's planner parameter defaults (``beta0``, ``dz_min``, ``dz_max``,
+            ``u_star``, ...), below any parameter the user sets.
+    """
+
+    tip_link: str
+    tip_offset: np.ndarray
+    grasp_link: str
+    grasp_offset: np.ndarray
+    contact_links: tuple[str, ...]
+    params: dict[str, float] = field(default_factory=dict)
+
+
 @dataclass(eq=False)
 class Scene:
     """Everything about the world the planner needs besides the object.
@@ -45,22 +76,36 @@ class Scene:
         name: a label (the file name without suffix for loaded scenes).
         table: the support surface.
         urdf_path: the robot description.
-        base_pose: (6,) robot base pose in the world: x, y, z, roll, pitch, yaw (m, rad).
-        tip_link: the URDF link whose frame is the fingertip contact frame ``F``.
-        contact_links: finger links allowed to penetrate the table and object (the
-            virtual penetration that stands for the finger's compliance).
+        base_pose: (6,) world pose of the URDF root link: x, y, z, roll, pitch, yaw (m, rad).
+        base_link: root of the planned chain ("" : the URDF root); joints above it are held.
+        fixed_joints: joints off the planned chain held at a value (m or rad); mimic joints follow.
+            Other joints off the chain are held at 0 (clamped into their limits).
+        package_dirs: where ``package://NAME/...`` resolves (see :func:`package_search_dirs`).
+        hand: the contact and grasp frames and the contact links.
         obstacles: boxes to avoid.
         source: the file the scene was read from ("" if built in code).
     """
 
     name: str
     table: SupportSurface
-    urdf_path: Path = field(default_factory=default_urdf_path)
-    base_pose: np.ndarray = field(default_factory=lambda: np.zeros(6))
-    tip_link: str = DEFAULT_TIP_LINK
-    contact_links: tuple[str, ...] = DEFAULT_CONTACT_LINKS
+    urdf_path: Path
+    base_pose: np.ndarray
+    hand: Hand
+    base_link: str = ""
+    fixed_joints: dict[str, float] = field(default_factory=dict)
+    package_dirs: tuple[Path, ...] = ()
     obstacles: tuple[BoxObstacle, ...] = ()
     source: str = ""
+
+    @property
+    def tip_link(self) -> str:
+        """The link of the contact frame (``hand.tip_link``)."""
+        return self.hand.tip_link
+
+    @property
+    def contact_links(self) -> tuple[str, ...]:
+        """The links that may touch table and object while sliding (``hand.contact_links``)."""
+        return self.hand.contact_links
 
     @classmethod
     def default(cls) -> Scene:
@@ -84,10 +129,35 @@ def _read_table(fields: Fields) -> SupportSurface:
     return SupportSurface.circle(circle.numbers("center", 2), circle.number("radius", positive=True), points, height)
 
 
-def _resolve_urdf(robot: Fields, scene_dir: Path) -> Path:
-    if not robot.has("urdf"):
-        return default_urdf_path()
-    urdf = Path(robot.string("urdf"))
+def package_search_dirs(extra=()) -> tuple[Path, ...]:
+    """Where ``package://NAME/...`` URIs resolve, first match wins.
+
+    Args:
+        extra: the scene's ``package_dirs`` (already absolute).
+
+    Returns:
+        ``extra``, then each entry of ``ROS_PACKAGE_PATH``, then the ``share`` directories of
+        installed Python packages (``<prefix>/share`` and ``<site-packages>/cmeel.prefix/share``,
+        where e.g. ``example-robot-data`` installs), then the site-packages directories
+        themselves. Only existing directories are kept.
+    """
+    ros = [Path(entry) for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if entry]
+    sites = [Path(entry) for entry in [*site.getsitepackages(), site.getusersitepackages(), *sys.path] if entry]
+    shares = [Path(sys.prefix) / "share", *(entry / "cmeel.prefix" / "share" for entry in sites)]
+    ordered = dict.fromkeys(path for path in [*extra, *ros, *shares, *sites] if path.is_dir())
+    return tuple(ordered)
+
+
+def _resolve_urdf(robot: Fields, scene_dir: Path, package_dirs: tuple[Path, ...]) -> Path:
+    from . import _core
+
+    text = robot.string("urdf")
+    if text.startswith("package://"):
+        try:
+            return Path(_core.resolve_uri(text, str(scene_dir), [str(path) for path in package_dirs]))
+        except ValueError as error:
+            raise InputError(str(error), source=robot.source, field=robot.field("urdf")) from None
+    urdf = Path(text)
     candidates = [urdf] if urdf.is_absolute() else [scene_dir / urdf, data_dir() / "robots" / urdf]
     for candidate in candidates:
         if candidate.is_file():
@@ -106,6 +176,67 @@ def _read_obstacle(obstacle: Fields) -> BoxObstacle:
     return BoxObstacle(obstacle.numbers("center", 3), size, obstacle.number("yaw", 0.0))
 
 
+def _read_offset(fields: Fields, key: str) -> np.ndarray:
+    """An ``[x, y, z, roll, pitch, yaw]`` offset (default: identity)."""
+    return fields.numbers(key, 6, np.zeros(6))
+
+
+def _read_fixed_joints(robot: Fields) -> dict[str, float]:
+    joints = robot.raw("fixed_joints", {})
+    if not isinstance(joints, dict):
+        raise InputError(f"expected a table of joint = value, got {joints!r}", source=robot.source, field=robot.field("fixed_joints"))
+    values = Fields(joints, source=robot.source, prefix=robot.field("fixed_joints"), allowed=set(joints))
+    return {name: values.number(name) for name in joints}
+
+
+def _read_package_dirs(robot: Fields, scene_dir: Path) -> tuple[Path, ...]:
+    if not robot.has("package_dirs"):
+        return ()
+    dirs = tuple(scene_dir / entry for entry in robot.strings("package_dirs"))
+    for entry in dirs:
+        if not entry.is_dir():
+            raise InputError(f"no such directory: {entry}", source=robot.source, field=robot.field("package_dirs"))
+    return dirs
+
+
+def _read_hand(hand: Fields) -> Hand:
+    params = hand.table("params", allowed=set(HAND_PARAMS))
+    return Hand(
+        tip_link=hand.string("tip_link"),
+        tip_offset=_read_offset(hand, "tip_offset"),
+        grasp_link=hand.string("grasp_link"),
+        grasp_offset=_read_offset(hand, "grasp_offset"),
+        contact_links=hand.strings("contact_links"),
+        params={name: params.number(name) for name in HAND_PARAMS if params and params.has(name)},
+    )
+
+
+def _robot_and_hand(fields: Fields) -> tuple[Fields, Fields]:
+    """The scene's [robot] and [hand], completed from data/robots/default.toml.
+
+    A scene that names no URDF gets the default robot and hand, key by key under its own; a scene
+    with its own URDF describes its own hand. The older ``[robot] tip_link / contact_links`` are
+    read as [hand] keys.
+    """
+    given = fields.table("robot", allowed=ROBOT_KEYS | set(LEGACY_HAND_KEYS))  # a table without unknown keys
+    fields.table("hand", allowed=HAND_KEYS)
+    robot, hand = dict(fields.raw("robot", {})), dict(fields.raw("hand", {}))
+    for key in LEGACY_HAND_KEYS:
+        if key in robot:
+            (given.string if key == "tip_link" else given.strings)(key)  # errors name [robot], where it is written
+            if key in hand:
+                raise InputError("given in both [robot] and [hand]; keep the [hand] one", source=fields.source, field=f"robot.{key}")
+            hand[key] = robot.pop(key)
+    if "urdf" not in robot:
+        defaults = read_toml(default_robot_file())
+        robot = {**defaults["robot"], **robot}
+        hand = {**defaults["hand"], **hand}
+    return (
+        Fields(robot, source=fields.source, prefix="robot", allowed=ROBOT_KEYS),
+        Fields(hand, source=fields.source, prefix="hand", allowed=HAND_KEYS),
+    )
+
+
 def load_scene(name_or_path: str | Path) -> Scene:
     """Read a scene file.
 
@@ -115,10 +246,19 @@ def load_scene(name_or_path: str | Path) -> Scene:
         polygon = [[x, y], ...]          # or: circle = { center = [x, y], radius = r, points = 100 }
         height = 0.0                     # optional, z of the table top
         [robot]                          # optional
-        urdf = "wam_t42.urdf"            # relative to the scene file's directory, then data/robots/
-        base_pose = [x, y, z, roll, pitch, yaw]       # default all zero
+        urdf = "wam_t42.urdf"            # relative to the scene file's directory, then data/robots/;
+                                         # or package://NAME/... (see package_search_dirs)
+        package_dirs = ["share"]         # optional, relative to the scene file
+        base_pose = [x, y, z, roll, pitch, yaw]       # world pose of the URDF root, default all zero
+        base_link = "panda_link0"        # optional: root of the planned chain
+        fixed_joints = { panda_finger_joint1 = 0.02 } # optional: joints off the chain held at a value
+        [hand]                           # optional (see Hand)
         tip_link = "fingertip_contact"
+        tip_offset = [x, y, z, roll, pitch, yaw]      # optional
+        grasp_link = "t42_grasp"
+        grasp_offset = [x, y, z, roll, pitch, yaw]    # optional
         contact_links = ["t42_finger1_proximal", "t42_finger1_distal"]
+        params = { beta0 = 1.0, dz_min = 0.005, dz_max = 0.025, u_star = 0.02 }   # optional
         [[obstacles]]                    # optional, repeatable
         center = [x, y, z]
         size = [sx, sy, sz]              # full extents
@@ -136,18 +276,20 @@ def load_scene(name_or_path: str | Path) -> Scene:
             bad TOML, or any unknown, missing or mistyped field.
     """
     path = find_data_file(name_or_path, "scenes")
-    fields = Fields(read_toml(path), source=str(path), allowed={"table", "robot", "obstacles"})
+    fields = Fields(read_toml(path), source=str(path), allowed={"table", "robot", "hand", "obstacles"})
     table = _read_table(fields)
-    robot = fields.table("robot", allowed={"urdf", "base_pose", "tip_link", "contact_links"})
-    robot = robot or Fields({}, source=fields.source, prefix="robot", allowed=set())
+    robot, hand = _robot_and_hand(fields)
     obstacles = fields.array_of_tables("obstacles", allowed={"center", "size", "yaw"})
+    package_dirs = package_search_dirs(_read_package_dirs(robot, path.parent))
     return Scene(
         name=path.stem,
         table=table,
-        urdf_path=_resolve_urdf(robot, path.parent),
+        urdf_path=_resolve_urdf(robot, path.parent, package_dirs),
         base_pose=robot.numbers("base_pose", 6, np.zeros(6)),
-        tip_link=robot.string("tip_link", DEFAULT_TIP_LINK),
-        contact_links=robot.strings("contact_links", DEFAULT_CONTACT_LINKS),
+        base_link=robot.string("base_link") if robot.has("base_link") else "",
+        fixed_joints=_read_fixed_joints(robot),
+        package_dirs=package_dirs,
+        hand=_read_hand(hand),
         obstacles=tuple(_read_obstacle(obstacle) for obstacle in obstacles),
         source=str(path),
     )

@@ -110,8 +110,15 @@ def _rebuild_world(result: PlanResult) -> _PlanWorld:
     """Load the plan's robot and build its table and collision world (sliding: no object)."""
     from . import _core
 
+    description = result.robot
     robot = _core.RobotModel(
-        str(result.robot["urdf"]), tip_link=result.robot["tip_link"], base_pose=np.asarray(result.robot["base_pose"])
+        str(description["urdf"]),
+        tip_link=description["tip_link"],
+        base_pose=np.asarray(description["base_pose"]),
+        base_link=description["base_link"],
+        tip_offset=np.asarray(description["tip_offset"]),
+        fixed_joints=dict(description["fixed_joints"]),
+        package_dirs=list(description["package_dirs"]),
     )
     polygon = np.asarray(result.table["polygon"], dtype=float)
     height = float(result.table["height"])
@@ -394,7 +401,7 @@ def check_grasp(result: PlanResult, world: _PlanWorld) -> list[str]:
     config = np.asarray(result.grasp["config"])
     approach = np.asarray(result.grasp["approach"])
     grasp_link = result.robot["grasp_link"]
-    pose = np.asarray(world.robot.link_pose(config, grasp_link))
+    pose = np.asarray(world.robot.frame_pose(config, grasp_link, np.asarray(result.robot["grasp_offset"])))
     mismatch = _pose_mismatch(pose, row_to_pose(result.grasp["pose"]))
     if mismatch:
         violations.append(f"grasp.pose: forward kinematics of {grasp_link} at grasp.config differs by {mismatch}")

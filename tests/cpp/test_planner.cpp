@@ -13,6 +13,7 @@ using slideplan::testing::wamT42;
 namespace
 {
     const std::vector<std::string> kContactLinks{"t42_finger1_proximal", "t42_finger1_distal"};
+    const std::string kGraspLink = "t42_grasp";
     constexpr double kThickness = 0.004;
 
     /// A 10 cm square plate centred at `centre`, sampled on a 1 cm grid that includes its border.
@@ -28,7 +29,7 @@ namespace
     std::shared_ptr<SlidingTask> plateTask(const Eigen::Vector2d &centre)
     {
         return std::make_shared<SlidingTask>(SlidingTask::make(wamT42(), std::make_shared<SupportSurface>(squareTable()),
-                                                               {}, kContactLinks, squarePlate(centre), centre));
+                                                               {}, kContactLinks, kGraspLink, Eigen::Isometry3d::Identity(), squarePlate(centre), centre));
     }
 
     /// A sliding configuration with the fingertip at (x, y), yaw 0, pitch beta0, depth in the band.
@@ -228,7 +229,7 @@ TEST(SlidingPlanner, PlansInThreadsEqualTheirSequentialTwins)
     std::vector<std::shared_ptr<const SlidingTask>> tasks;
     for (const auto &centre : centres)
         tasks.push_back(std::make_shared<SlidingTask>(SlidingTask::make(
-            robot, std::make_shared<SupportSurface>(squareTable()), {}, kContactLinks, squarePlate(centre), centre)));
+            robot, std::make_shared<SupportSurface>(squareTable()), {}, kContactLinks, kGraspLink, Eigen::Isometry3d::Identity(), squarePlate(centre), centre)));
     PlannerParams params;
     constexpr int kRuns = 3;
     std::vector<std::vector<PlanResult>> sequential(tasks.size()), threaded(tasks.size());
@@ -318,7 +319,7 @@ TEST(SlidingPlanner, RejectsBadInput)
     Polygon2 far(4, 2);
     far << 3.0, -0.3, 3.6, -0.3, 3.6, 0.3, 3.0, 0.3;
     const auto unreachable = std::make_shared<SlidingTask>(SlidingTask::make(
-        wamT42(), std::make_shared<SupportSurface>(far, 0.0), {}, kContactLinks, squarePlate({3.3, 0.0}), {3.3, 0.0}));
+        wamT42(), std::make_shared<SupportSurface>(far, 0.0), {}, kContactLinks, kGraspLink, Eigen::Isometry3d::Identity(), squarePlate({3.3, 0.0}), {3.3, 0.0}));
     try
     {
         planSliding(unreachable, PlannerParams(), 1, within(1.0));

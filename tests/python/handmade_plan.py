@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from slideplan import _core
-from slideplan.planning import PlannerConfig, PlanResult, base_pose_matrix, robot_model
+from slideplan.planning import PlannerConfig, PlanResult, robot_description, robot_model
 from slideplan.scenes import load_scene
 from slideplan.transforms import pose_to_row
 
@@ -82,13 +82,7 @@ def build_plan() -> PlanResult:
         params=params,
         table={"polygon": np.array(scene.table.vertices), "height": 0.0},
         object={"name": "plate", "thickness": THICKNESS, "points": points, "com_xy": points[:, :2].mean(axis=0)},
-        robot={
-            "urdf": str(scene.urdf_path),
-            "base_pose": base_pose_matrix(scene.base_pose),
-            "tip_link": scene.tip_link,
-            "grasp_link": "t42_grasp",
-            "contact_links": list(scene.contact_links),
-        },
+        robot=robot_description(scene),
         obstacles=[],
         object_motion={"x": float(motion_xy[0]), "y": float(motion_xy[1]), "yaw": float(yaw)},
         overhang_m=float(moved[:, 0].max() - TABLE_EDGE_X),

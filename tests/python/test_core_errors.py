@@ -22,7 +22,7 @@ def test_missing_urdf_names_the_file(tmp_path):
 
 
 def test_missing_contact_frame_is_named():
-    with pytest.raises(ValueError, match="tip link 'no_fingertip' is not a link"):
+    with pytest.raises(ValueError, match=r"\[hand\] tip_link 'no_fingertip' is not a link"):
         _core.RobotModel(URDF, tip_link="no_fingertip")
 
 
@@ -35,7 +35,8 @@ def test_scene_with_a_malformed_urdf_fails_cleanly_when_planning(tmp_path):
     (tmp_path / "bad.urdf").write_text("<robot name='x'>")
     scene_file = tmp_path / "scene.toml"
     scene_file.write_text('[table]\npolygon = [[0.3, -0.2], [0.7, -0.2], [0.7, 0.2], [0.3, 0.2]]\n'
-                          '[robot]\nurdf = "bad.urdf"\nbase_pose = [0, 0, 0.2, 0, 0, 0]\n')
+                          '[robot]\nurdf = "bad.urdf"\nbase_pose = [0, 0, 0.2, 0, 0, 0]\n'
+                          '[hand]\ntip_link = "a"\ngrasp_link = "a"\ncontact_links = ["a"]\n')
     scene = load_scene(scene_file)
     obj = load_object("square", table_height=0.0, pose=(0.5, 0.0, 0.0))
     with pytest.raises(InputError, match="bad.urdf"):
@@ -71,7 +72,7 @@ def test_bad_clouds_reaching_the_planner_raise(points, message):
     table = _core.SupportSurface(np.array([[0.3, -0.2], [0.7, -0.2], [0.7, 0.2], [0.3, 0.2]]), 0.0)
     com = np.nan_to_num(points[:, :2].mean(axis=0)) if len(points) else np.zeros(2)
     with pytest.raises(ValueError, match=message):
-        _core.plan_sliding(robot, table, [], [], points, com, _core.PlannerParams(), 0, 1.0)
+        _core.plan_sliding(robot, table, [], [], points, com, _core.PlannerParams(), 0, 1.0, "t42_grasp")
 
 
 @pytest.mark.parametrize("time_limit", [0.0, -1.0, float("nan")])
@@ -80,7 +81,7 @@ def test_non_positive_time_limit_is_rejected_by_the_core(time_limit):
     table = _core.SupportSurface(np.array([[0.3, -0.2], [0.7, -0.2], [0.7, 0.2], [0.3, 0.2]]), 0.0)
     points = np.array([[0.5, 0.0, 0.004], [0.51, 0.0, 0.004], [0.5, 0.01, 0.004]])
     with pytest.raises(ValueError, match="time limit"):
-        _core.plan_sliding(robot, table, [], [], points, points[:, :2].mean(axis=0), _core.PlannerParams(), 0, time_limit)
+        _core.plan_sliding(robot, table, [], [], points, points[:, :2].mean(axis=0), _core.PlannerParams(), 0, time_limit, "t42_grasp")
 
 
 def test_unreachable_ik_target_returns_none():

@@ -30,8 +30,13 @@ def make_plan(status="solved", waypoints=5, approach=3):
         robot={
             "urdf": "/some/robot.urdf",
             "base_pose": base_pose_matrix([0, 0, 0.3, 0.1, 0.2, 0.3]),
+            "base_link": "",
+            "fixed_joints": {"finger": 0.01},
+            "package_dirs": ["/some/share"],
             "tip_link": "fingertip_contact",
+            "tip_offset": base_pose_matrix([0, 0, 0.01, 0, 0, 0]),
             "grasp_link": "t42_grasp",
+            "grasp_offset": np.eye(4),
             "contact_links": ["a", "b"],
         },
         obstacles=[{"center": np.array([0.5, 0.3, 0.1]), "size": np.array([0.1, 0.1, 0.2]), "yaw": 0.4}],

@@ -56,6 +56,9 @@ urdf = "arm.urdf"
 base_pose = [0.1, 0.0, 1.0, 0.0, 0.0, 1.57]
 tip_link = "tip"
 contact_links = ["finger"]
+[hand]
+grasp_link = "palm"
+grasp_offset = [0.0, 0.0, 0.1, 0.0, 0.0, 0.0]
 [[obstacles]]
 center = [0.6, 0.2, 0.8]
 size = [0.1, 0.1, 0.16]
@@ -73,6 +76,8 @@ yaw = 0.5
     np.testing.assert_array_equal(scene.base_pose, [0.1, 0.0, 1.0, 0.0, 0.0, 1.57])
     assert scene.tip_link == "tip"
     assert scene.contact_links == ("finger",)
+    assert scene.hand.grasp_link == "palm"
+    np.testing.assert_array_equal(scene.hand.grasp_offset, [0.0, 0.0, 0.1, 0.0, 0.0, 0.0])
     assert len(scene.obstacles) == 2
     np.testing.assert_array_equal(scene.obstacles[1].size, [0.1, 0.2, 0.16])
     assert scene.obstacles[0].yaw == 0.0

@@ -18,17 +18,19 @@ namespace slideplan
         std::shared_ptr<const SupportSurface> table;
         std::vector<BoxObstacle> obstacles;
         std::vector<std::string> contactLinks;  ///< excluded from table/object collisions while sliding
-        std::string graspLink{"t42_grasp"};     ///< frame placed at H_g for the side grasp (Z = approach)
+        std::string graspLink;   ///< H_g = graspLink * graspOffset: z = approach, y = the fingers' closing axis
+        Eigen::Isometry3d graspOffset{Eigen::Isometry3d::Identity()};
         Polygon2 objectXY;       ///< P_o projected on the table plane, world frame
         double surfaceZ{0.0};    ///< z_s: top of the object = table height + thickness
         Eigen::Vector2d objectCom{Eigen::Vector2d::Zero()};  ///< centre of mass (uniform thin plate)
 
         /// Build from the N x 3 top-surface cloud; z_s is the mean z of the cloud.
-        /// \throws std::invalid_argument for an empty or non-finite cloud, a cloud below the table top,
+        /// \throws std::invalid_argument for an unknown grasp link, an empty or non-finite cloud, a cloud below the table top,
         ///         an object not wholly on the table, a centre of mass off the table, or a degenerate
         ///         footprint (collinear or coincident points).
         static SlidingTask make(std::shared_ptr<const RobotModel> robot, std::shared_ptr<const SupportSurface> table,
                                 std::vector<BoxObstacle> obstacles, std::vector<std::string> contactLinks,
+                                std::string graspLink, const Eigen::Isometry3d &graspOffset,
                                 const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
                                 const Eigen::Vector2d &objectCom);
 

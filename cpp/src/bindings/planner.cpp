@@ -37,15 +37,14 @@ namespace slideplan::bindings
         PlanResult plan(std::shared_ptr<const RobotModel> robot, const SupportSurface &table,
                         const std::vector<BoxObstacle> &obstacles, const std::vector<std::string> &contactLinks,
                         const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints, const Eigen::Vector2d &objectCom,
-                        const PlannerParams &params, std::uint64_t seed, double timeLimit, const std::string &graspLink)
+                        const PlannerParams &params, std::uint64_t seed, double timeLimit, const std::string &graspLink,
+                        const Eigen::Matrix4d &graspOffset)
         {
             if (!std::isfinite(timeLimit) || timeLimit <= 0.0)
                 throw std::invalid_argument("time limit must be a positive number of seconds, got " + std::to_string(timeLimit));
-            auto task = std::make_shared<SlidingTask>(SlidingTask::make(
-                robot, std::make_shared<SupportSurface>(table), obstacles, contactLinks, objectPoints, objectCom));
-            task->graspLink = graspLink;
-            if (robot->linkIndex(graspLink) < 0)
-                throw std::invalid_argument("grasp link '" + graspLink + "' is not a link of the robot");
+            auto task = std::make_shared<SlidingTask>(SlidingTask::make(robot, std::make_shared<SupportSurface>(table), obstacles,
+                                                                        contactLinks, graspLink, toIsometry(graspOffset),
+                                                                        objectPoints, objectCom));
 
             // The GIL is released while planning; every 100 ms the termination condition takes it back
             // briefly to let Python run its signal handlers, so Ctrl-C stops planning promptly.
@@ -144,9 +143,14 @@ namespace slideplan::bindings
 
         module.def("plan_sliding", &plan, py::arg("robot"), py::arg("table"), py::arg("obstacles"), py::arg("contact_links"),
                    py::arg("object_points"), py::arg("object_com_xy"), py::arg("params"), py::arg("seed"),
-                   py::arg("time_limit"), py::arg("grasp_link") = "t42_grasp",
-                   "Plan a pre-grasp sliding motion (Algorithm 1). Releases the GIL; Ctrl-C raises KeyboardInterrupt. "
-                   "Raises ValueError for bad input (object off the table, bad parameters, non-positive time limit).");
+                   py::arg("time_limit"), py::arg("grasp_link"), py::arg("grasp_offset") = Eigen::Matrix4d::Identity(),
+                   "Plan a pre-grasp sliding motion (Algorithm 1). Releases the GIL; Ctrl-C raises KeyboardInterrupt.\n\n"
+                   "robot: the shared, immutable RobotModel; table: SupportSurface Q; obstacles: BoxObstacle list; "
+                   "contact_links: links that may touch table and object while sliding; object_points: (N, 3) top-surface "
+                   "cloud P_o, world frame; object_com_xy: centre of mass; params: PlannerParams; seed: RNG seed; "
+                   "time_limit: seconds; grasp_link, grasp_offset (4x4): the grasp frame H_g = link * offset.\n"
+                   "Raises ValueError for bad input (object off the table or degenerate, bad parameters, non-positive "
+                   "time limit, unknown grasp link).");
         module.def(
             "can_add_root",
             [](int startRoots, int goalRoots, double nStar, std::uint64_t rngSeed, int draws) {

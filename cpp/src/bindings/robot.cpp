@@ -1,6 +1,11 @@
 #include "bindings.hpp"
 
+#include "slideplan/mesh.hpp"
 #include "slideplan/robot_model.hpp"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
@@ -20,19 +25,45 @@ namespace slideplan::bindings
 
         py::class_<RobotModel, std::shared_ptr<RobotModel>>(module, "RobotModel",
                                                             "A serial arm from a URDF (urdfdom + KDL).")
-            .def(py::init([](const std::string &path, const std::string &tipLink, const Eigen::Matrix4d &basePose) {
-                     return std::make_shared<RobotModel>(RobotModel::fromFile(path, tipLink, toIsometry(basePose)));
+            .def(py::init([](const std::string &path, const std::string &tipLink, const Eigen::Matrix4d &basePose,
+                             const std::string &baseLink, const Eigen::Matrix4d &tipOffset,
+                             const std::map<std::string, double> &fixedJoints, const std::vector<std::string> &packageDirs) {
+                     std::ifstream file(path);
+                     if (!file)
+                         throw std::invalid_argument(path + ": cannot open URDF file");
+                     std::stringstream text;
+                     text << file.rdbuf();
+                     RobotSpec spec;
+                     spec.urdf = text.str();
+                     spec.source = path;
+                     spec.directory = std::filesystem::path(path).parent_path().string();
+                     spec.packageDirs = packageDirs;
+                     spec.basePose = toIsometry(basePose);
+                     spec.baseLink = baseLink;
+                     spec.tipLink = tipLink;
+                     spec.tipOffset = toIsometry(tipOffset);
+                     spec.fixedJoints = fixedJoints;
+                     py::gil_scoped_release release;  // meshes may take a while to load
+                     return std::make_shared<RobotModel>(spec);
                  }),
                  py::arg("urdf_path"), py::arg("tip_link") = "fingertip_contact",
-                 py::arg("base_pose") = Eigen::Matrix4d::Identity(),
-                 "Load a URDF file; tip_link is the frame Gamma() moves; base_pose (4x4) places the root link.")
+                 py::arg("base_pose") = Eigen::Matrix4d::Identity(), py::arg("base_link") = "",
+                 py::arg("tip_offset") = Eigen::Matrix4d::Identity(), py::arg("fixed_joints") = std::map<std::string, double>(),
+                 py::arg("package_dirs") = std::vector<std::string>(),
+                 "Load a URDF file.\n\n"
+                 "urdf_path: the file (relative mesh names resolve next to it); tip_link, tip_offset (4x4): the contact "
+                 "frame F = tip_link * tip_offset moved by fk(); base_pose (4x4): world pose of the URDF root link; "
+                 "base_link: root of the planned chain ('' = URDF root); fixed_joints: joints off the chain held at a "
+                 "value (mimic joints follow); package_dirs: where package://NAME/... mesh URIs resolve.\n"
+                 "Raises ValueError naming the file and key for anything wrong.")
             .def_static(
                 "from_string",
                 [](const std::string &xml, const std::string &tipLink, const Eigen::Matrix4d &basePose) {
                     return std::make_shared<RobotModel>(xml, tipLink, toIsometry(basePose), "<string>");
                 },
                 py::arg("urdf_xml"), py::arg("tip_link") = "fingertip_contact",
-                py::arg("base_pose") = Eigen::Matrix4d::Identity(), "Build from URDF text.")
+                py::arg("base_pose") = Eigen::Matrix4d::Identity(),
+                "Build from URDF text (primitive collision geometry only: relative mesh names have no directory).")
             .def_property_readonly("dof", &RobotModel::dof, "Number of joints of the chain.")
             .def_property_readonly("joint_names", &RobotModel::jointNames, "Chain joint names, root to tip.")
             .def_property_readonly("lower_limits", &RobotModel::lowerLimits, "Lower joint limits.")
@@ -53,6 +84,15 @@ namespace slideplan::bindings
                      return robot.linkPose(q, link).matrix();
                  },
                  py::arg("q"), py::arg("link"), "World pose (4x4) of any link.")
+            .def(
+                "frame_pose",
+                [](const RobotModel &robot, const Eigen::VectorXd &q, const std::string &link, const Eigen::Matrix4d &offset) {
+                    return robot.framePose(q, link, toIsometry(offset)).matrix();
+                },
+                py::arg("q"), py::arg("link"), py::arg("offset") = Eigen::Matrix4d::Identity(),
+                "World pose (4x4) of link * offset (e.g. the grasp frame).")
+            .def_property_readonly("velocity_limits", &RobotModel::velocityLimits,
+                                   "URDF <limit velocity> of the chain joints (0 where the URDF gives none).")
             .def("jacobian", &RobotModel::jacobian, py::arg("q"),
                  "Geometric Jacobian (6 x dof) of the tip frame in the world frame: linear rows first.")
             .def(
@@ -81,5 +121,14 @@ namespace slideplan::bindings
                     return robot.randomConfiguration(rng);
                 },
                 py::arg("rng_seed"), "A uniformly random configuration within the joint limits.");
+
+        module.def(
+            "resolve_uri",
+            [](const std::string &uri, const std::string &directory, const std::vector<std::string> &packageDirs) {
+                return resolveMeshUri(uri, directory, packageDirs, uri);
+            },
+            py::arg("uri"), py::arg("directory"), py::arg("package_dirs"),
+            "The file a URDF URI names: package://NAME/rest in package_dirs (DIR/NAME/rest, or DIR/rest when DIR "
+            "is named NAME), file://, or relative to directory. Raises ValueError if it does not exist.");
     }
 }  // namespace slideplan::bindings
