@@ -242,17 +242,15 @@ namespace slideplan
             held[name] = value;
         }
 
-        // The chain: movable, non-mimic joints between the base link and the tip link.
+        // The chain: movable joints between the base link and the tip link, neither held nor mimic.
         std::map<std::string, int> chainJoint;
         for (auto it = base == 0 ? tipPath.begin() : std::next(baseOnPath); it != tipPath.end(); ++it)
         {
             const RobotLink &link = links_[*it];
             const urdf::JointConstSharedPtr joint = model->getJoint(link.jointName);
-            if (link.jointType == RobotLink::JointType::Fixed || joint->mimic)
+            // A held joint may lie between base and tip, e.g. the finger joint of a gripper pad.
+            if (link.jointType == RobotLink::JointType::Fixed || joint->mimic || held.count(link.jointName))
                 continue;
-            if (held.count(link.jointName))
-                throw std::invalid_argument(source + ": [robot] fixed_joints." + link.jointName +
-                                            ": the joint is on the planned chain from the base link to the tip link");
             const auto [lower, upper] = limits(*joint);
             chainJoint[link.jointName] = static_cast<int>(jointNames_.size());
             jointNames_.push_back(link.jointName);
@@ -262,6 +260,7 @@ namespace slideplan
             lower_(dof() - 1) = lower;
             upper_(dof() - 1) = upper;
             velocity_(dof() - 1) = joint->limits && std::isfinite(joint->limits->velocity) ? joint->limits->velocity : 0.0;
+            revolute_.push_back(link.jointType == RobotLink::JointType::Revolute);
         }
         if (dof() == 0)
             throw std::invalid_argument(source + ": no movable joint between the base link and '" + spec.tipLink + "'");
@@ -563,6 +562,18 @@ namespace slideplan
             }
             if (converged(error))
             {
+                // A revolute joint with more than a turn of range reaches the same pose at q and q +- 2 pi:
+                // return the turn nearest the seed (else nearest zero), so that solutions share a branch.
+                const bool seeded = seed.size() == q.size();
+                for (Eigen::Index j = 0; j < q.size(); ++j)
+                {
+                    if (!revolute_[static_cast<std::size_t>(j)] || upper_(j) - lower_(j) <= 2.0 * M_PI)
+                        continue;
+                    const double reference = seeded ? seed(j) : 0.0;
+                    const double nearest = reference + std::remainder(q(j) - reference, 2.0 * M_PI);
+                    if (nearest >= lower_(j) && nearest <= upper_(j))
+                        q(j) = nearest;
+                }
                 solution = q;
                 return true;
             }

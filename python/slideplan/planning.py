@@ -13,6 +13,8 @@ import functools
 import json
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
+from xml.etree import ElementTree
 from typing import Any
 
 import numpy as np
@@ -336,7 +338,8 @@ class PlanResult:
 def _robot_block(robot: dict[str, Any]) -> dict[str, Any]:
     """A plan's robot block with 4x4 arrays; plans written before [hand] existed get its defaults."""
     identity = np.eye(4)
-    block = {"base_link": "", "fixed_joints": {}, "package_dirs": [], "tip_offset": identity, "grasp_offset": identity, **robot}
+    block = {"attach": [], "base_link": "", "fixed_joints": {}, "package_dirs": [], "tip_offset": identity,
+             "grasp_offset": identity, **robot}
     for key in ("base_pose", "tip_offset", "grasp_offset"):
         block[key] = _array(block[key], 4)
     return block
@@ -378,31 +381,16 @@ def base_pose_matrix(base_pose) -> np.ndarray:
     return homogeneous(rotation_from_rpy(roll, pitch, yaw), (x, y, z))
 
 
-@functools.lru_cache(maxsize=16)
-def _cached_robot(urdf_path: str, base_pose: tuple, base_link: str, tip_link: str, tip_offset: tuple,
-                  fixed_joints: tuple, package_dirs: tuple):
-    from . import _core
-
-    return _core.RobotModel(
-        urdf_path,
-        tip_link=tip_link,
-        base_pose=base_pose_matrix(base_pose),
-        base_link=base_link,
-        tip_offset=base_pose_matrix(tip_offset),
-        fixed_joints=dict(fixed_joints),
-        package_dirs=list(package_dirs),
-    )
-
-
 def robot_description(scene: Scene) -> dict[str, Any]:
     """The robot and hand keys of a scene as stored in the plan JSON's ``robot`` block.
 
     Returns:
-        ``{"urdf", "base_pose" (4x4), "base_link", "fixed_joints", "package_dirs", "tip_link",
-        "tip_offset" (4x4), "grasp_link", "grasp_offset" (4x4), "contact_links"}``.
+        ``{"urdf", "attach", "base_pose" (4x4), "base_link", "fixed_joints", "package_dirs",
+        "tip_link", "tip_offset" (4x4), "grasp_link", "grasp_offset" (4x4), "contact_links"}``.
     """
     return {
         "urdf": str(scene.urdf_path),
+        "attach": [str(path) for path in scene.attach],
         "base_pose": base_pose_matrix(scene.base_pose),
         "base_link": scene.base_link,
         "fixed_joints": dict(scene.fixed_joints),
@@ -415,30 +403,86 @@ def robot_description(scene: Scene) -> dict[str, Any]:
     }
 
 
+def merge_urdf(urdf: Path, attach: list[Path]) -> str:
+    """The URDF text of ``urdf`` with the links and joints of every ``attach`` file appended.
+
+    Args:
+        urdf: the robot's URDF file.
+        attach: URDF files whose links and joints join the robot (e.g. a finger on the flange).
+
+    Raises:
+        ValueError: a file cannot be read or is not a ``<robot>`` document, naming it.
+    """
+
+    def root(path: Path) -> ElementTree.Element:
+        try:
+            element = ElementTree.parse(path).getroot()
+        except (OSError, ElementTree.ParseError) as error:
+            raise ValueError(f"{path}: cannot read URDF ({error})") from None
+        if element.tag != "robot":
+            raise ValueError(f"{path}: not a URDF (root element <{element.tag}>, expected <robot>)")
+        return element
+
+    if not attach:
+        try:
+            return urdf.read_text()
+        except OSError as error:
+            raise ValueError(f"{urdf}: cannot open URDF file ({error.strerror})") from None
+    robot = root(urdf)
+    for path in attach:
+        robot.extend(list(root(path)))
+    return ElementTree.tostring(robot, encoding="unicode")
+
+
+def build_robot(description: dict[str, Any]):
+    """Build the C++ robot model from a :func:`robot_description` (or a plan's ``robot`` block).
+
+    Args:
+        description: the robot block.
+
+    Returns:
+        ``_core.RobotModel``.
+
+    Raises:
+        ValueError: naming the file and the key, from the reader or the core.
+    """
+    from . import _core
+
+    urdf = Path(description["urdf"])
+    return _core.RobotModel.from_string(
+        merge_urdf(urdf, [Path(path) for path in description["attach"]]),
+        source=str(urdf),
+        directory=str(urdf.parent),
+        tip_link=description["tip_link"],
+        base_pose=np.asarray(description["base_pose"], dtype=float),
+        base_link=description["base_link"],
+        tip_offset=np.asarray(description["tip_offset"], dtype=float),
+        fixed_joints=dict(description["fixed_joints"]),
+        package_dirs=list(description["package_dirs"]),
+    )
+
+
+@functools.lru_cache(maxsize=16)
+def _cached_robot(key: str):
+    return build_robot(json.loads(key))
+
+
 def robot_model(scene: Scene):
     """Return the C++ robot model of a scene, cached: parsing the URDF and its meshes is not free.
 
     The model is immutable, so plans in any number of threads share it (DESIGN.md 9).
 
     Args:
-        scene: the scene (its URDF, mount, chain, held joints and contact frame key the cache).
+        scene: the scene (its robot and contact frame key the cache).
 
     Returns:
         ``_core.RobotModel``.
 
     Raises:
-        InputError: naming the URDF file and the key, if it cannot be loaded.
+        InputError: naming the file and the key, if it cannot be loaded.
     """
     try:
-        return _cached_robot(
-            str(scene.urdf_path),
-            tuple(float(v) for v in scene.base_pose),
-            scene.base_link,
-            scene.hand.tip_link,
-            tuple(float(v) for v in scene.hand.tip_offset),
-            tuple(sorted(scene.fixed_joints.items())),
-            tuple(str(path) for path in scene.package_dirs),
-        )
+        return _cached_robot(json.dumps(_to_plain(robot_description(scene)), sort_keys=True))
     except (ValueError, RuntimeError) as error:
         raise InputError(f"cannot load robot ({error})", source=scene.source or str(scene.urdf_path), field="robot") from None
 

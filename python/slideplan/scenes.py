@@ -18,7 +18,7 @@ from .paths import data_dir, find_data_file
 
 # Planner parameters a hand may give defaults for ([hand] params).
 HAND_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "grasp_lift", "grasp_backoff")
-ROBOT_KEYS = {"urdf", "base_pose", "base_link", "fixed_joints", "package_dirs"}
+ROBOT_KEYS = {"urdf", "attach", "base_pose", "base_link", "fixed_joints", "package_dirs"}
 LEGACY_HAND_KEYS = ("tip_link", "contact_links")  # once in [robot], now in [hand]; still read there
 HAND_KEYS = {"tip_link", "tip_offset", "grasp_link", "grasp_offset", "contact_links", "params"}
 
@@ -76,6 +76,7 @@ class Scene:
         name: a label (the file name without suffix for loaded scenes).
         table: the support surface.
         urdf_path: the robot description.
+        attach: URDF files whose links and joints join the robot's (e.g. a finger on a flange).
         base_pose: (6,) world pose of the URDF root link: x, y, z, roll, pitch, yaw (m, rad).
         base_link: root of the planned chain ("" : the URDF root); joints above it are held.
         fixed_joints: joints off the planned chain held at a value (m or rad); mimic joints follow.
@@ -91,6 +92,7 @@ class Scene:
     urdf_path: Path
     base_pose: np.ndarray
     hand: Hand
+    attach: tuple[Path, ...] = ()
     base_link: str = ""
     fixed_joints: dict[str, float] = field(default_factory=dict)
     package_dirs: tuple[Path, ...] = ()
@@ -148,24 +150,23 @@ def package_search_dirs(extra=()) -> tuple[Path, ...]:
     return tuple(ordered)
 
 
-def _resolve_urdf(robot: Fields, scene_dir: Path, package_dirs: tuple[Path, ...]) -> Path:
+def _resolve_robot_file(text: str, *, source: str, field: str, scene_dir: Path, package_dirs: tuple[Path, ...]) -> Path:
+    """A URDF named in a scene: ``package://NAME/...``, else a path relative to the scene's directory,
+    then to ``data/robots``."""
     from . import _core
 
-    text = robot.string("urdf")
     if text.startswith("package://"):
         try:
             return Path(_core.resolve_uri(text, str(scene_dir), [str(path) for path in package_dirs]))
         except ValueError as error:
-            raise InputError(str(error), source=robot.source, field=robot.field("urdf")) from None
+            raise InputError(str(error), source=source, field=field) from None
     urdf = Path(text)
     candidates = [urdf] if urdf.is_absolute() else [scene_dir / urdf, data_dir() / "robots" / urdf]
     for candidate in candidates:
         if candidate.is_file():
             return candidate
     raise InputError(
-        f"file not found (looked for {', '.join(str(candidate) for candidate in candidates)})",
-        source=robot.source,
-        field=robot.field("urdf"),
+        f"file not found (looked for {', '.join(str(candidate) for candidate in candidates)})", source=source, field=field
     )
 
 
@@ -248,6 +249,7 @@ def load_scene(name_or_path: str | Path) -> Scene:
         [robot]                          # optional
         urdf = "wam_t42.urdf"            # relative to the scene file's directory, then data/robots/;
                                          # or package://NAME/... (see package_search_dirs)
+        attach = ["finger.urdf"]         # optional: URDF files whose links and joints join the robot
         package_dirs = ["share"]         # optional, relative to the scene file
         base_pose = [x, y, z, roll, pitch, yaw]       # world pose of the URDF root, default all zero
         base_link = "panda_link0"        # optional: root of the planned chain
@@ -281,10 +283,16 @@ def load_scene(name_or_path: str | Path) -> Scene:
     robot, hand = _robot_and_hand(fields)
     obstacles = fields.array_of_tables("obstacles", allowed={"center", "size", "yaw"})
     package_dirs = package_search_dirs(_read_package_dirs(robot, path.parent))
+    attach = robot.strings("attach") if robot.has("attach") else ()
+
+    def resolve(text: str, field: str) -> Path:
+        return _resolve_robot_file(text, source=str(path), field=field, scene_dir=path.parent, package_dirs=package_dirs)
+
     return Scene(
         name=path.stem,
         table=table,
-        urdf_path=_resolve_urdf(robot, path.parent, package_dirs),
+        urdf_path=resolve(robot.string("urdf"), robot.field("urdf")),
+        attach=tuple(resolve(text, f"{robot.field('attach')}[{index}]") for index, text in enumerate(attach)),
         base_pose=robot.numbers("base_pose", 6, np.zeros(6)),
         base_link=robot.string("base_link") if robot.has("base_link") else "",
         fixed_joints=_read_fixed_joints(robot),

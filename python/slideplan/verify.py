@@ -20,6 +20,7 @@ import shapely
 from shapely.geometry import MultiPoint
 
 from .geometry import SupportSurface
+from .planning import build_robot
 from .transforms import rotation_angle_between, row_to_pose, wrap_angle, yawed_pose
 
 if TYPE_CHECKING:
@@ -110,16 +111,7 @@ def _rebuild_world(result: PlanResult) -> _PlanWorld:
     """Load the plan's robot and build its table and collision world (sliding: no object)."""
     from . import _core
 
-    description = result.robot
-    robot = _core.RobotModel(
-        str(description["urdf"]),
-        tip_link=description["tip_link"],
-        base_pose=np.asarray(description["base_pose"]),
-        base_link=description["base_link"],
-        tip_offset=np.asarray(description["tip_offset"]),
-        fixed_joints=dict(description["fixed_joints"]),
-        package_dirs=list(description["package_dirs"]),
-    )
+    robot = build_robot(result.robot)
     polygon = np.asarray(result.table["polygon"], dtype=float)
     height = float(result.table["height"])
     obstacles = [

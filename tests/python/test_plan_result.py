@@ -29,6 +29,7 @@ def make_plan(status="solved", waypoints=5, approach=3):
         object={"name": "x", "thickness": 0.004, "points": rng.uniform(0, 1, (10, 3)), "com_xy": np.array([0.5, 0.1])},
         robot={
             "urdf": "/some/robot.urdf",
+            "attach": ["/some/finger.urdf"],
             "base_pose": base_pose_matrix([0, 0, 0.3, 0.1, 0.2, 0.3]),
             "base_link": "",
             "fixed_joints": {"finger": 0.01},

@@ -79,7 +79,7 @@ namespace slideplan
         std::string baseLink;               ///< root of the planned chain ("": the URDF root)
         std::string tipLink;                ///< contact frame F = tipLink * tipOffset
         Eigen::Isometry3d tipOffset{Eigen::Isometry3d::Identity()};
-        std::map<std::string, double> fixedJoints;  ///< joints off the chain held at a value
+        std::map<std::string, double> fixedJoints;  ///< joints held at a value (off the planned chain)
     };
 
     /// Options of the damped-least-squares inverse kinematics.
@@ -188,6 +188,7 @@ namespace slideplan
         FramePath tip_;
         std::vector<std::string> jointNames_;
         Eigen::VectorXd lower_, upper_, velocity_;
+        std::vector<bool> revolute_;    ///< per chain joint
         std::vector<RobotLink> links_;  ///< topological order: parents before children
     };
 

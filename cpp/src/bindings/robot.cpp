@@ -14,6 +14,29 @@ namespace py = pybind11;
 
 namespace slideplan::bindings
 {
+    namespace
+    {
+        std::shared_ptr<RobotModel> makeRobot(const std::string &xml, const std::string &source, const std::string &directory,
+                                              const std::string &tipLink, const Eigen::Matrix4d &basePose,
+                                              const std::string &baseLink, const Eigen::Matrix4d &tipOffset,
+                                              const std::map<std::string, double> &fixedJoints,
+                                              const std::vector<std::string> &packageDirs)
+        {
+            RobotSpec spec;
+            spec.urdf = xml;
+            spec.source = source;
+            spec.directory = directory;
+            spec.packageDirs = packageDirs;
+            spec.basePose = toIsometry(basePose);
+            spec.baseLink = baseLink;
+            spec.tipLink = tipLink;
+            spec.tipOffset = toIsometry(tipOffset);
+            spec.fixedJoints = fixedJoints;
+            py::gil_scoped_release release;  // meshes may take a while to load
+            return std::make_shared<RobotModel>(spec);
+        }
+    }  // namespace
+
     void bindRobot(py::module_ &module)
     {
         py::class_<IkOptions>(module, "IkOptions", "Options of the damped-least-squares inverse kinematics.")
@@ -33,18 +56,8 @@ namespace slideplan::bindings
                          throw std::invalid_argument(path + ": cannot open URDF file");
                      std::stringstream text;
                      text << file.rdbuf();
-                     RobotSpec spec;
-                     spec.urdf = text.str();
-                     spec.source = path;
-                     spec.directory = std::filesystem::path(path).parent_path().string();
-                     spec.packageDirs = packageDirs;
-                     spec.basePose = toIsometry(basePose);
-                     spec.baseLink = baseLink;
-                     spec.tipLink = tipLink;
-                     spec.tipOffset = toIsometry(tipOffset);
-                     spec.fixedJoints = fixedJoints;
-                     py::gil_scoped_release release;  // meshes may take a while to load
-                     return std::make_shared<RobotModel>(spec);
+                     return makeRobot(text.str(), path, std::filesystem::path(path).parent_path().string(), tipLink,
+                                      basePose, baseLink, tipOffset, fixedJoints, packageDirs);
                  }),
                  py::arg("urdf_path"), py::arg("tip_link") = "fingertip_contact",
                  py::arg("base_pose") = Eigen::Matrix4d::Identity(), py::arg("base_link") = "",
@@ -53,17 +66,17 @@ namespace slideplan::bindings
                  "Load a URDF file.\n\n"
                  "urdf_path: the file (relative mesh names resolve next to it); tip_link, tip_offset (4x4): the contact "
                  "frame F = tip_link * tip_offset moved by fk(); base_pose (4x4): world pose of the URDF root link; "
-                 "base_link: root of the planned chain ('' = URDF root); fixed_joints: joints off the chain held at a "
-                 "value (mimic joints follow); package_dirs: where package://NAME/... mesh URIs resolve.\n"
+                 "base_link: root of the planned chain ('' = URDF root); fixed_joints: joints held at a value, off the "
+                 "planned chain (mimic joints follow); package_dirs: where package://NAME/... mesh URIs resolve.\n"
                  "Raises ValueError naming the file and key for anything wrong.")
-            .def_static(
-                "from_string",
-                [](const std::string &xml, const std::string &tipLink, const Eigen::Matrix4d &basePose) {
-                    return std::make_shared<RobotModel>(xml, tipLink, toIsometry(basePose), "<string>");
-                },
-                py::arg("urdf_xml"), py::arg("tip_link") = "fingertip_contact",
-                py::arg("base_pose") = Eigen::Matrix4d::Identity(),
-                "Build from URDF text (primitive collision geometry only: relative mesh names have no directory).")
+            .def_static("from_string", &makeRobot, py::arg("urdf_xml"), py::arg("source") = "<string>",
+                        py::arg("directory") = "", py::arg("tip_link") = "fingertip_contact",
+                        py::arg("base_pose") = Eigen::Matrix4d::Identity(), py::arg("base_link") = "",
+                        py::arg("tip_offset") = Eigen::Matrix4d::Identity(),
+                        py::arg("fixed_joints") = std::map<std::string, double>(),
+                        py::arg("package_dirs") = std::vector<std::string>(),
+                        "Build from URDF text: source names it in messages, directory is where relative mesh "
+                        "names resolve; the other arguments as for the constructor.")
             .def_property_readonly("dof", &RobotModel::dof, "Number of joints of the chain.")
             .def_property_readonly("joint_names", &RobotModel::jointNames, "Chain joint names, root to tip.")
             .def_property_readonly("lower_limits", &RobotModel::lowerLimits, "Lower joint limits.")
