@@ -51,14 +51,51 @@ def _fail(error: Exception) -> typer.Exit:
     return typer.Exit(EXIT_BAD_INPUT)
 
 
-def _config_from_options(seed: int, time_limit: float, reconfiguration_range: float | None, planner: str) -> PlannerConfig:
-    """Build the planner config, naming command-line options (not config fields) in errors."""
+def _parse_params(items: list[str]) -> dict:
+    """``NAME=VALUE`` strings as PlannerConfig fields, each value typed like the field's default.
+
+    Raises:
+        InputError: naming ``--param NAME``: no ``=``, an unknown name, or a value of the wrong type.
+    """
+    fields = {item.name: item for item in dataclasses.fields(PlannerConfig)}
+    params = {}
+    for item in items:
+        name, equals, text = item.partition("=")
+        name = name.strip()
+        if not equals:
+            raise InputError(f"expected NAME=VALUE, got {item!r}", field="--param")
+        if name not in fields:
+            raise InputError(f"unknown parameter (expected one of: {', '.join(sorted(fields))})", field=f"--param {name}")
+        default = fields[name].default
+        try:
+            if isinstance(default, bool):
+                if text.strip().lower() not in ("true", "false", "1", "0"):
+                    raise ValueError(text)
+                params[name] = text.strip().lower() in ("true", "1")
+            elif isinstance(default, int):
+                params[name] = int(text)
+            elif isinstance(default, float):
+                params[name] = float(text)
+            else:
+                params[name] = text
+        except ValueError:
+            raise InputError(f"expected a {type(default).__name__}, got {text!r}", field=f"--param {name}") from None
+    return params
+
+
+def _config_from_options(
+    scene: Scene, seed: int, time_limit: float, reconfiguration_range: float | None, planner: str, params: list[str]
+) -> PlannerConfig:
+    """Build the planner config: built-in defaults, the hand's, then the command line's, naming
+    command-line options (not config fields) in errors."""
+    overrides = _parse_params(params)
     try:
-        config = PlannerConfig(seed=seed, time_limit_s=time_limit, planner=planner)
+        config = PlannerConfig.for_scene(scene, **{"seed": seed, "time_limit_s": time_limit, "planner": planner, **overrides})
         if reconfiguration_range is not None:
             config = config.with_reconfiguration_range(reconfiguration_range)
     except InputError as error:
-        raise InputError(error.problem, field=_OPTION_OF_FIELD.get(error.field, error.field)) from None
+        option = _OPTION_OF_FIELD.get(error.field) if error.field not in overrides else f"--param {error.field}"
+        raise InputError(error.problem, field=option or error.field) from None
     return config
 
 
@@ -120,7 +157,9 @@ def _write_outputs(result: PlanResult, json_path: Path | None, png_path: Path | 
 
 @app.command("plan")
 def plan_command(
-    scene: str = typer.Option(..., "--scene", help="Built-in scene (square, round, triangle, long) or a scene TOML file."),
+    scene: str = typer.Option(
+        ..., "--scene", help="Built-in scene (square, round, triangle, long, panda_square, ...) or a scene TOML file."
+    ),
     object_spec: str = typer.Option(
         ..., "--object", help="Built-in object name, outline TOML, or point-cloud file (.ply/.npy/.csv, used where it lies)."
     ),
@@ -133,6 +172,10 @@ def plan_command(
         None, "--reconfiguration-range", help="dz_max - dz_min (m); default 0.02."
     ),
     planner: str = typer.Option("slideplan", "--planner", help=f"One of: {', '.join(PLANNERS)}."),
+    param: list[str] = typer.Option(
+        [], "--param", help="NAME=VALUE for any planner parameter (u_star, beta0, n_star, ...); repeatable; overrides "
+        "the hand's [hand] params and the built-in defaults."
+    ),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Write the plan JSON (slideplan.plan/1) here."),
     png_out: Optional[Path] = typer.Option(None, "--png", help="Write a top-down picture here (.png or .svg)."),
 ) -> None:
@@ -144,8 +187,8 @@ def plan_command(
     from .planning import plan
 
     try:
-        config = _config_from_options(seed, time_limit, reconfiguration_range, planner)
         task_scene, obj, sampled_pose = _load_task(scene, object_spec, pose, seed)
+        config = _config_from_options(task_scene, seed, time_limit, reconfiguration_range, planner, param)
         result = plan(task_scene, obj, config)
         if result.solved:
             result = _verify_and_mark(result)
@@ -169,7 +212,7 @@ def demo_command(
 
     try:
         scene, obj, _ = _load_task("square", "crescent", None, seed)
-        result = plan(scene, obj, PlannerConfig(seed=seed))
+        result = plan(scene, obj, PlannerConfig.for_scene(scene, seed=seed))
         if result.solved:
             result = _verify_and_mark(result)
         _write_outputs(result, out / "demo-plan.json", out / "demo-plan.png")

@@ -1,0 +1,251 @@
+"""Bring your own arm: mesh collision geometry, package:// URIs, the [hand] keys and their bad
+values, and the third-party robots of example-robot-data (Panda, UR5) planning out of the box."""
+
+from __future__ import annotations
+
+import math
+import struct
+from pathlib import Path
+from xml.etree import ElementTree
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from slideplan import PlannerConfig, _core, load_object, load_scene, plan, verify
+from slideplan.cli import app
+from slideplan.objects import load_outline, sample_pose_on_table
+from slideplan.planning import robot_model
+from slideplan.scenes import package_search_dirs
+
+TABLE = "[table]\npolygon = [[0.3, -0.2], [0.7, -0.2], [0.7, 0.2], [0.3, 0.2]]\n"
+
+
+def cube_triangles(half: float) -> tuple[np.ndarray, np.ndarray]:
+    """A cube of half-extent `half` centred at the origin: 8 vertices, 12 outward triangles."""
+    vertices = np.array([[x, y, z] for x in (-half, half) for y in (-half, half) for z in (-half, half)])
+    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                      [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    return vertices, faces
+
+
+def write_stl(path: Path, half: float) -> None:
+    vertices, faces = cube_triangles(half)
+    with open(path, "wb") as stream:
+        stream.write(b"\0" * 80 + struct.pack("<I", len(faces)))
+        for face in faces:
+            stream.write(struct.pack("<3f", 0, 0, 0))
+            for index in face:
+                stream.write(struct.pack("<3f", *vertices[index]))
+            stream.write(b"\0\0")
+
+
+def write_obj(path: Path, half: float) -> None:
+    vertices, faces = cube_triangles(half)
+    lines = [f"v {x} {y} {z}" for x, y, z in vertices] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def slider_urdf(mesh_uri: str, scale: str = "1 1 1") -> str:
+    """A prismatic joint moving a link, whose collision is the mesh, straight down along z."""
+    return f"""<robot name="slider">
+  <link name="base"/>
+  <link name="block"><collision><geometry><mesh filename="{mesh_uri}" scale="{scale}"/></geometry></collision></link>
+  <joint name="drop" type="prismatic"><parent link="base"/><child link="block"/><origin xyz="0.5 0 0.5"/>
+    <axis xyz="0 0 -1"/><limit lower="0" upper="1" effort="1" velocity="1"/></joint>
+</robot>"""
+
+
+def table_world(robot) -> _core.CollisionWorld:
+    table = _core.SupportSurface(np.array([[0.3, -0.2], [0.7, -0.2], [0.7, 0.2], [0.3, 0.2]]), 0.0)
+    return _core.CollisionWorld(robot, table)
+
+
+@pytest.mark.parametrize("writer, name", [(write_stl, "cube.stl"), (write_obj, "cube.obj")])
+def test_mesh_collision_geometry_is_loaded_scaled_and_checked(tmp_path, writer, name):
+    writer(tmp_path / name, 0.05)
+    urdf = tmp_path / "slider.urdf"
+    urdf.write_text(slider_urdf(name, scale="2 2 2"))  # a 20 cm cube, its centre 0.5 m above the table
+    robot = _core.RobotModel(str(urdf), tip_link="block")
+    world = table_world(robot)
+    # The cube's bottom is at 0.5 - q - 0.1: clear above 0.39 m of travel, touching the table below.
+    assert world.is_valid(np.array([0.38]))
+    assert not world.is_valid(np.array([0.42]))
+    assert world.collisions(np.array([0.42])) == [("block", "table")]
+
+
+def test_unscaled_mesh_keeps_its_size(tmp_path):
+    write_stl(tmp_path / "cube.stl", 0.05)
+    (tmp_path / "slider.urdf").write_text(slider_urdf("cube.stl"))
+    world = table_world(_core.RobotModel(str(tmp_path / "slider.urdf"), tip_link="block"))
+    assert world.is_valid(np.array([0.44])) and not world.is_valid(np.array([0.46]))
+
+
+def test_package_uris_resolve_in_a_parent_or_the_package_directory(tmp_path):
+    mesh = tmp_path / "share" / "my_robot" / "meshes" / "cube.stl"
+    mesh.parent.mkdir(parents=True)
+    write_stl(mesh, 0.05)
+    uri = "package://my_robot/meshes/cube.stl"
+    assert Path(_core.resolve_uri(uri, "", [str(tmp_path / "share")])) == mesh
+    assert Path(_core.resolve_uri(uri, "", [str(tmp_path / "share" / "my_robot")])) == mesh
+    with pytest.raises(ValueError, match="cannot resolve package 'my_robot'"):
+        _core.resolve_uri(uri, "", [str(tmp_path)])
+    (tmp_path / "slider.urdf").write_text(slider_urdf(uri))
+    robot = _core.RobotModel(str(tmp_path / "slider.urdf"), tip_link="block", package_dirs=[str(tmp_path / "share")])
+    assert not table_world(robot).is_valid(np.array([0.46]))
+
+
+def test_installed_python_packages_are_searched_for_package_uris():
+    resolved = _core.resolve_uri(
+        "package://example-robot-data/robots/panda_description/urdf/panda.urdf", "", [str(p) for p in package_search_dirs()]
+    )
+    assert Path(resolved).is_file()
+
+
+def test_scene_urdf_as_package_uri_with_relative_package_dirs(tmp_path):
+    share = tmp_path / "share" / "my_robot"
+    share.mkdir(parents=True)
+    write_stl(share / "cube.stl", 0.05)
+    (share / "slider.urdf").write_text(slider_urdf("package://my_robot/cube.stl"))
+    (tmp_path / "scene.toml").write_text(
+        TABLE + '[robot]\nurdf = "package://my_robot/slider.urdf"\npackage_dirs = ["share"]\n'
+        '[hand]\ntip_link = "block"\ngrasp_link = "block"\ncontact_links = ["block"]\n'
+    )
+    scene = load_scene(tmp_path / "scene.toml")
+    assert scene.urdf_path == share / "slider.urdf"
+    assert robot_model(scene).dof == 1
+
+
+# -- bad input: exit 2, one line naming the file and the key -------------------------------------------
+
+PANDA = "package://example-robot-data/robots/panda_description/urdf/panda.urdf"
+PANDA_HAND = ('[hand]\ntip_link = "panda_leftfinger"\ngrasp_link = "panda_hand_tcp"\n'
+              'contact_links = ["panda_leftfinger"]\n')
+
+
+def assert_exit_2(scene_text: str, tmp_path: Path, *fragments: str) -> None:
+    scene = tmp_path / "scene.toml"
+    scene.write_text(scene_text)
+    result = CliRunner().invoke(app, ["plan", "--scene", str(scene), "--object", "square", "--pose", "0.5", "0", "0",
+                                      "--time-limit", "1"])
+    assert result.exit_code == 2, (result.exit_code, result.output)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("slideplan: error: "), result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], (fragment, lines[0])
+
+
+def test_missing_mesh_file(tmp_path):
+    (tmp_path / "slider.urdf").write_text(slider_urdf("gone.stl"))
+    assert_exit_2(TABLE + '[robot]\nurdf = "slider.urdf"\n[hand]\ntip_link = "block"\ngrasp_link = "block"\n'
+                  'contact_links = ["block"]\n', tmp_path, "slider.urdf", "link 'block'", "gone.stl", "does not exist")
+
+
+def test_unsupported_mesh_format(tmp_path):
+    (tmp_path / "cube.xyz").write_text("not a mesh\n")
+    (tmp_path / "slider.urdf").write_text(slider_urdf("cube.xyz"))
+    assert_exit_2(TABLE + '[robot]\nurdf = "slider.urdf"\n[hand]\ntip_link = "block"\ngrasp_link = "block"\n'
+                  'contact_links = ["block"]\n', tmp_path, "slider.urdf", "cube.xyz", "cannot read mesh")
+
+
+def test_unresolvable_package(tmp_path):
+    (tmp_path / "slider.urdf").write_text(slider_urdf("package://no_such_package/cube.stl"))
+    assert_exit_2(TABLE + '[robot]\nurdf = "slider.urdf"\n[hand]\ntip_link = "block"\ngrasp_link = "block"\n'
+                  'contact_links = ["block"]\n', tmp_path, "slider.urdf", "cannot resolve package 'no_such_package'")
+
+
+@pytest.mark.parametrize(
+    ("robot_keys", "hand", "fragments"),
+    [
+        ("", PANDA_HAND.replace('tip_link = "panda_leftfinger"', 'tip_link = "pinky"'), ("[hand] tip_link 'pinky'",)),
+        ("", PANDA_HAND.replace('grasp_link = "panda_hand_tcp"', 'grasp_link = "palm"'), ("[hand] grasp_link 'palm'",)),
+        ('base_link = "nowhere"\n', PANDA_HAND, ("[robot] base_link 'nowhere'",)),
+        ('base_link = "panda_rightfinger"\n', PANDA_HAND, ("not downstream of base_link 'panda_rightfinger'",)),
+        ("fixed_joints = { elbow = 0.1 }\n", PANDA_HAND, ("fixed_joints.elbow", "no such joint")),
+        ("fixed_joints = { panda_finger_joint1 = 0.5 }\n", PANDA_HAND, ("fixed_joints.panda_finger_joint1", "outside")),
+        ("fixed_joints = { panda_finger_joint2 = 0.01 }\n", PANDA_HAND, ("fixed_joints.panda_finger_joint2", "mimic")),
+        ("", PANDA_HAND + "tip_offset = [0.0, 0.1]\n", ("hand.tip_offset", "6")),
+        ("", PANDA_HAND + "grasp_offset = [0, 0, 0, 0, 0, 0, 0]\n", ("hand.grasp_offset", "6")),
+    ],
+)
+def test_bad_robot_and_hand_keys_name_the_file_and_key(tmp_path, robot_keys, hand, fragments):
+    scene = TABLE + f'[robot]\nurdf = "{PANDA}"\n{robot_keys}' + hand
+    assert_exit_2(scene, tmp_path, "scene.toml", *fragments)
+
+
+def test_a_scene_with_its_own_urdf_must_describe_its_hand(tmp_path):
+    assert_exit_2(TABLE + f'[robot]\nurdf = "{PANDA}"\n', tmp_path, "scene.toml", "hand.tip_link", "missing")
+
+
+def test_param_overrides_the_hand_and_bad_params_exit_2(tmp_path):
+    runner = CliRunner()
+    base = ["plan", "--scene", "square", "--object", "square", "--pose", "0.5", "0", "0", "--time-limit", "5"]
+    solved = runner.invoke(app, [*base, "--param", "u_star=0.03", "--json", str(tmp_path / "p.json")])
+    assert solved.exit_code == 0, solved.output
+    assert '"u_star": 0.03' in (tmp_path / "p.json").read_text()
+    for bad, fragment in [("u_star", "NAME=VALUE"), ("pinky=1", "--param pinky"), ("u_star=abc", "--param u_star"),
+                          ("u_star=-1", "--param u_star")]:
+        result = runner.invoke(app, [*base, "--param", bad])
+        assert result.exit_code == 2 and fragment in result.stderr, (bad, result.stderr)
+
+
+# -- the Panda's kinematics, computed independently from its URDF's joint origins -----------------------
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    cr, sr, cp, sp, cy, sy = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch), math.cos(yaw), math.sin(yaw)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
+    axis = axis / np.linalg.norm(axis)
+    skew = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + math.sin(angle) * skew + (1 - math.cos(angle)) * skew @ skew
+
+
+def urdf_chain_pose(urdf: Path, link: str, values: dict[str, float]) -> np.ndarray:
+    """World pose of `link` by walking the URDF's joints from the root: origin, then the joint motion."""
+    joints = {joint.find("child").get("link"): joint for joint in ElementTree.parse(urdf).getroot().iter("joint")}
+    chain = []
+    while link in joints:
+        chain.append(joints[link])
+        link = joints[link].find("parent").get("link")
+    pose = np.eye(4)
+    for joint in reversed(chain):
+        origin = joint.find("origin")
+        step = np.eye(4)
+        if origin is not None:
+            step[:3, :3] = rpy_matrix(*(float(v) for v in origin.get("rpy", "0 0 0").split()))
+            step[:3, 3] = [float(v) for v in origin.get("xyz", "0 0 0").split()]
+        motion = np.eye(4)
+        if joint.get("type") in ("revolute", "continuous"):
+            motion[:3, :3] = axis_angle(np.array([float(v) for v in joint.find("axis").get("xyz").split()]),
+                                        values[joint.get("name")])
+        pose = pose @ step @ motion
+    return pose
+
+
+def test_panda_hand_tcp_matches_an_independent_computation_from_the_urdf():
+    scene = load_scene("panda_square")
+    robot = robot_model(scene)
+    assert robot.dof == 7
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        q = rng.uniform(robot.lower_limits, robot.upper_limits)
+        expected = urdf_chain_pose(scene.urdf_path, "panda_hand_tcp", dict(zip(robot.joint_names, q)))
+        np.testing.assert_allclose(robot.link_pose(q, "panda_hand_tcp"), expected, atol=1e-12)
+
+
+@pytest.mark.parametrize("scene_name", ["panda_square", "panda_round", "ur5_square", "ur5_round"])
+def test_third_party_arms_plan_out_of_the_box_and_verify(scene_name):
+    scene = load_scene(scene_name)
+    outline, _, _ = load_outline("crescent")
+    pose = sample_pose_on_table(outline, scene.table, np.random.default_rng(3))
+    obj = load_object("crescent", table_height=scene.table.height, pose=pose)
+    result = plan(scene, obj, PlannerConfig.for_scene(scene, seed=1, time_limit_s=20.0))
+    assert result.solved, result.stats
+    verification = verify(result)
+    assert verification.ok, verification.violations[:5]
+    assert result.params["dz_max"] == scene.hand.params["dz_max"]  # the hand's defaults were used
