@@ -99,20 +99,19 @@ def _config_from_options(
     return config
 
 
-def _load_task(scene_spec: str, object_spec: str, pose, seed: int) -> tuple[Scene, ThinObject, tuple | None]:
-    """Load the scene and the object; place an outline object at ``pose`` or a seeded random pose.
+def _load_object(scene: Scene, object_spec: str, pose, seed: int) -> tuple[ThinObject, tuple | None]:
+    """Load the object; place an outline object at ``pose`` or a seeded random pose on the scene's table.
 
     Returns:
-        (scene, object, the random pose drawn or None).
+        (object, the random pose drawn or None).
     """
-    scene = load_scene(scene_spec)
     sampled_pose = None
     if pose is None and Path(object_spec).suffix.lower() not in CLOUD_SUFFIXES:
         outline, _, _ = load_outline(object_spec)
         sampled_pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(seed))
         pose = sampled_pose
     obj = load_object(object_spec, table_height=scene.table.height, pose=pose)
-    return scene, obj, sampled_pose
+    return obj, sampled_pose
 
 
 def _summary(result: PlanResult) -> str:
@@ -187,8 +186,9 @@ def plan_command(
     from .planning import plan
 
     try:
-        task_scene, obj, sampled_pose = _load_task(scene, object_spec, pose, seed)
+        task_scene = load_scene(scene)
         config = _config_from_options(task_scene, seed, time_limit, reconfiguration_range, planner, param)
+        obj, sampled_pose = _load_object(task_scene, object_spec, pose, seed)
         result = plan(task_scene, obj, config)
         if result.solved:
             result = _verify_and_mark(result)
@@ -211,8 +211,10 @@ def demo_command(
     from .planning import plan
 
     try:
-        scene, obj, _ = _load_task("square", "crescent", None, seed)
-        result = plan(scene, obj, PlannerConfig.for_scene(scene, seed=seed))
+        scene = load_scene("square")
+        config = PlannerConfig.for_scene(scene, seed=seed)
+        obj, _ = _load_object(scene, "crescent", None, seed)
+        result = plan(scene, obj, config)
         if result.solved:
             result = _verify_and_mark(result)
         _write_outputs(result, out / "demo-plan.json", out / "demo-plan.png")
