@@ -5,7 +5,7 @@ BUILD_DIR := build/py
 export CMAKE_BUILD_PARALLEL_LEVEL ?= 2
 
 APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev libompl-dev \
-                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev libassimp-dev
+                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev libassimp-dev libqhull-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps install test test-cpp test-python test-sanitize fuzz demo bench clean
@@ -54,7 +54,7 @@ demo: install
 	$(VENV)/bin/slideplan demo --out out
 
 bench: install
-	$(BUILD_DIR)/bench_core
+	$(BUILD_DIR)/bench_core "$$($(PYTHON) -c 'import slideplan.scenes as s; print(":".join(map(str, s.package_search_dirs())))')"
 	$(PYTHON) benchmarks/plan_bench.py
 
 clean:

@@ -2,12 +2,14 @@
 // Prints median and p90 per call with the CPU named. Not a test: `make bench` runs it.
 #include "slideplan/collision.hpp"
 #include "slideplan/contact_frame.hpp"
+#include "slideplan/mesh.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <functional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -43,7 +45,7 @@ namespace
     }
 }  // namespace
 
-int main()
+int main(int argc, char **argv)
 {
     std::printf("slideplan core micro-benchmarks on %s\n", cpuName().c_str());
     Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
@@ -81,5 +83,34 @@ int main()
         Eigen::VectorXd q;
         sink = sink + robot->ik(targets[i % targets.size()], Eigen::VectorXd(), rng, q);
     });
+
+    // The Franka Panda of example-robot-data with its mesh collision model (the panda_square scene's
+    // robot); argv[1] lists the directories where package:// resolves, ':'-separated.
+    if (argc < 2)
+        return 0;
+    RobotSpec panda;
+    std::stringstream dirs(argv[1]);
+    for (std::string dir; std::getline(dirs, dir, ':');)
+        if (!dir.empty())
+            panda.packageDirs.push_back(dir);
+    panda.source = resolveMeshUri("package://example-robot-data/robots/panda_description/urdf/panda.urdf", "",
+                                  panda.packageDirs, "bench_core");
+    std::ifstream file(panda.source);
+    std::stringstream text;
+    text << file.rdbuf();
+    panda.urdf = text.str();
+    panda.tipLink = "panda_leftfinger";
+    panda.tipOffset.translation() << 0.0, 0.0076, 0.0545;
+    panda.fixedJoints["panda_finger_joint1"] = 0.02;
+    const auto pandaRobot = std::make_shared<RobotModel>(panda);
+    CollisionWorld pandaWorld(pandaRobot, SupportSurface(square, 0.0), {}, {"panda_leftfinger"});
+    std::vector<Eigen::VectorXd> pandaConfigurations;
+    for (int i = 0; i < 2000; ++i)
+        pandaConfigurations.push_back(pandaRobot->randomConfiguration(rng));
+    const auto pickPanda = [&](int i) -> const Eigen::VectorXd & { return pandaConfigurations[i % pandaConfigurations.size()]; };
+    report("panda fk", 50, 2000, [&](int i) { sink = sink + pandaRobot->fk(pickPanda(i)).translation().x(); });
+    report("panda isValid (sliding)", 50, 1000, [&](int i) { sink = sink + pandaWorld.isValid(pickPanda(i)); });
+    report("panda isValid (free)", 50, 1000,
+           [&](int i) { sink = sink + pandaWorld.isValid(pickPanda(i), ContactMode::Free); });
     return 0;
 }

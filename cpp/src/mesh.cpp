@@ -5,6 +5,11 @@
 #include <assimp/scene.h>
 #include <filesystem>
 #include <functional>
+#include <libqhullcpp/Qhull.h>
+#include <libqhullcpp/QhullError.h>
+#include <libqhullcpp/QhullFacetList.h>
+#include <libqhullcpp/QhullVertexSet.h>
+#include <map>
 #include <stdexcept>
 
 namespace slideplan
@@ -80,6 +85,54 @@ namespace slideplan
             if (!v.allFinite())
                 throw std::invalid_argument(where + ": mesh '" + file + "' has non-finite vertices");
         return mesh;
+    }
+
+    std::shared_ptr<const TriangleMesh> convexHull(const TriangleMesh &mesh, const std::string &where)
+    {
+        std::vector<double> coordinates;
+        coordinates.reserve(3 * mesh.vertices.size());
+        for (const Eigen::Vector3d &v : mesh.vertices)
+            coordinates.insert(coordinates.end(), {v.x(), v.y(), v.z()});
+        auto hull = std::make_shared<TriangleMesh>();
+        try
+        {
+            // Qt: triangulated output, so every facet is a triangle FCL's Convex takes as a face.
+            orgQhull::Qhull qhull;
+            qhull.runQhull("", 3, static_cast<int>(mesh.vertices.size()), coordinates.data(), "Qt");
+            std::map<int, int> index;  // qhull point id -> hull vertex
+            Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+            for (const orgQhull::QhullFacet &facet : qhull.facetList())
+            {
+                Eigen::Vector3i triangle;
+                int corner = 0;
+                for (const orgQhull::QhullVertex &vertex : facet.vertices())
+                {
+                    const int id = vertex.point().id();
+                    if (!index.count(id))
+                    {
+                        index[id] = static_cast<int>(hull->vertices.size());
+                        hull->vertices.push_back(mesh.vertices[static_cast<std::size_t>(id)]);
+                        centre += hull->vertices.back();
+                    }
+                    if (corner < 3)
+                        triangle(corner++) = index[id];
+                }
+                hull->triangles.push_back(triangle);
+            }
+            centre /= static_cast<double>(hull->vertices.size());
+            for (Eigen::Vector3i &t : hull->triangles)  // outward: the normal points away from an interior point
+            {
+                const auto &a = hull->vertices[t.x()], &b = hull->vertices[t.y()], &c = hull->vertices[t.z()];
+                if ((b - a).cross(c - a).dot(a - centre) < 0)
+                    std::swap(t.y(), t.z());
+            }
+        }
+        catch (const orgQhull::QhullError &error)
+        {
+            throw std::invalid_argument(where + ": the mesh has no volume (its convex hull is undefined: " +
+                                        std::string(error.what()).substr(0, 80) + ")");
+        }
+        return hull;
     }
 
 }  // namespace slideplan

@@ -87,8 +87,13 @@ namespace slideplan
     bool SlidingPlanner::addRoot(Forest &forest)
     {
         ++result_.stats.rootSamples;
-        // Warm start from the forest's latest root: neighbouring contact poses have nearby IK solutions.
-        const Eigen::VectorXd seed = forest.roots.empty() ? Eigen::VectorXd() : forest.roots.back()->q;
+        // Warm start from the forest's latest root (neighbouring contact poses have nearby IK solutions),
+        // else from the other forest's: a 6-joint arm's IK branches are separate components of the
+        // constraint manifold, and trees rooted in different branches never connect.
+        const Forest &other = &forest == startForest_.get() ? *goalForest_ : *startForest_;
+        const Eigen::VectorXd seed = !forest.roots.empty() ? forest.roots.back()->q
+                                     : !other.roots.empty() ? other.roots.back()->q
+                                                            : Eigen::VectorXd();
         Eigen::VectorXd q;
         if (!forest.region->sample(rng_, seed, q))
             return false;

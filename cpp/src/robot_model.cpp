@@ -107,7 +107,7 @@ namespace slideplan
                         throw std::invalid_argument(where + ": scale must be positive");
                     shape.type = LinkShape::Type::Mesh;
                     shape.meshFile = resolveMeshUri(mesh.filename, spec.directory, spec.packageDirs, where);
-                    shape.mesh = loadMesh(shape.meshFile, scale, where);
+                    shape.mesh = convexHull(*loadMesh(shape.meshFile, scale, where), where);
                     break;
                 }
                 default:

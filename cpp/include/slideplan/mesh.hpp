@@ -23,4 +23,8 @@ namespace slideplan
     std::shared_ptr<const TriangleMesh> loadMesh(const std::string &file, const Eigen::Vector3d &scale,
                                                  const std::string &where);
 
+    /// The convex hull (qhull) of a mesh's vertices, triangles facing outward: the collision shape of
+    /// a link. \throws std::invalid_argument starting with `where` if the mesh has no volume.
+    std::shared_ptr<const TriangleMesh> convexHull(const TriangleMesh &mesh, const std::string &where);
+
 }  // namespace slideplan

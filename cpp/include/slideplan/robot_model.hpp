@@ -40,7 +40,7 @@ namespace slideplan
         Type type;
         Eigen::Vector3d size;  ///< box: full extents; cylinder: (radius, length, 0); sphere: (radius, 0, 0)
         Eigen::Isometry3d origin{Eigen::Isometry3d::Identity()};
-        std::shared_ptr<const TriangleMesh> mesh;  ///< Mesh only
+        std::shared_ptr<const TriangleMesh> mesh;  ///< Mesh only: the convex hull of the file's triangles
         std::string meshFile;                      ///< Mesh only: the resolved file, for messages
     };
 
