@@ -55,7 +55,10 @@ demo: install
 
 bench: install
 	$(BUILD_DIR)/bench_core "$$($(PYTHON) -c 'import slideplan.scenes as s; print(":".join(map(str, s.package_search_dirs())))')"
-	$(PYTHON) benchmarks/plan_bench.py
+	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --scenes square round triangle long --variants "slideplan dz*=2cm"
+	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --poses 5 --scenes panda_square panda_round ur5_square ur5_round \
+	  --variants "slideplan hand" --out docs/benchmarks/robots.md
+	$(PYTHON) benchmarks/thread_bench.py
 
 clean:
 	rm -rf build out $(VENV)

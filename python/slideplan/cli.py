@@ -230,8 +230,8 @@ def demo_command(
         raise typer.Exit(EXIT_NOT_SOLVED)
 
 
-def _experiment_executor(workers: int | None, scheduler: str | None):
-    """The executor the options ask for: a Dask scheduler, or local processes (default: all cores).
+def _experiment_executor(workers: int | None, scheduler: str | None, threads: bool = False):
+    """The executor the options ask for: a Dask scheduler, or local processes or threads (default: all cores).
 
     Raises:
         InputError: both options given, or a worker count < 1.
@@ -240,7 +240,9 @@ def _experiment_executor(workers: int | None, scheduler: str | None):
 
     if workers is not None and scheduler is not None:
         raise InputError("give at most one of --workers and --scheduler", field="--workers")
-    return DaskExecutor(scheduler) if scheduler is not None else LocalPoolExecutor(workers)
+    if threads and scheduler is not None:
+        raise InputError("--threads is for local workers; give the Dask workers their threads", field="--threads")
+    return DaskExecutor(scheduler) if scheduler is not None else LocalPoolExecutor(workers, threads=threads)
 
 
 @app.command("experiment")
@@ -255,7 +257,8 @@ def experiment_command(
         None, "--time-limit", help="Planning time budget per task (s); default 60 (the paper's), 5 with --quick."
     ),
     seed: int = typer.Option(0, "--seed", help="Experiment seed: initial poses and planner seeds derive from it."),
-    workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes (default: all cores)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local workers (default: all cores)."),
+    threads: bool = typer.Option(False, "--threads", help="Local workers are threads of this process, not processes."),
     scheduler: Optional[str] = typer.Option(
         None, "--scheduler", help="Run on a Dask cluster at this scheduler address instead (e.g. tcp://host:8786)."
     ),
@@ -269,7 +272,7 @@ def experiment_command(
         from .experiments import build_spec, run_experiment
 
         spec = build_spec(figure, quick=quick, time_limit_s=time_limit, seed=seed, poses=poses)
-        executor = _experiment_executor(workers, scheduler)
+        executor = _experiment_executor(workers, scheduler, threads)
         typer.echo(f"{figure}: {len(spec.tasks)} tasks on {executor.description}, results in {out / 'results'}")
         summary = run_experiment(spec, out, executor)
     except InputError as error:

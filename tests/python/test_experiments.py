@@ -86,6 +86,18 @@ def test_dask_cluster_gives_the_same_rows_as_the_local_pool(quick_spec, local_ru
     assert (dask.loc[solved, "overhang_m"] == local.loc[solved, "overhang_m"]).all()
 
 
+def test_local_threads_give_the_same_rows_as_local_processes(quick_spec, local_run, tmp_path):
+    summary = run_experiment(quick_spec, tmp_path, LocalPoolExecutor(workers=2, threads=True), progress=False)
+    assert summary.executed == len(quick_spec.tasks) and summary.lost == 0 and summary.errors == 0
+    local = load_results(local_run[0]).set_index("task_id").sort_index()
+    threaded = load_results(tmp_path).set_index("task_id").sort_index()
+    assert (threaded["solved"] == local["solved"]).all()
+    solved = local["solved"]
+    assert (threaded.loc[solved, "iterations"] == local.loc[solved, "iterations"]).all()
+    assert (threaded.loc[solved, "overhang_m"] == local.loc[solved, "overhang_m"]).all()
+    assert threaded.loc[solved, "verified"].eq(True).all()
+
+
 def test_rerun_runs_nothing_and_a_deleted_part_runs_again(quick_spec, local_run):
     out, _ = local_run
     first = runner.invoke(app, [*CLI_ARGS, "--out", str(out)])

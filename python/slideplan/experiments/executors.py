@@ -12,7 +12,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from typing import Any, Protocol
 
 from ..errors import InputError
@@ -29,27 +29,32 @@ class TaskExecutor(Protocol):
 
 
 class LocalPoolExecutor:
-    """Run tasks in a pool of local worker processes (``concurrent.futures``).
+    """Run tasks in a pool of local worker processes or threads (``concurrent.futures``).
 
-    Workers are started with ``spawn``, not ``fork``: the parent runs a progress-bar
-    thread, and forking a threaded process can deadlock the child. If a worker dies
+    Plans are independent in threads (DESIGN.md 9) and release the GIL, so threads plan about as
+    many tasks per second as processes (docs/benchmarks/threads.md) and share one parsed robot.
+    Processes are started with ``spawn``, not ``fork``: the parent runs a progress-bar
+    thread, and forking a threaded process can deadlock the child. If a worker process dies
     (e.g. a crash in the C++ core) the pool breaks: every unfinished task comes back with
     the ``BrokenProcessPool`` error, and a resumed run picks them up.
 
     Args:
-        workers: number of worker processes, >= 1; default: all cores.
+        workers: number of workers, >= 1; default: all cores.
+        threads: run the workers as threads of this process instead of processes.
 
     Raises:
         InputError: ``workers`` < 1 (field ``workers``).
     """
 
-    def __init__(self, workers: int | None = None) -> None:
+    def __init__(self, workers: int | None = None, threads: bool = False) -> None:
         if workers is None:
             workers = os.cpu_count() or 1
         if workers < 1:
             raise InputError(f"must be >= 1, got {workers!r}", field="workers")
         self.workers = workers
-        self.description = f"{workers} local worker process{'es' if workers > 1 else ''}"
+        self.threads = threads
+        noun = "thread" if threads else "process"
+        self.description = f"{workers} local worker {noun if workers == 1 else noun + ('s' if threads else 'es')}"
 
     def imap_unordered(self, function: Callable[[Task], Any], tasks: Iterable[Task]) -> Iterator[tuple[Task, Any]]:
         """Run ``function(task)`` for every task in the pool (see :class:`TaskExecutor`).
@@ -57,7 +62,11 @@ class LocalPoolExecutor:
         Closing the iterator early (or Ctrl-C) cancels the tasks not yet started and
         waits for the running ones.
         """
-        pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
+        pool = (
+            ThreadPoolExecutor(max_workers=self.workers)
+            if self.threads
+            else ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
+        )
         try:
             futures = {pool.submit(function, task): task for task in tasks}
             for future in as_completed(futures):
@@ -69,9 +78,9 @@ class LocalPoolExecutor:
 class DaskExecutor:
     """Run tasks on a Dask cluster (``distributed``), one Dask task per planning task.
 
-    Workers must import the same ``slideplan`` (same version, with its compiled core);
-    start them with one thread each (``dask worker ADDRESS --nthreads 1``): a plan uses
-    one core, and the core's thread safety is not something to rely on.
+    Workers must import the same ``slideplan`` (same version, with its compiled core). Any
+    number of threads per worker is fine: plans are independent in threads and release the GIL,
+    so give a worker one thread per core (``dask worker ADDRESS --nthreads N``).
 
     Args:
         scheduler: the scheduler address, e.g. ``"tcp://10.0.0.5:8786"``.

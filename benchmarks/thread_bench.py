@@ -1,0 +1,82 @@
+"""Throughput of planning in threads and processes: plans per second with 1 and 2 threads of one
+process and with 2 processes, on the same problems (square table, 5 objects x N seeded poses).
+
+Plans release the GIL and share nothing mutable (DESIGN.md 9), so threads should scale like
+processes. Prints and writes docs/benchmarks/threads.md with the CPU named. Not a test: `make bench`.
+
+    python benchmarks/thread_bench.py [--poses 10] [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import time
+from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+from plan_bench import OBJECTS, cpu_name
+
+from slideplan import PlannerConfig, load_object, load_scene, plan
+from slideplan.objects import load_outline, sample_pose_on_table
+
+SETTINGS = (("1 thread", ThreadPoolExecutor, 1), ("2 threads", ThreadPoolExecutor, 2), ("2 processes", ProcessPoolExecutor, 2))
+
+
+def run_one(job: tuple[str, int]) -> bool:
+    """Plan one problem (10 s budget); True if solved."""
+    object_name, pose_index = job
+    scene = load_scene("square")
+    outline, _, _ = load_outline(object_name)
+    pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([pose_index, OBJECTS.index(object_name)]))
+    obj = load_object(object_name, table_height=scene.table.height, pose=pose)
+    return plan(scene, obj, PlannerConfig.for_scene(scene, seed=pose_index, time_limit_s=10.0)).solved
+
+
+def throughput(executor: Executor, workers: int, jobs: list[tuple[str, int]]) -> tuple[float, int]:
+    """(plans per second, plans solved) of all jobs on the executor, after one warm-up plan per worker."""
+    list(executor.map(run_one, jobs[:workers]))  # load the robot model (and start the processes)
+    started = time.perf_counter()
+    solved = sum(executor.map(run_one, jobs))
+    return len(jobs) / (time.perf_counter() - started), solved
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--poses", type=int, default=10, help="seeded initial poses per object")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each setting (the median is reported)")
+    parser.add_argument("--out", type=Path, default=Path("docs/benchmarks/threads.md"))
+    args = parser.parse_args()
+
+    jobs = [(name, pose) for name in OBJECTS for pose in range(args.poses)]
+    lines = [
+        f"# Planning throughput in threads and processes ({datetime.date.today().isoformat()})",
+        "",
+        f"CPU: {cpu_name()}, {os.cpu_count()} cores. Square table, objects {', '.join(OBJECTS)}, {args.poses} seeded "
+        f"poses each ({len(jobs)} plans per run, 10 s budget), {args.repeats} runs per setting; plans per second "
+        "of the whole batch (median and range over the runs).",
+        "",
+        "| setting | plans/s (median) | min | max | solved | speed-up over 1 thread |",
+        "|---|---|---|---|---|---|",
+    ]
+    baseline = None
+    for label, kind, workers in SETTINGS:
+        rates, solved = [], 0
+        with kind(max_workers=workers) as executor:
+            for _ in range(args.repeats):
+                rate, solved = throughput(executor, workers, jobs)
+                rates.append(rate)
+        median = float(np.median(rates))
+        baseline = baseline or median
+        lines.append(f"| {label} | {median:.1f} | {min(rates):.1f} | {max(rates):.1f} | {solved}/{len(jobs)} | "
+                     f"{median / baseline:.2f}x |")
+    report = "\n".join(lines) + "\n"
+    print(report)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(report)
+
+
+if __name__ == "__main__":
+    main()
