@@ -76,6 +76,18 @@ namespace slideplan
         return pose;
     }
 
+    std::pair<int, long> PairValidator::graspCell(const Overhang &overhang) const
+    {
+        constexpr double kStretch = 0.01;  // m: grasps this close have the same reachability in practice
+        const Eigen::Vector2d start = task_->table->vertices().row(overhang.edge.edge).transpose();
+        return {overhang.edge.edge, static_cast<long>(std::floor((overhang.edge.closest - start).norm() / kStretch))};
+    }
+
+    bool PairValidator::knownUnreachable(const Overhang &overhang) const
+    {
+        return params_.graspMap && overhang.outsideCount > 0 && unreachable_.count(graspCell(overhang)) > 0;
+    }
+
     bool PairValidator::graspIk(const Eigen::Isometry3d &grasp, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
                                 Eigen::VectorXd &solution) const
     {
@@ -217,11 +229,24 @@ namespace slideplan
             return verdict;
         }
 
-        verdict.graspPose = graspPose(result);
-        if (!graspIk(verdict.graspPose, goal, rng, verdict.graspConfig))
+        if (knownUnreachable(result))
         {
             verdict.reason = "grasp pose unreachable";
             return verdict;
+        }
+        verdict.graspPose = graspPose(result);
+        Eigen::Isometry3d flipped = verdict.graspPose;
+        flipped.linear() = flipped.linear() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        if (!graspIk(verdict.graspPose, goal, rng, verdict.graspConfig))
+        {
+            if (!params_.graspFlip || !graspIk(flipped, goal, rng, verdict.graspConfig))
+            {
+                if (params_.graspMap)
+                    unreachable_.insert(graspCell(result));
+                verdict.reason = "grasp pose unreachable";
+                return verdict;
+            }
+            verdict.graspPose = flipped;
         }
         std::vector<Eigen::Vector2d> moved;
         for (int i = 0; i < task_->objectXY.rows(); ++i)

@@ -205,12 +205,12 @@ namespace slideplan
             return verdict->second.valid;
         auto it = promising_.find(key);
         if (it == promising_.end())
-        {
-            const Overhang overhang = pairValidator_->overhang(
-                objectMotion(startForest_->roots[startRoot]->tip, goalForest_->roots[goalRoot]->tip));
-            it = promising_.emplace(key, overhang.overhang >= params_.uStar && overhang.comInside).first;
-        }
-        return it->second;
+            it = promising_.emplace(key, pairValidator_->overhang(objectMotion(startForest_->roots[startRoot]->tip,
+                                                                               goalForest_->roots[goalRoot]->tip)))
+                     .first;
+        // The grasp map grows while planning, so it is consulted every time.
+        const Overhang &overhang = it->second;
+        return overhang.overhang >= params_.uStar && overhang.comInside && !pairValidator_->knownUnreachable(overhang);
     }
 
     SlidingPlanner::Node *SlidingPlanner::nearestForConnection(const Forest &forest, const Eigen::VectorXd &q,

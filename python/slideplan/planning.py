@@ -68,6 +68,10 @@ class PlannerConfig:
         root_ik_attempts: IK attempts per root sample.
         screen_pairs: beyond the paper, NearestTree skips trees whose root pair is known to fail
             (docs/paper-to-code.md); False runs Algorithm 1 as published.
+        grasp_flip: beyond the paper, also grasp with the hand rolled by pi about its approach axis
+            (the same grasp for a hand whose fingers close symmetrically).
+        grasp_map: beyond the paper, remember the 1 cm table-edge stretches where no side grasp was
+            reachable, and reject and screen pairs whose grasp falls there without another IK.
         shortcut_attempts: beyond the paper, tries to shorten the solved path by constrained walks
             between two of its waypoints; 0 returns the tree path.
         planner: ``"slideplan"`` (Algorithm 1), ``"cbirrt"`` or ``"cbirrt2"`` (baselines, paper V-6).
@@ -96,6 +100,8 @@ class PlannerConfig:
     projection_iterations: int = _CORE_DEFAULTS.projection_iterations
     root_ik_attempts: int = _CORE_DEFAULTS.root_ik_attempts
     screen_pairs: bool = _CORE_DEFAULTS.screen_pairs
+    grasp_flip: bool = _CORE_DEFAULTS.grasp_flip
+    grasp_map: bool = _CORE_DEFAULTS.grasp_map
     shortcut_attempts: int = _CORE_DEFAULTS.shortcut_attempts
     planner: str = _CORE_DEFAULTS.policy
     seed: int = 0
@@ -107,7 +113,7 @@ class PlannerConfig:
             if name == "planner":
                 if value not in PLANNERS:
                     raise InputError(f"unknown planner {value!r} (expected one of: {', '.join(PLANNERS)})", field=name)
-            elif name == "screen_pairs":
+            elif name in ("screen_pairs", "grasp_flip", "grasp_map"):
                 if not isinstance(value, (bool, np.bool_)):
                     raise InputError(f"expected True or False, got {value!r}", field=name)
             elif name in _INT_FIELDS or name == "seed":

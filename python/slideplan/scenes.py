@@ -17,7 +17,7 @@ from .geometry import SupportSurface
 from .paths import data_dir, find_data_file
 
 # Planner parameters a hand may give defaults for ([hand] params).
-HAND_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "grasp_lift", "grasp_backoff")
+HAND_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "grasp_lift", "grasp_backoff", "grasp_flip")
 ROBOT_KEYS = {"urdf", "attach", "base_pose", "base_link", "fixed_joints", "package_dirs"}
 LEGACY_HAND_KEYS = ("tip_link", "contact_links")  # once in [robot], now in [hand]; still read there
 HAND_KEYS = {"tip_link", "tip_offset", "grasp_link", "grasp_offset", "contact_links", "params"}
@@ -208,8 +208,17 @@ def _read_hand(hand: Fields) -> Hand:
         grasp_link=hand.string("grasp_link"),
         grasp_offset=_read_offset(hand, "grasp_offset"),
         contact_links=hand.strings("contact_links"),
-        params={name: params.number(name) for name in HAND_PARAMS if params and params.has(name)},
+        params={name: _hand_param(params, name) for name in HAND_PARAMS if params and params.has(name)},
     )
+
+
+def _hand_param(params: Fields, name: str):
+    if name != "grasp_flip":
+        return params.number(name)
+    value = params.raw(name)
+    if not isinstance(value, bool):
+        raise InputError(f"expected true or false, got {value!r}", source=params.source, field=params.field(name))
+    return value
 
 
 def _robot_and_hand(fields: Fields) -> tuple[Fields, Fields]:

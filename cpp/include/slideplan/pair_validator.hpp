@@ -10,6 +10,7 @@
 
 #include <ompl/base/PlannerTerminationCondition.h>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -52,11 +53,17 @@ namespace slideplan
         /// the edge in the table plane, the straight (+Y) finger above the object.
         Eigen::Isometry3d graspPose(const Overhang &overhang) const;
 
+        /// Whether an earlier grasp IK failed on the 1 cm stretch of table edge this overhang's grasp
+        /// falls on (params.graspMap): reachability of a side grasp depends only on where it is.
+        bool knownUnreachable(const Overhang &overhang) const;
+
     private:
         /// Grasp IK: from phi_g, then from earlier successful grasps (nearby grasp poses have nearby
         /// solutions), then random restarts.
         bool graspIk(const Eigen::Isometry3d &grasp, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
                      Eigen::VectorXd &solution) const;
+        /// The edge stretch of a grasp: (edge index, 1 cm cell along the edge).
+        std::pair<int, long> graspCell(const Overhang &overhang) const;
         bool lift(const Eigen::VectorXd &goal, std::vector<Eigen::VectorXd> &path) const;
         bool straightMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::vector<Eigen::VectorXd> &path) const;
         bool transferMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::uint64_t seed,
@@ -66,6 +73,7 @@ namespace slideplan
         PlannerParams params_;
         std::unique_ptr<CollisionWorld> world_;  ///< holds the object at its final pose while a pair is checked
         mutable std::vector<Eigen::VectorXd> graspSeeds_;  ///< recent successful grasp configurations
+        mutable std::set<std::pair<int, long>> unreachable_;  ///< edge stretches where grasp IK failed
     };
 
 }  // namespace slideplan

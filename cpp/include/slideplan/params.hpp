@@ -48,6 +48,14 @@ namespace slideplan
         /// Algorithm 1 exactly as published.
         bool screenPairs{true};
 
+        /// Beyond the paper: a grasp may also be made with the hand rolled by pi about its approach axis
+        /// (H_g's y pointing down), the same grasp for a hand whose fingers close symmetrically.
+        bool graspFlip{true};
+
+        /// Beyond the paper: remember, per 1 cm stretch of each table edge, where no side grasp was
+        /// reachable, and reject (and screen) pairs whose grasp falls there without another IK.
+        bool graspMap{true};
+
         /// Beyond the paper: attempts to shorten the solved path by constrained walks between two of
         /// its waypoints (same step bounds and checks as extension); 0 returns the tree path as is.
         int shortcutAttempts{50};

@@ -62,7 +62,8 @@ namespace slideplan
         /// Pi_b.NearestTree(q) for the connection step: with screenPairs, only among trees whose root
         /// forms a promising pair with `root` of the other forest.
         Node *nearestForConnection(const Forest &forest, const Eigen::VectorXd &q, const Forest &other, int root);
-        /// Cheap part of IsPairValid (overhang >= u*, CoM on the table), cached per root pair.
+        /// Cheap part of IsPairValid (overhang >= u*, CoM on the table, grasp not on a stretch known to
+        /// be unreachable), the geometry cached per root pair.
         bool promisingPair(int startRoot, int goalRoot);
         /// GetRoots + IsPairValid for a connection, with the verdict cached per root pair.
         const PairVerdict *validatePair(Node *startNode, Node *goalNode, const ompl::base::PlannerTerminationCondition &ptc);
@@ -79,7 +80,7 @@ namespace slideplan
         std::unique_ptr<PairValidator> pairValidator_;
         std::unique_ptr<Forest> startForest_, goalForest_;
         std::map<std::pair<int, int>, PairVerdict> verdicts_;
-        std::map<std::pair<int, int>, bool> promising_;
+        std::map<std::pair<int, int>, Overhang> promising_;  ///< the cheap part of IsPairValid per root pair
         PlanResult result_;
     };
 

@@ -98,6 +98,12 @@ namespace slideplan::bindings
             .def_readwrite("screen_pairs", &PlannerParams::screenPairs,
                            "Beyond the paper: NearestTree skips trees whose root pair is known to fail; False gives "
                            "Algorithm 1 as published.")
+            .def_readwrite("grasp_flip", &PlannerParams::graspFlip,
+                           "Beyond the paper: also grasp with the hand rolled by pi about the approach axis (a hand "
+                           "whose fingers close symmetrically).")
+            .def_readwrite("grasp_map", &PlannerParams::graspMap,
+                           "Beyond the paper: remember the 1 cm edge stretches where no side grasp was reachable and "
+                           "reject and screen pairs whose grasp falls there.")
             .def_readwrite("shortcut_attempts", &PlannerParams::shortcutAttempts,
                            "Beyond the paper: tries to shorten the solved path by constrained walks (0: off).")
             .def_property(
