@@ -1,16 +1,20 @@
-"""Command line: ``slideplan plan``, ``demo``, ``experiment`` and ``plot`` (DESIGN.md 5).
+"""Command line: ``slideplan plan``, ``demo``, ``export``, ``view``, ``experiment`` and ``plot`` (DESIGN.md 5).
 
 Exit codes of ``plan``: 0 solved (and verified), 1 not solved within the time limit,
 2 bad input (one line ``slideplan: error: ...`` on stderr), 3 solved but the plan fails
 the independent verification (a planner bug; the violations go to stderr and the JSON
 is written with status ``"invalid"``).
 
-``experiment`` and ``plot`` need the ``experiments`` extra (pandas, pyarrow, dask).
+``experiment`` and ``plot`` need the ``experiments`` extra (pandas, pyarrow, dask); ``view`` the
+``view`` extra (viser, yourdfpy). Warnings (e.g. a URDF velocity limit replaced by a default) go to
+stderr as one line ``slideplan: warning: ...`` each.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import warnings
 from pathlib import Path
 from typing import Optional, Tuple
 
@@ -49,6 +53,34 @@ def _fail(error: Exception) -> typer.Exit:
     message = " ".join(str(error).split())  # one line, whatever the source's message looked like
     typer.echo(f"slideplan: error: {message}", err=True)
     return typer.Exit(EXIT_BAD_INPUT)
+
+
+@contextlib.contextmanager
+def _warnings_as_lines():
+    """Print the warnings raised inside as ``slideplan: warning: ...`` lines (no source lines)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            yield
+        finally:
+            for warning in caught:
+                typer.echo(f"slideplan: warning: {' '.join(str(warning.message).split())}", err=True)
+
+
+def _load_plan(path: Path) -> PlanResult:
+    """Read a plan JSON file (``slideplan.plan/1`` or ``/2``), naming the file in errors.
+
+    Raises:
+        InputError: the file cannot be read or is not a valid plan.
+    """
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"cannot read the plan ({error})", source=str(path)) from None
+    try:
+        return PlanResult.from_json(text)
+    except InputError as error:
+        raise InputError(error.problem, source=str(path), field=error.field) from None
 
 
 def _config_from_options(seed: int, time_limit: float, reconfiguration_range: float | None, planner: str) -> PlannerConfig:
@@ -133,7 +165,7 @@ def plan_command(
         None, "--reconfiguration-range", help="dz_max - dz_min (m); default 0.02."
     ),
     planner: str = typer.Option("slideplan", "--planner", help=f"One of: {', '.join(PLANNERS)}."),
-    json_out: Optional[Path] = typer.Option(None, "--json", help="Write the plan JSON (slideplan.plan/1) here."),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="Write the plan JSON (slideplan.plan/2) here."),
     png_out: Optional[Path] = typer.Option(None, "--png", help="Write a top-down picture here (.png or .svg)."),
 ) -> None:
     """Plan a pre-grasp sliding motion and verify it.
@@ -146,7 +178,8 @@ def plan_command(
     try:
         config = _config_from_options(seed, time_limit, reconfiguration_range, planner)
         task_scene, obj, sampled_pose = _load_task(scene, object_spec, pose, seed)
-        result = plan(task_scene, obj, config)
+        with _warnings_as_lines():
+            result = plan(task_scene, obj, config)
         if result.solved:
             result = _verify_and_mark(result)
         _write_outputs(result, json_out, png_out)
@@ -169,7 +202,8 @@ def demo_command(
 
     try:
         scene, obj, _ = _load_task("square", "crescent", None, seed)
-        result = plan(scene, obj, PlannerConfig(seed=seed))
+        with _warnings_as_lines():
+            result = plan(scene, obj, PlannerConfig(seed=seed))
         if result.solved:
             result = _verify_and_mark(result)
         _write_outputs(result, out / "demo-plan.json", out / "demo-plan.png")
@@ -183,6 +217,30 @@ def demo_command(
     else:
         typer.echo(_summary(result))
         raise typer.Exit(EXIT_NOT_SOLVED)
+
+
+@app.command("export")
+def export_command(
+    plan_file: Path = typer.Argument(..., help="A solved plan JSON (slideplan.plan/2, or /1: it is timed on export)."),
+    fmt: str = typer.Option(..., "--format", help="ros-json (trajectory_msgs/JointTrajectory per segment) or csv."),
+    out: Path = typer.Option(..., "--out", help="Output file."),
+) -> None:
+    """Write a plan's timed slide and approach for a controller.
+
+    Exit codes: 0 written, 2 bad input (unreadable or unknown plan, plan not solved, unknown format).
+    """
+    from .export import export_plan
+
+    try:
+        result = _load_plan(plan_file)
+        with _warnings_as_lines():
+            export_plan(result, fmt, out)
+    except InputError as error:
+        source = error.source or str(plan_file)
+        raise _fail(InputError(error.problem, source=source, field=error.field) if error.field != "--format" else error) from None
+    except OSError as error:
+        raise _fail(error) from None
+    typer.echo(str(out))
 
 
 def _experiment_executor(workers: int | None, scheduler: str | None):

@@ -3,7 +3,7 @@
 :func:`plan` turns a :class:`~slideplan.scenes.Scene` and a :class:`~slideplan.objects.ThinObject`
 into the C++ core's inputs, runs Algorithm 1 (``_core.plan_sliding``) and wraps the answer in a
 :class:`PlanResult`, which reads and writes the plan JSON of DESIGN.md section 5
-(``slideplan.plan/1``).
+(``slideplan.plan/2``: ``/1`` plus the ``timing`` block of :mod:`slideplan.timing`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import functools
 import json
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,8 +24,12 @@ from .objects import ThinObject
 from .scenes import Scene
 from .transforms import homogeneous, pose_to_row, rotation_from_rpy, yawed_pose
 
+if TYPE_CHECKING:
+    from .timing import TimingOptions
+
 PLANNERS = ("slideplan", "cbirrt", "cbirrt2")
-PLAN_SCHEMA = "slideplan.plan/1"
+PLAN_SCHEMA = "slideplan.plan/2"
+READABLE_SCHEMAS = ("slideplan.plan/1", PLAN_SCHEMA)  # /1: the same fields without timing
 STATUSES = ("solved", "timeout", "invalid")
 GRASP_LINK = "t42_grasp"  # the hand's grasp frame in the bundled URDF (Z = approach axis)
 
@@ -170,7 +174,7 @@ class PlannerConfig:
 
 @dataclass
 class PlanResult:
-    """One planning run, as stored in the plan JSON (``slideplan.plan/1``, DESIGN.md 5).
+    """One planning run, as stored in the plan JSON (``slideplan.plan/2``, DESIGN.md 5).
 
     It holds everything needed to re-check the plan without the planner
     (:func:`slideplan.verify.verify` does). Arrays are numpy arrays; when ``status`` is
@@ -199,6 +203,9 @@ class PlanResult:
         grasp: ``{"pose": (7,) pose of the grasp frame, "config": (dof,), "approach": (K, dof)
             dense path from the goal configuration to the grasp configuration}``.
         stats: planner counters (iterations, start_roots, goal_roots, pairs_checked, ...).
+        timing: times, velocities and accelerations of ``trajectory`` and ``grasp.approach`` and
+            the limits used (:func:`slideplan.timing.parameterize`); None when the plan is not
+            solved or was read from a ``slideplan.plan/1`` file.
     """
 
     SCHEMA = PLAN_SCHEMA
@@ -221,6 +228,7 @@ class PlanResult:
     fingertip_poses: np.ndarray
     grasp: dict[str, Any]
     stats: dict[str, Any] = field(default_factory=dict)
+    timing: dict[str, Any] | None = None
 
     @property
     def solved(self) -> bool:
@@ -258,10 +266,12 @@ class PlanResult:
         Raises:
             InputError: wrong schema, unknown status, or missing, unknown or misshapen fields.
         """
-        if not isinstance(data, dict) or data.get("schema") != PLAN_SCHEMA:
+        if not isinstance(data, dict) or data.get("schema") not in READABLE_SCHEMAS:
             found = data.get("schema") if isinstance(data, dict) else type(data).__name__
-            raise InputError(f"expected {PLAN_SCHEMA!r}, got {found!r}", field="schema")
+            raise InputError(f"expected one of {READABLE_SCHEMAS}, got {found!r}", field="schema")
         names = {item.name for item in dataclasses.fields(cls)}
+        if data["schema"] != PLAN_SCHEMA:
+            names.discard("timing")
         missing = sorted(names - data.keys())
         unknown = sorted(data.keys() - names - {"schema"})
         if missing or unknown:
@@ -300,7 +310,10 @@ class PlanResult:
                     "approach": _array(data["grasp"]["approach"], dof),
                 },
                 stats=dict(data["stats"]),
+                timing=_read_timing(data),
             )
+        except InputError:
+            raise
         except (KeyError, TypeError, ValueError) as error:
             raise InputError(f"malformed plan ({type(error).__name__}: {error})", field="plan") from None
 
@@ -316,6 +329,16 @@ class PlanResult:
         except json.JSONDecodeError as error:
             raise InputError(f"invalid JSON ({error})") from None
         return cls.from_dict(data)
+
+
+def _read_timing(data: dict[str, Any]) -> dict[str, Any] | None:
+    """The checked ``timing`` block of a plan dict, or None if it has none (``/1``, or null)."""
+    if data.get("timing") is None:
+        return None
+    from .timing import timing_from_dict
+
+    dof = len(data["joint_names"])
+    return timing_from_dict(data["timing"], dof, {"trajectory": len(data["trajectory"]), "approach": len(data["grasp"]["approach"])})
 
 
 def _to_plain(value: Any) -> Any:
@@ -389,21 +412,23 @@ def _box_obstacles(scene: Scene) -> list:
     ]
 
 
-def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> PlanResult:
+def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, timing: TimingOptions | None = None) -> PlanResult:
     """Plan a pre-grasp sliding motion (paper Algorithm 1 with IsPairValid).
 
     Args:
         scene: table, robot and obstacles.
         obj: the thin object, lying on the scene's table.
         config: planner parameters, seed, time limit and planner (default: :class:`PlannerConfig()`).
+        timing: limits of the time parameterization, a :class:`slideplan.timing.TimingOptions`
+            (default: URDF velocity limits and the documented defaults).
 
     Returns:
-        The result; ``status`` is ``"solved"`` or ``"timeout"``. The planner does not run
-        :func:`slideplan.verify.verify`; call it to re-check a plan.
+        The result; ``status`` is ``"solved"`` or ``"timeout"``. A solved plan carries its
+        ``timing``. The planner does not run :func:`slideplan.verify.verify`; call it to re-check a plan.
 
     Raises:
-        InputError: the object is not on the table, the robot cannot be loaded, or the core
-            rejects the input (message from the core).
+        InputError: the object is not on the table, the robot cannot be loaded, the core
+            rejects the input (message from the core), or the timing limits are malformed.
         KeyboardInterrupt: Ctrl-C during planning.
     """
     from . import _core
@@ -425,7 +450,12 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> 
         )
     except ValueError as error:
         raise InputError(f"planner rejected the input: {error}", source=scene.source) from None
-    return _wrap_core_result(core_result, scene, obj, config, robot)
+    result = _wrap_core_result(core_result, scene, obj, config, robot)
+    if result.solved:
+        from .timing import parameterize
+
+        result.timing = parameterize(result, timing)
+    return result
 
 
 def _wrap_core_result(core_result, scene: Scene, obj: ThinObject, config: PlannerConfig, robot) -> PlanResult:
