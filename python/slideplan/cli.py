@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import time
 import warnings
 from pathlib import Path
 from typing import Optional, Tuple
@@ -57,14 +58,18 @@ def _fail(error: Exception) -> typer.Exit:
 
 @contextlib.contextmanager
 def _warnings_as_lines():
-    """Print the warnings raised inside as ``slideplan: warning: ...`` lines (no source lines)."""
+    """Print slideplan's own warnings raised inside (e.g. a URDF limit replaced by a default) as
+    ``slideplan: warning: ...`` lines; the libraries' deprecation notices are not the user's concern."""
+    from .timing import LimitWarning
+
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
             yield
         finally:
             for warning in caught:
-                typer.echo(f"slideplan: warning: {' '.join(str(warning.message).split())}", err=True)
+                if issubclass(warning.category, LimitWarning):
+                    typer.echo(f"slideplan: warning: {' '.join(str(warning.message).split())}", err=True)
 
 
 def _load_plan(path: Path) -> PlanResult:
@@ -241,6 +246,47 @@ def export_command(
     except OSError as error:
         raise _fail(error) from None
     typer.echo(str(out))
+
+
+@app.command("view")
+def view_command(
+    plan_file: Path = typer.Argument(..., help="A plan JSON (slideplan.plan/1 or /2, solved or not)."),
+    host: str = typer.Option("127.0.0.1", "--host", help="Interface to listen on (default: this machine only)."),
+    port: int = typer.Option(8080, "--port", help="Port to try first; the next free one is used if it is taken."),
+    record_out: Optional[Path] = typer.Option(
+        None, "--record", help="Instead of serving, write the animated view to OUT.html (opens in any browser) or OUT.viser."
+    ),
+) -> None:
+    """Show a plan in 3D in the browser: robot, table, object, fingertip path, grasp; a time slider plays the plan.
+
+    Exit codes: 0 (after Ctrl-C, or once the recording is written), 2 bad input.
+    """
+    try:
+        from . import view
+
+        result = _load_plan(plan_file)
+        if not 0 <= port < 65536:
+            raise InputError(f"must be in [0, 65536), got {port}", field="--port")
+        with _warnings_as_lines():
+            if record_out is not None:
+                typer.echo(str(view.record(result, record_out)))
+                return
+            shown = view.open_view(result, host, port)
+    except (InputError, ImportError) as error:
+        raise _fail(error) from None
+    except OSError as error:  # a host that is not an address of this machine, or an unwritable --record
+        raise _fail(InputError(str(error), field="--record" if record_out is not None else "--host")) from None
+    if shown.server.get_port() != port:
+        typer.echo(f"slideplan: port {port} is in use; using {shown.server.get_port()}", err=True)
+    status = "" if result.solved else f" (not solved: {result.status}; showing the scene only)"
+    typer.echo(f"view at {shown.url}{status}; Ctrl-C to stop")
+    try:
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        shown.server.stop()
 
 
 def _experiment_executor(workers: int | None, scheduler: str | None):
