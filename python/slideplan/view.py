@@ -40,7 +40,8 @@ OVERHANG_COLOR = (230, 30, 30)
 TIP_PATH_COLOR = (30, 130, 60)
 APPROACH_PATH_COLOR = (120, 80, 200)
 TABLE_THICKNESS_M = 0.04  # the table is drawn as a prism this thick under its top
-FPS = 30  # play and record rate (frames per second of plan time)
+FPS = 30  # play rate (slider steps per second of plan time)
+RECORD_FPS = 10  # recording frames per second of plan time: the page replays them in software rendering too
 
 
 @dataclasses.dataclass
@@ -408,10 +409,10 @@ def record(result: PlanResult, out: Path) -> Path:
     view = open_view(result, "127.0.0.1", 0)  # port 0: any free port, nobody needs to connect
     try:
         serializer = view.server.get_scene_serializer()
-        frames = max(1, math.ceil(view.duration * FPS))
+        frames = max(1, math.ceil(view.duration * RECORD_FPS))
         for frame in range(frames + 1):
-            view.show(frame / FPS)
-            serializer.insert_sleep(1.0 / FPS)
+            view.show(frame / RECORD_FPS)
+            serializer.insert_sleep(1.0 / RECORD_FPS)
         out.parent.mkdir(parents=True, exist_ok=True)
         if out.suffix == ".viser":
             out.write_bytes(serializer.serialize())

@@ -17,9 +17,7 @@ from handmade_plan import build_plan
 from slideplan import _core
 from slideplan.cli import app
 from slideplan.errors import InputError
-from slideplan.objects import load_object
-from slideplan.planning import PlannerConfig, PlanResult, plan
-from slideplan.scenes import load_scene
+from slideplan.planning import PlanResult
 from slideplan.timing import (
     DEFAULT_FINGERTIP_SPEED,
     DEFAULT_JOINT_ACCELERATION,
@@ -32,16 +30,6 @@ from slideplan.timing import (
 
 URDF_VELOCITY = 2.0  # every arm joint's <limit velocity> in data/robots/wam_t42.urdf
 RELATIVE_SLACK = 1e-9  # floating-point slack on "<= limit"
-
-
-@pytest.fixture(scope="module")
-def planned():
-    """A real planner result: jagged, dense, with a long approach."""
-    scene = load_scene("square")
-    obj = load_object("L", table_height=scene.table.height, pose=(0.6, 0.0, 0.5))
-    result = plan(scene, obj, PlannerConfig(seed=1, time_limit_s=20))
-    assert result.solved and result.timing is not None
-    return result
 
 
 @pytest.fixture(scope="module")
