@@ -5,7 +5,7 @@ BUILD_DIR := build/py
 export CMAKE_BUILD_PARALLEL_LEVEL ?= 2
 
 APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev libompl-dev \
-                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev
+                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev chromium
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps install test test-cpp test-python demo bench clean
@@ -27,7 +27,7 @@ $(PYTHON):
 install: deps $(PYTHON)
 	$(PYTHON) -m pip install -q scikit-build-core pybind11
 	$(PYTHON) -m pip install -q --no-build-isolation -C build-dir=$(BUILD_DIR) \
-	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,test]"
+	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,view,test]"
 
 test-cpp: install
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2
@@ -43,6 +43,7 @@ demo: install
 bench: install
 	$(BUILD_DIR)/bench_core
 	$(PYTHON) benchmarks/plan_bench.py
+	$(PYTHON) benchmarks/timing_bench.py
 
 clean:
 	rm -rf build out $(VENV)
