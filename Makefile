@@ -8,7 +8,7 @@ APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev lib
                 libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev chromium
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps install test test-cpp test-python demo bench clean
+.PHONY: all deps install test test-cpp test-python demo view bench clean
 
 all: install
 
@@ -39,6 +39,9 @@ test: test-cpp test-python
 
 demo: install
 	$(VENV)/bin/slideplan demo --out out
+
+view: demo
+	$(VENV)/bin/slideplan view out/demo-plan.json
 
 bench: install
 	$(BUILD_DIR)/bench_core
