@@ -241,8 +241,9 @@ def export_command(
         with _warnings_as_lines():
             export_plan(result, fmt, out)
     except InputError as error:
-        source = error.source or str(plan_file)
-        raise _fail(InputError(error.problem, source=source, field=error.field) if error.field != "--format" else error) from None
+        if not error.source and error.field != "--format":  # e.g. "status": a field of the plan file
+            error = InputError(error.problem, source=str(plan_file), field=error.field)
+        raise _fail(error) from None
     except OSError as error:
         raise _fail(error) from None
     typer.echo(str(out))

@@ -17,9 +17,9 @@ milliseconds (the seidel LP solver, in Cython). Ruckig generates jerk-limited mo
 states and would leave the path.
 
 Each segment starts and ends at rest and gets one entry per waypoint. TOPP-RA enforces the limits
-at its grid points only; the profile is then checked by finite differences between waypoints (the
-way :mod:`tests <tests.python.test_timing>` check it, independent of toppra) and, if any limit is
-exceeded there, slowed down uniformly until none is (:func:`_stretch_factor`; usually 1 to 1.1).
+at its grid points only; the profile is then checked by finite differences between waypoints (as
+tests/python/test_timing.py checks it, independent of toppra) and, if any limit is exceeded there,
+slowed down uniformly until none is (:func:`_stretch_factor`; docs/parameters.md gives how much).
 """
 
 from __future__ import annotations
@@ -197,7 +197,13 @@ def parameterize(result: PlanResult, options: TimingOptions | None = None) -> di
 
 @functools.lru_cache(maxsize=8)
 def _robot(urdf_path: str, tip_link: str, base_pose_bytes: bytes):
-    """The plan's robot model for fingertip forward kinematics, cached (parsing the URDF is not free)."""
+    """The plan's robot model for fingertip forward kinematics, cached (parsing the URDF is not free).
+
+    Args:
+        urdf_path: the plan's URDF.
+        tip_link: the contact frame's link.
+        base_pose_bytes: the (4, 4) float64 mount as bytes (hashable, for the cache).
+    """
     from . import _core
 
     base_pose = np.frombuffer(base_pose_bytes, dtype=float).reshape(4, 4)
@@ -269,6 +275,17 @@ def _stretch_factor(path, tips, capped, times, velocities, accelerations, limits
     reported velocities and accelerations; finite differences of positions (velocity), of
     velocities (acceleration), second differences of positions (acceleration, from rest at the
     ends) and of fingertip positions over capped intervals (speed).
+
+    Args:
+        path: (M, dof) waypoints.
+        tips: (M, 3) fingertip positions.
+        capped: (M,) where the fingertip cap applies.
+        times: (M,) time from start.
+        velocities, accelerations: (M, dof) at the waypoints.
+        limits: as returned by :func:`resolve_limits`.
+
+    Returns:
+        ``c >= 1``.
     """
     vmax, amax, tip_max = limits["joint_velocity"], limits["joint_acceleration"], limits["fingertip_speed"]
     dt = np.diff(times)[:, None]
@@ -304,8 +321,14 @@ def _path_speed_constraint():
     import toppra
 
     class PathSpeedConstraint(toppra.constraint.LinearConstraint):
-        """Args: joint_velocity (dof,) limits; tip_rate |dp/ds| per grid point; capped (bool per
-        grid point); fingertip_speed the cap (m/s)."""
+        """Bounds on ``s'^2`` per grid point.
+
+        Args:
+            joint_velocity: (dof,) joint velocity limits (rad/s).
+            tip_rate: ``|dp/ds|`` of the fingertip at each grid point.
+            capped: True at the grid points where the fingertip cap applies.
+            fingertip_speed: the cap (m/s).
+        """
 
         def __init__(self, joint_velocity, tip_rate, capped, fingertip_speed):
             super().__init__()
@@ -314,6 +337,7 @@ def _path_speed_constraint():
             self.fingertip_speed = fingertip_speed
 
         def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
+            """toppra's hook: only ``xbound`` is set (the other six terms are None)."""
             rates = np.abs(path(gridpoints, 1))
             with np.errstate(divide="ignore"):
                 joint_bound = np.min(np.where(rates > 0, self.joint_velocity / rates, np.inf), axis=1)

@@ -317,13 +317,17 @@ class PlanView:
         self.slider = gui.add_slider("time (s)", min=0.0, max=round(self.duration, 2), step=0.01, initial_value=0.0)
         self.slider.on_update(lambda _: self.show(self.slider.value))
         play = gui.add_checkbox("play", initial_value=False)
+        player: list[threading.Thread] = []
 
         def toggle(_) -> None:
-            if play.value and not self._playing.is_set():
-                self._playing.set()
-                threading.Thread(target=self._play, daemon=True).start()
-            elif not play.value:
+            if not play.value:
                 self._playing.clear()
+            elif not (player and player[-1].is_alive()):  # one player thread at a time
+                self._playing.set()
+                player[:] = [threading.Thread(target=self._play, daemon=True)]
+                player[0].start()
+            else:
+                self._playing.set()
 
         play.on_update(toggle)
 
