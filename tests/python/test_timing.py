@@ -273,3 +273,17 @@ def test_export_reports_a_missing_file_and_a_bad_format(planned, tmp_path):
     source = tmp_path / "plan.json"
     source.write_text(planned.to_json())
     assert_bad_input(run("export", source, "--format", "yaml", "--out", tmp_path / "x"), "--format", "yaml")
+
+
+def test_export_warns_on_one_line_about_defaulted_urdf_limits(planned, tmp_path):
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text(open(planned.robot["urdf"]).read().replace('effort="60" velocity="2.0"', 'effort="60" velocity="-2"', 1))
+    data = {**planned.to_dict(), "schema": "slideplan.plan/1", "robot": {**planned.to_dict()["robot"], "urdf": str(urdf)}}
+    del data["timing"]
+    source, out = tmp_path / "old.json", tmp_path / "old.csv"
+    source.write_text(json.dumps(data))
+    result = run("export", source, "--format", "csv", "--out", out)
+    assert result.exit_code == 0, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("slideplan: warning: ") and "wam_j1 (-2)" in lines[0], result.stderr
+    assert f"{DEFAULT_JOINT_VELOCITY} rad/s" in lines[0]

@@ -54,6 +54,14 @@ def wait_for(page, condition, timeout=RENDER_TIMEOUT_S):
         page.wait_for_timeout(250)
 
 
+def served(result):
+    """Serve a plan's view without the environment map: prefiltering it takes SwiftShader about 5 s
+    a page, and it only changes the lighting, not what is drawn."""
+    view = open_view(result, port=0)
+    view.server.scene.configure_environment_map(hdri=None)
+    return view
+
+
 def visit(page, url: str) -> None:
     """Open the view; hide viser's toasts (e.g. "software WebGL rendering"): they are not the view."""
     page.goto(url)
@@ -94,7 +102,7 @@ def test_view_draws_robot_and_table_and_scrubbing_moves_the_object(planned, page
     for color in (ROBOT_COLOR, TABLE_COLOR, OBJECT_COLOR):
         assert hue_mask(reference, color).sum() < 50, color
 
-    view = open_view(planned, port=0)
+    view = served(planned)
     try:
         visit(page, view.url)
         start = wait_for(page, lambda image: all(hue_mask(image, c).sum() > DRAWN_PIXELS for c in (ROBOT_COLOR, TABLE_COLOR)))
@@ -121,7 +129,7 @@ def test_view_of_an_unsolved_plan_shows_the_scene_and_says_not_solved(planned, p
         start_config=planned.start_config[:0], goal_config=planned.goal_config[:0],
         grasp={"pose": np.zeros(0), "config": np.zeros(0), "approach": planned.grasp["approach"][:0]},
     )
-    view = open_view(unsolved, port=0)
+    view = served(unsolved)
     try:
         visit(page, view.url)
         image = wait_for(page, lambda image: hue_mask(image, TABLE_COLOR).sum() > DRAWN_PIXELS)
