@@ -255,7 +255,10 @@ def time_path(path: np.ndarray, tips: np.ndarray, capped: np.ndarray, limits: di
     if sd is None or not np.all(np.isfinite(sd)):
         raise InputError("toppra found no rest-to-rest time parameterization of this path", field=f"timing.{name}")
     sd[[0, -1]] = 0.0  # toppra returns rest to within 1e-9; the contract says exactly zero
-    grid_dt = 2.0 * np.diff(grid) / (sd[:-1] + sd[1:])
+    with np.errstate(divide="ignore"):
+        grid_dt = 2.0 * np.diff(grid) / (sd[:-1] + sd[1:])
+    if not np.all(np.isfinite(grid_dt)):  # toppra stopped the path somewhere in the middle
+        raise InputError("toppra found no rest-to-rest time parameterization of this path", field=f"timing.{name}")
     grid_t = np.concatenate([[0.0], np.cumsum(grid_dt)])
     at_waypoints = np.arange(0, len(grid), _GRID_SUBDIVISIONS)
     s_rate, s_accel = sd[at_waypoints], np.append(sdd, sdd[-1])[at_waypoints]  # accel. of the interval that starts there
