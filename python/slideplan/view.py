@@ -163,6 +163,7 @@ class PlanView:
         segments: the timed segments (:func:`timeline`).
         duration: total time of the plan (s), 0 when not solved.
         slider: the time slider (None when not solved).
+        play: the "play" checkbox (None when not solved): while on, the slider advances in real time.
         url: ``http://HOST:PORT`` where the server listens.
 
     Raises:
@@ -310,13 +311,13 @@ class PlanView:
         gui, result = self.server.gui, self.result
         if not result.solved:
             gui.add_markdown(f"**not solved** (status `{result.status}`): the scene only")
-            self.slider = None
+            self.slider = self.play = None
             return
         times = " + ".join(f"{segment.name} {segment.times[-1]:.1f} s" for segment in self.segments)
         gui.add_markdown(f"**solved**: overhang {100 * result.overhang_m:.1f} cm; {times}")
         self.slider = gui.add_slider("time (s)", min=0.0, max=round(self.duration, 2), step=0.01, initial_value=0.0)
         self.slider.on_update(lambda _: self.show(self.slider.value))
-        play = gui.add_checkbox("play", initial_value=False)
+        play = self.play = gui.add_checkbox("play", initial_value=False)
         player: list[threading.Thread] = []
 
         def toggle(_) -> None:
@@ -332,12 +333,15 @@ class PlanView:
         play.on_update(toggle)
 
     def _play(self) -> None:
-        """Advance the slider in real time while "play" is on, looping at the end."""
-        step = 1.0 / FPS
+        """Advance the slider in real time (by the clock, however long drawing takes) while "play"
+        is on, looping at the end."""
+        start_clock, start_value = time.monotonic(), self.slider.value
         while self._playing.is_set():
-            value = self.slider.value + step
-            self.slider.value = 0.0 if value > self.slider.max else round(value, 2)
-            time.sleep(step)
+            value = start_value + time.monotonic() - start_clock
+            if value > self.slider.max:
+                start_clock, start_value, value = time.monotonic(), 0.0, 0.0
+            self.slider.value = round(value, 2)
+            time.sleep(1.0 / FPS)
 
     def show(self, t: float) -> None:
         """Put the robot, the fingertip frame and the object where they are at time ``t``.

@@ -149,6 +149,21 @@ def test_recording_opens_in_a_browser_without_a_server(page, tmp_path):
     assert hue_mask(image, TABLE_COLOR).sum() > DRAWN_PIXELS
 
 
+def test_play_advances_the_timeline_until_stopped(planned):
+    view = open_view(planned, port=0)
+    try:
+        view.play.value = True
+        time.sleep(0.5)
+        view.play.value = False
+        time.sleep(0.1)  # the player notices within one frame
+        stopped_at = view.slider.value
+        assert 0.35 < stopped_at < 0.75  # real time: 0.5 s of plan time in 0.5 s (give or take a frame and the stop)
+        time.sleep(0.2)
+        assert view.slider.value == stopped_at
+    finally:
+        view.server.stop()
+
+
 def test_port_in_use_picks_another_and_says_so(planned, tmp_path):
     plan_file = tmp_path / "plan.json"
     plan_file.write_text(planned.to_json())
