@@ -17,7 +17,9 @@ from handmade_plan import build_plan
 from slideplan import _core
 from slideplan.cli import app
 from slideplan.errors import InputError
-from slideplan.planning import PlanResult
+from slideplan.objects import load_object
+from slideplan.planning import PlannerConfig, PlanResult, plan
+from slideplan.scenes import load_scene
 from slideplan.timing import (
     DEFAULT_FINGERTIP_SPEED,
     DEFAULT_JOINT_ACCELERATION,
@@ -287,3 +289,13 @@ def test_export_warns_on_one_line_about_defaulted_urdf_limits(planned, tmp_path)
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("slideplan: warning: ") and "wam_j1 (-2)" in lines[0], result.stderr
     assert f"{DEFAULT_JOINT_VELOCITY} rad/s" in lines[0]
+
+
+def test_plan_takes_timing_options():
+    scene = load_scene("square")
+    obj = load_object("L", table_height=scene.table.height, pose=(0.6, 0.0, 0.5))
+    result = plan(scene, obj, PlannerConfig(seed=1, time_limit_s=20), timing=TimingOptions(fingertip_speed=0.02))
+    assert result.solved and result.timing["limits"]["fingertip_speed"] == 0.02
+    tips = fingertip_positions(result, result.trajectory)
+    check_segment(result.trajectory, result.timing["trajectory"], URDF_VELOCITY, DEFAULT_JOINT_ACCELERATION,
+                  tips, np.ones(len(tips), bool), 0.02)

@@ -164,6 +164,17 @@ def test_play_advances_the_timeline_until_stopped(planned):
         view.server.stop()
 
 
+def test_a_version_1_plan_is_timed_for_the_view(planned):
+    old = dataclasses.replace(planned, timing=None)  # as read from a slideplan.plan/1 file
+    view = open_view(old, port=0)
+    try:
+        expected = planned.timing["trajectory"]["time_from_start"][-1] + planned.timing["approach"]["time_from_start"][-1]
+        assert view.duration == pytest.approx(expected)  # the default limits give the plan's own timing
+        assert [segment.name for segment in view.segments] == ["slide", "approach"]
+    finally:
+        view.server.stop()
+
+
 def test_port_in_use_picks_another_and_says_so(planned, tmp_path):
     plan_file = tmp_path / "plan.json"
     plan_file.write_text(planned.to_json())
