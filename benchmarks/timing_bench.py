@@ -82,7 +82,8 @@ def main() -> None:
     lines = [
         f"# Time-parameterization benchmark ({datetime.date.today().isoformat()})",
         "",
-        f"CPU: {cpu_name()}, {os.cpu_count()} cores; one thread. Square table, objects {', '.join(OBJECTS)}, "
+        f"CPU: {cpu_name()}, {os.cpu_count()} cores (1-minute load average {os.getloadavg()[0]:.1f} at the end: other "
+        f"work on the machine slows the numbers); one thread. Square table, objects {', '.join(OBJECTS)}, "
         f"{args.poses} seeded poses each: {len(plans)} solved plans; each parameterized {args.repeat} times "
         "(its median kept). `parameterize` times the slide and the approach under the URDF velocity limits, "
         "the default accelerations and the 5 cm/s fingertip cap.",
