@@ -275,8 +275,8 @@ def view_command(
             shown = view.open_view(result, host, port)
     except (InputError, ImportError) as error:
         raise _fail(error) from None
-    except OSError as error:  # a host that is not an address of this machine, or an unwritable --record
-        raise _fail(InputError(str(error), field="--record" if record_out is not None else "--host")) from None
+    except OSError as error:  # an unwritable --record
+        raise _fail(InputError(str(error), field="--record")) from None
     if shown.server.get_port() != port:
         typer.echo(f"slideplan: port {port} is in use; using {shown.server.get_port()}", err=True)
     status = "" if result.solved else f" (not solved: {result.status}; showing the scene only)"

@@ -20,6 +20,7 @@ import contextlib
 import dataclasses
 import io
 import math
+import socket
 import threading
 import time
 from pathlib import Path
@@ -369,9 +370,18 @@ class PlanView:
 
 def _server(host: str, port: int):
     """A viser server on ``host``, at ``port`` or the next free port; its banner is not printed
-    (the command line prints one line with the address instead)."""
+    (the command line prints one line with the address instead).
+
+    Raises:
+        InputError: nothing can listen on ``host`` (viser would try port after port forever).
+    """
     import viser
 
+    try:
+        with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as probe:
+            probe.bind((host, 0))
+    except (OSError, UnicodeError) as error:
+        raise InputError(f"cannot listen on {host!r} ({error})", field="--host") from None
     with contextlib.redirect_stdout(io.StringIO()):
         return viser.ViserServer(host=host, port=port, verbose=False)
 
@@ -389,7 +399,7 @@ def open_view(result: PlanResult, host: str = "127.0.0.1", port: int = 8080) -> 
         The view; ``view.server.stop()`` ends it.
 
     Raises:
-        InputError: the robot cannot be loaded or the plan cannot be timed.
+        InputError: nothing can listen on ``host``, the robot cannot be loaded or the plan cannot be timed.
     """
     server = _server(host, port)
     try:

@@ -194,6 +194,15 @@ def test_port_in_use_picks_another_and_says_so(planned, tmp_path):
     assert served != port and f"port {port} is in use; using {served}" in errors
 
 
+def test_view_refuses_a_host_it_cannot_listen_on(planned, tmp_path):
+    plan_file = tmp_path / "plan.json"
+    plan_file.write_text(planned.to_json())
+    result = CliRunner().invoke(app, ["view", str(plan_file), "--host", "192.0.2.1"])  # TEST-NET-1: not this machine
+    assert result.exit_code == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("slideplan: error: --host: cannot listen on '192.0.2.1'"), result.stderr
+
+
 def test_view_refuses_a_plan_of_unknown_schema(planned, tmp_path):
     plan_file = tmp_path / "plan.json"
     plan_file.write_text(json.dumps({**planned.to_dict(), "schema": "other/1"}))
