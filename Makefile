@@ -5,10 +5,10 @@ BUILD_DIR := build/py
 export CMAKE_BUILD_PARALLEL_LEVEL ?= 2
 
 APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev libompl-dev \
-                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev libassimp-dev libqhull-dev
+                  libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev libassimp-dev libqhull-dev chromium
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps install test test-cpp test-python test-sanitize fuzz demo bench clean
+.PHONY: all deps install test test-cpp test-python test-sanitize fuzz demo view bench clean
 
 all: install
 
@@ -27,7 +27,7 @@ $(PYTHON):
 install: deps $(PYTHON)
 	$(PYTHON) -m pip install -q scikit-build-core pybind11
 	$(PYTHON) -m pip install -q --no-build-isolation -C build-dir=$(BUILD_DIR) \
-	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,robots,test]"
+	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,robots,view,test]"
 
 test-cpp: install
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2
@@ -53,12 +53,16 @@ fuzz: install
 demo: install
 	$(VENV)/bin/slideplan demo --out out
 
+view: demo
+	$(VENV)/bin/slideplan view out/demo-plan.json
+
 bench: install
 	$(BUILD_DIR)/bench_core "$$($(PYTHON) -c 'import slideplan.scenes as s; print(":".join(map(str, s.package_search_dirs())))')"
 	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --scenes square round triangle long --variants "slideplan dz*=2cm"
 	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --poses 5 --scenes panda_square panda_round ur5_square ur5_round \
 	  --variants "slideplan hand" --out docs/benchmarks/robots.md
 	$(PYTHON) benchmarks/thread_bench.py
+	$(PYTHON) benchmarks/timing_bench.py
 
 clean:
 	rm -rf build out $(VENV)

@@ -1,16 +1,21 @@
-"""Command line: ``slideplan plan``, ``demo``, ``experiment`` and ``plot`` (DESIGN.md 5).
+"""Command line: ``slideplan plan``, ``demo``, ``export``, ``view``, ``experiment`` and ``plot`` (DESIGN.md 5).
 
 Exit codes of ``plan``: 0 solved (and verified), 1 not solved within the time limit,
 2 bad input (one line ``slideplan: error: ...`` on stderr), 3 solved but the plan fails
 the independent verification (a planner bug; the violations go to stderr and the JSON
 is written with status ``"invalid"``).
 
-``experiment`` and ``plot`` need the ``experiments`` extra (pandas, pyarrow, dask).
+``experiment`` and ``plot`` need the ``experiments`` extra (pandas, pyarrow, dask); ``view`` the
+``view`` extra (viser, yourdfpy). Warnings (e.g. a URDF velocity limit replaced by a default) go to
+stderr as one line ``slideplan: warning: ...`` each.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import time
+import warnings
 from pathlib import Path
 from typing import Optional, Tuple
 
@@ -49,6 +54,38 @@ def _fail(error: Exception) -> typer.Exit:
     message = " ".join(str(error).split())  # one line, whatever the source's message looked like
     typer.echo(f"slideplan: error: {message}", err=True)
     return typer.Exit(EXIT_BAD_INPUT)
+
+
+@contextlib.contextmanager
+def _warnings_as_lines():
+    """Print slideplan's own warnings raised inside (e.g. a URDF limit replaced by a default) as
+    ``slideplan: warning: ...`` lines; the libraries' deprecation notices are not the user's concern."""
+    from .timing import LimitWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            yield
+        finally:
+            for warning in caught:
+                if issubclass(warning.category, LimitWarning):
+                    typer.echo(f"slideplan: warning: {' '.join(str(warning.message).split())}", err=True)
+
+
+def _load_plan(path: Path) -> PlanResult:
+    """Read a plan JSON file (``slideplan.plan/1`` or ``/2``), naming the file in errors.
+
+    Raises:
+        InputError: the file cannot be read or is not a valid plan.
+    """
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"cannot read the plan ({error})", source=str(path)) from None
+    try:
+        return PlanResult.from_json(text)
+    except InputError as error:
+        raise InputError(error.problem, source=str(path), field=error.field) from None
 
 
 def _parse_params(items: list[str]) -> dict:
@@ -175,7 +212,7 @@ def plan_command(
         [], "--param", help="NAME=VALUE for any planner parameter (u_star, beta0, n_star, ...); repeatable; overrides "
         "the hand's [hand] params and the built-in defaults."
     ),
-    json_out: Optional[Path] = typer.Option(None, "--json", help="Write the plan JSON (slideplan.plan/1) here."),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="Write the plan JSON (slideplan.plan/2) here."),
     png_out: Optional[Path] = typer.Option(None, "--png", help="Write a top-down picture here (.png or .svg)."),
 ) -> None:
     """Plan a pre-grasp sliding motion and verify it.
@@ -189,7 +226,8 @@ def plan_command(
         task_scene = load_scene(scene)
         config = _config_from_options(task_scene, seed, time_limit, reconfiguration_range, planner, param)
         obj, sampled_pose = _load_object(task_scene, object_spec, pose, seed)
-        result = plan(task_scene, obj, config)
+        with _warnings_as_lines():
+            result = plan(task_scene, obj, config)
         if result.solved:
             result = _verify_and_mark(result)
         _write_outputs(result, json_out, png_out)
@@ -214,7 +252,8 @@ def demo_command(
         scene = load_scene("square")
         config = PlannerConfig.for_scene(scene, seed=seed)
         obj, _ = _load_object(scene, "crescent", None, seed)
-        result = plan(scene, obj, config)
+        with _warnings_as_lines():
+            result = plan(scene, obj, config)
         if result.solved:
             result = _verify_and_mark(result)
         _write_outputs(result, out / "demo-plan.json", out / "demo-plan.png")
@@ -228,6 +267,72 @@ def demo_command(
     else:
         typer.echo(_summary(result))
         raise typer.Exit(EXIT_NOT_SOLVED)
+
+
+@app.command("export")
+def export_command(
+    plan_file: Path = typer.Argument(..., help="A solved plan JSON (slideplan.plan/2, or /1: it is timed on export)."),
+    fmt: str = typer.Option(..., "--format", help="ros-json (trajectory_msgs/JointTrajectory per segment) or csv."),
+    out: Path = typer.Option(..., "--out", help="Output file."),
+) -> None:
+    """Write a plan's timed slide and approach for a controller.
+
+    Exit codes: 0 written, 2 bad input (unreadable or unknown plan, plan not solved, unknown format).
+    """
+    from .export import export_plan
+
+    try:
+        result = _load_plan(plan_file)
+        with _warnings_as_lines():
+            export_plan(result, fmt, out)
+    except InputError as error:
+        if not error.source and error.field != "--format":  # e.g. "status": a field of the plan file
+            error = InputError(error.problem, source=str(plan_file), field=error.field)
+        raise _fail(error) from None
+    except OSError as error:
+        raise _fail(error) from None
+    typer.echo(str(out))
+
+
+@app.command("view")
+def view_command(
+    plan_file: Path = typer.Argument(..., help="A plan JSON (slideplan.plan/1 or /2, solved or not)."),
+    host: str = typer.Option("127.0.0.1", "--host", help="Interface to listen on (default: this machine only)."),
+    port: int = typer.Option(8080, "--port", help="Port to try first; the next free one is used if it is taken."),
+    record_out: Optional[Path] = typer.Option(
+        None, "--record", help="Instead of serving, write the animated view to OUT.html (opens in any browser) or OUT.viser."
+    ),
+) -> None:
+    """Show a plan in 3D in the browser: robot, table, object, fingertip path, grasp; a time slider plays the plan.
+
+    Exit codes: 0 (after Ctrl-C, or once the recording is written), 2 bad input.
+    """
+    try:
+        from . import view
+
+        result = _load_plan(plan_file)
+        if not 0 <= port < 65536:
+            raise InputError(f"must be in [0, 65536), got {port}", field="--port")
+        with _warnings_as_lines():
+            if record_out is not None:
+                typer.echo(str(view.record(result, record_out)))
+                return
+            shown = view.open_view(result, host, port)
+    except (InputError, ImportError) as error:
+        raise _fail(error) from None
+    except OSError as error:  # an unwritable --record
+        raise _fail(InputError(str(error), field="--record")) from None
+    if shown.server.get_port() != port:
+        typer.echo(f"slideplan: port {port} is in use; using {shown.server.get_port()}", err=True)
+    status = "" if result.solved else f" (not solved: {result.status}; showing the scene only)"
+    typer.echo(f"view at {shown.url}{status}; Ctrl-C to stop")
+    try:
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        shown.server.stop()
 
 
 def _experiment_executor(workers: int | None, scheduler: str | None, threads: bool = False):

@@ -3,7 +3,7 @@
 :func:`plan` turns a :class:`~slideplan.scenes.Scene` and a :class:`~slideplan.objects.ThinObject`
 into the C++ core's inputs, runs Algorithm 1 (``_core.plan_sliding``) and wraps the answer in a
 :class:`PlanResult`, which reads and writes the plan JSON of DESIGN.md section 5
-(``slideplan.plan/1``).
+(``slideplan.plan/2``: ``/1`` plus the ``timing`` block of :mod:`slideplan.timing`).
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 from xml.etree import ElementTree
-from typing import Any
 
 import numpy as np
 
@@ -26,8 +26,12 @@ from .objects import ThinObject
 from .scenes import Scene
 from .transforms import homogeneous, pose_to_row, rotation_from_rpy, yawed_pose
 
+if TYPE_CHECKING:
+    from .timing import TimingOptions
+
 PLANNERS = ("slideplan", "cbirrt", "cbirrt2")
-PLAN_SCHEMA = "slideplan.plan/1"
+PLAN_SCHEMA = "slideplan.plan/2"
+READABLE_SCHEMAS = ("slideplan.plan/1", PLAN_SCHEMA)  # /1: the same fields without timing
 STATUSES = ("solved", "timeout", "invalid")
 
 # Fields of PlannerConfig that must be > 0 (the others: beta0 and dz_min may be 0 or more).
@@ -193,7 +197,7 @@ class PlannerConfig:
 
 @dataclass
 class PlanResult:
-    """One planning run, as stored in the plan JSON (``slideplan.plan/1``, DESIGN.md 5).
+    """One planning run, as stored in the plan JSON (``slideplan.plan/2``, DESIGN.md 5).
 
     It holds everything needed to re-check the plan without the planner
     (:func:`slideplan.verify.verify` does). Arrays are numpy arrays; when ``status`` is
@@ -222,6 +226,9 @@ class PlanResult:
         grasp: ``{"pose": (7,) pose of the grasp frame, "config": (dof,), "approach": (K, dof)
             dense path from the goal configuration to the grasp configuration}``.
         stats: planner counters (iterations, start_roots, goal_roots, pairs_checked, ...).
+        timing: times, velocities and accelerations of ``trajectory`` and ``grasp.approach`` and
+            the limits used (:func:`slideplan.timing.parameterize`); None when the plan is not
+            solved or was read from a ``slideplan.plan/1`` file.
     """
 
     SCHEMA = PLAN_SCHEMA
@@ -244,6 +251,7 @@ class PlanResult:
     fingertip_poses: np.ndarray
     grasp: dict[str, Any]
     stats: dict[str, Any] = field(default_factory=dict)
+    timing: dict[str, Any] | None = None
 
     @property
     def solved(self) -> bool:
@@ -281,10 +289,12 @@ class PlanResult:
         Raises:
             InputError: wrong schema, unknown status, or missing, unknown or misshapen fields.
         """
-        if not isinstance(data, dict) or data.get("schema") != PLAN_SCHEMA:
+        if not isinstance(data, dict) or data.get("schema") not in READABLE_SCHEMAS:
             found = data.get("schema") if isinstance(data, dict) else type(data).__name__
-            raise InputError(f"expected {PLAN_SCHEMA!r}, got {found!r}", field="schema")
+            raise InputError(f"expected one of {READABLE_SCHEMAS}, got {found!r}", field="schema")
         names = {item.name for item in dataclasses.fields(cls)}
+        if data["schema"] != PLAN_SCHEMA:
+            names.discard("timing")
         missing = sorted(names - data.keys())
         unknown = sorted(data.keys() - names - {"schema"})
         if missing or unknown:
@@ -323,7 +333,10 @@ class PlanResult:
                     "approach": _array(data["grasp"]["approach"], dof),
                 },
                 stats=dict(data["stats"]),
+                timing=_read_timing(data),
             )
+        except InputError:
+            raise
         except (KeyError, TypeError, ValueError) as error:
             raise InputError(f"malformed plan ({type(error).__name__}: {error})", field="plan") from None
 
@@ -349,6 +362,16 @@ def _robot_block(robot: dict[str, Any]) -> dict[str, Any]:
     for key in ("base_pose", "tip_offset", "grasp_offset"):
         block[key] = _array(block[key], 4)
     return block
+
+
+def _read_timing(data: dict[str, Any]) -> dict[str, Any] | None:
+    """The checked ``timing`` block of a plan dict, or None if it has none (``/1``, or null)."""
+    if data.get("timing") is None:
+        return None
+    from .timing import timing_from_dict
+
+    dof = len(data["joint_names"])
+    return timing_from_dict(data["timing"], dof, {"trajectory": len(data["trajectory"]), "approach": len(data["grasp"]["approach"])})
 
 
 def _to_plain(value: Any) -> Any:
@@ -473,13 +496,13 @@ def _cached_robot(key: str):
     return build_robot(json.loads(key))
 
 
-def robot_model(scene: Scene):
-    """Return the C++ robot model of a scene, cached: parsing the URDF and its meshes is not free.
-
-    The model is immutable, so plans in any number of threads share it (DESIGN.md 9).
+def plan_robot(description: dict[str, Any]):
+    """Return the C++ robot model of a plan's ``robot`` block, cached: parsing the URDF and its
+    meshes is not free. The model is immutable, so plans in any number of threads share it
+    (DESIGN.md 9).
 
     Args:
-        scene: the scene (its robot and contact frame key the cache).
+        description: a :func:`robot_description` (or a plan's ``robot`` block).
 
     Returns:
         ``_core.RobotModel``.
@@ -488,9 +511,21 @@ def robot_model(scene: Scene):
         InputError: naming the file and the key, if it cannot be loaded.
     """
     try:
-        return _cached_robot(json.dumps(_to_plain(robot_description(scene)), sort_keys=True))
+        return _cached_robot(json.dumps(_to_plain(description), sort_keys=True))
     except (ValueError, RuntimeError) as error:
-        raise InputError(f"cannot load robot ({error})", source=scene.source or str(scene.urdf_path), field="robot") from None
+        raise InputError(f"cannot load robot ({error})", source=str(description["urdf"]), field="robot") from None
+
+
+def robot_model(scene: Scene):
+    """Return the scene's C++ robot model (:func:`plan_robot` of its :func:`robot_description`).
+
+    Raises:
+        InputError: naming the scene file and the key, if the robot cannot be loaded.
+    """
+    try:
+        return plan_robot(robot_description(scene))
+    except InputError as error:
+        raise InputError(error.problem, source=scene.source or error.source, field="robot") from None
 
 
 def _box_obstacles(scene: Scene) -> list:
@@ -503,7 +538,7 @@ def _box_obstacles(scene: Scene) -> list:
     ]
 
 
-def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> PlanResult:
+def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, timing: TimingOptions | None = None) -> PlanResult:
     """Plan a pre-grasp sliding motion (paper Algorithm 1 with IsPairValid).
 
     Args:
@@ -511,14 +546,16 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> 
         obj: the thin object, lying on the scene's table.
         config: planner parameters, seed, time limit and planner (default:
             :meth:`PlannerConfig.for_scene`, the hand's defaults).
+        timing: limits of the time parameterization, a :class:`slideplan.timing.TimingOptions`
+            (default: URDF velocity limits and the documented defaults).
 
     Returns:
-        The result; ``status`` is ``"solved"`` or ``"timeout"``. The planner does not run
-        :func:`slideplan.verify.verify`; call it to re-check a plan.
+        The result; ``status`` is ``"solved"`` or ``"timeout"``. A solved plan carries its
+        ``timing``. The planner does not run :func:`slideplan.verify.verify`; call it to re-check a plan.
 
     Raises:
-        InputError: the object is not on the table, the robot cannot be loaded, or the core
-            rejects the input (message from the core).
+        InputError: the object is not on the table, the robot cannot be loaded, the core
+            rejects the input (message from the core), or the timing limits are malformed.
         KeyboardInterrupt: Ctrl-C during planning.
     """
     from . import _core
@@ -541,7 +578,12 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> 
         )
     except ValueError as error:
         raise InputError(f"planner rejected the input: {error}", source=scene.source) from None
-    return _wrap_core_result(core_result, scene, obj, config, robot)
+    result = _wrap_core_result(core_result, scene, obj, config, robot)
+    if result.solved:
+        from .timing import parameterize
+
+        result.timing = parameterize(result, timing)
+    return result
 
 
 def _wrap_core_result(core_result, scene: Scene, obj: ThinObject, config: PlannerConfig, robot) -> PlanResult:

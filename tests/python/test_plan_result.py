@@ -1,4 +1,4 @@
-"""PlanResult JSON (slideplan.plan/1), PlannerConfig checks, and the pose/quaternion helpers."""
+"""PlanResult JSON (slideplan.plan/2), PlannerConfig checks, and the pose/quaternion helpers."""
 
 import json
 import math
@@ -88,10 +88,10 @@ def test_timeout_plan_keeps_array_shapes():
 
 def test_json_has_the_design_fields():
     data = json.loads(make_plan().to_json())
-    assert data["schema"] == PLAN_SCHEMA == "slideplan.plan/1"
+    assert data["schema"] == PLAN_SCHEMA == "slideplan.plan/2"
     for key in ("status", "planner", "seed", "planning_time_s", "params", "table", "object", "object_motion",
                 "overhang_m", "joint_names", "start_config", "goal_config", "trajectory", "fingertip_poses",
-                "grasp", "stats"):
+                "grasp", "stats", "timing"):
         assert key in data, key
     assert {"beta0", "delta_beta", "dz_min", "dz_max", "n_star", "u_star", "d_goal", "time_limit_s"} <= data["params"].keys()
     assert {"polygon", "height"} <= data["table"].keys()

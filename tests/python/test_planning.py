@@ -81,7 +81,7 @@ def test_cli_plan_writes_a_verified_plan_and_picture(tmp_path):
     assert result.exit_code == 0, result.output + result.stderr
     assert result.output.count("\n") == 1 and "solved in" in result.output and "verified" in result.output
     plan_data = json.loads(out_json.read_text())
-    assert plan_data["schema"] == "slideplan.plan/1" and plan_data["status"] == "solved"
+    assert plan_data["schema"] == "slideplan.plan/2" and plan_data["status"] == "solved"
     assert verify(PlanResult.from_dict(plan_data)).ok
     assert out_png.stat().st_size > 1000
 

@@ -1,0 +1,17 @@
+"""Fixtures shared by the timing, export and view tests."""
+
+import pytest
+
+from slideplan.objects import load_object
+from slideplan.planning import PlannerConfig, plan
+from slideplan.scenes import load_scene
+
+
+@pytest.fixture(scope="session")
+def planned():
+    """A real, timed planner result (the L on the square table): jagged, dense, with a long approach."""
+    scene = load_scene("square")
+    obj = load_object("L", table_height=scene.table.height, pose=(0.6, 0.0, 0.5))
+    result = plan(scene, obj, PlannerConfig(seed=1, time_limit_s=20))
+    assert result.solved and result.timing is not None
+    return result
