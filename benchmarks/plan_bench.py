@@ -25,8 +25,10 @@ from slideplan import PlannerConfig, load_object, load_scene, plan
 from slideplan.objects import load_outline, sample_pose_on_table
 
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")
+PUBLISHED = {"screen_pairs": False, "shortcut_attempts": 0, "grasp_flip": False, "grasp_map": False}
 VARIANTS = (  # (label, planner, reconfiguration range dz* in metres, None: the hand's)
     ("slideplan hand", "slideplan", None),
+    ("Algorithm 1 as published dz*=2cm", "published", 0.02),
     ("slideplan dz*=2cm", "slideplan", 0.02),
     ("slideplan dz*=0.5cm", "slideplan", 0.005),
     ("slideplan dz*=0cm", "slideplan", 0.0),
@@ -54,11 +56,56 @@ def run_one(job: tuple[str, str, str, float | None, str, int, float]) -> tuple[s
     outline, _, _ = load_outline(object_name)
     pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([pose_index, OBJECTS.index(object_name)]))
     obj = load_object(object_name, table_height=scene.table.height, pose=pose)
-    config = PlannerConfig.for_scene(scene, planner=planner, seed=pose_index, time_limit_s=time_limit)
+    overrides = PUBLISHED if planner == "published" else {"planner": planner}
+    config = PlannerConfig.for_scene(scene, seed=pose_index, time_limit_s=time_limit, **overrides)
     if reconfiguration is not None:
         config = config.with_reconfiguration_range(reconfiguration)
     result = plan(scene, obj, config)
     return scene_name, label, result.solved, result.planning_time_s
+
+
+def run_peer(job: tuple[str, str, int, float]) -> tuple[float, float]:
+    """One problem for the peer comparison: CBiRRT's precomputed valid start/goal pair, connected by our
+    ConstrainedExtend (the cbirrt baseline after its precomputation) and by OMPL's ProjectedStateSpace +
+    RRTConnect on the same constraint. Returns (ours, OMPL's) connection seconds, inf if unsolved."""
+    from slideplan import _core
+    from slideplan.planning import core_task
+
+    scene_name, object_name, pose_index, time_limit = job
+    scene = load_scene(scene_name)
+    outline, _, _ = load_outline(object_name)
+    pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([pose_index, OBJECTS.index(object_name)]))
+    obj = load_object(object_name, table_height=scene.table.height, pose=pose)
+    config = PlannerConfig.for_scene(scene, planner="cbirrt", seed=pose_index, time_limit_s=time_limit)
+    result = plan(scene, obj, config)
+    if not result.solved:
+        return np.inf, np.inf  # no valid pair within the budget: neither gets to connect
+    ours = result.planning_time_s - result.stats["precompute_time"]
+    solved, seconds, _ = _core.ompl_projected_connect(
+        **core_task(scene, obj, config), start=result.start_config, goal=result.goal_config)
+    return ours, seconds if solved else np.inf
+
+
+def peer_table(scene: str, poses: int, time_limit: float, workers: int) -> list[str]:
+    """Markdown lines comparing our connection with OMPL's on the same pairs."""
+    jobs = [(scene, name, pose, time_limit) for name in OBJECTS for pose in range(poses)]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        pairs = np.array(list(pool.map(run_peer, jobs)))
+    both = np.isfinite(pairs).all(axis=1)
+    ratios = pairs[both, 1] / pairs[both, 0]
+    rows = ["", f"## Peers: connecting the same valid pair ({scene} table, {len(jobs)} problems)", "",
+            "CBiRRT's precomputed valid start/goal pair, connected by our ConstrainedExtend and by OMPL's "
+            "`ProjectedStateSpace` + `RRTConnect` on the same `SlidingConstraint` (our projection) and validity. "
+            f"Budget {time_limit:g} s each.", "",
+            "| connection | solved | median | p90 |", "|---|---|---|---|"]
+    for label, column in (("ConstrainedExtend (ours)", 0), ("OMPL ProjectedStateSpace + RRTConnect", 1)):
+        times = pairs[np.isfinite(pairs[:, 0]), column]
+        row = summarise(times, time_limit)
+        rows.append(f"| {label} | {np.mean(np.isfinite(times)):.0%} | {row['median']} | {row['p90']} |")
+    if len(ratios):
+        rows += ["", f"OMPL / ours, on the {len(ratios)} pairs both connected: median ratio {np.median(ratios):.1f}x, "
+                 f"p10 {np.percentile(ratios, 10):.1f}x, p90 {np.percentile(ratios, 90):.1f}x."]
+    return rows
 
 
 def summarise(times: np.ndarray, limit: float) -> dict[str, str]:
@@ -80,6 +127,7 @@ def main() -> None:
     parser.add_argument("--scenes", nargs="+", default=["square"], help="built-in scenes or scene files")
     parser.add_argument("--variants", nargs="+", default=[label for label, _, _ in VARIANTS if label != "slideplan hand"],
                         choices=[label for label, _, _ in VARIANTS], help="which variants to run")
+    parser.add_argument("--peers", action="store_true", help="also compare with OMPL's constrained planning (first scene)")
     parser.add_argument("--out", type=Path, default=Path("docs/benchmarks/plan_bench.md"))
     args = parser.parse_args()
 
@@ -107,6 +155,8 @@ def main() -> None:
     for (scene, label), values in times.items():
         row = summarise(np.array(values), args.time_limit)
         lines.append("| " + " | ".join([scene, label, *row.values()]) + " |")
+    if args.peers:
+        lines += peer_table(args.scenes[0], args.poses, args.time_limit, args.workers)
     report = "\n".join(lines) + "\n"
     print(report)
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -538,6 +538,29 @@ def _box_obstacles(scene: Scene) -> list:
     ]
 
 
+def core_task(scene: Scene, obj: ThinObject, config: PlannerConfig) -> dict[str, Any]:
+    """The C++ core's description of one planning problem: keyword arguments of ``_core.plan_sliding``
+    (and of the benchmark peer ``_core.ompl_projected_connect``) but the seed.
+
+    Raises:
+        InputError: the robot cannot be loaded.
+    """
+    from . import _core
+
+    return {
+        "robot": robot_model(scene),
+        "table": _core.SupportSurface(scene.table.vertices, scene.table.height),
+        "obstacles": _box_obstacles(scene),
+        "contact_links": list(scene.contact_links),
+        "object_points": np.asarray(obj.points, dtype=float),
+        "object_com_xy": np.asarray(obj.centroid_xy, dtype=float),
+        "params": config.to_params(),
+        "time_limit": config.time_limit_s,
+        "grasp_link": scene.hand.grasp_link,
+        "grasp_offset": base_pose_matrix(scene.hand.grasp_offset),
+    }
+
+
 def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, timing: TimingOptions | None = None) -> PlanResult:
     """Plan a pre-grasp sliding motion (paper Algorithm 1 with IsPairValid).
 
@@ -563,19 +586,7 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
     config = config or PlannerConfig.for_scene(scene)
     robot = robot_model(scene)
     try:
-        core_result = _core.plan_sliding(
-            robot=robot,
-            table=_core.SupportSurface(scene.table.vertices, scene.table.height),
-            obstacles=_box_obstacles(scene),
-            contact_links=list(scene.contact_links),
-            object_points=np.asarray(obj.points, dtype=float),
-            object_com_xy=np.asarray(obj.centroid_xy, dtype=float),
-            params=config.to_params(),
-            seed=config.seed,
-            time_limit=config.time_limit_s,
-            grasp_link=scene.hand.grasp_link,
-            grasp_offset=base_pose_matrix(scene.hand.grasp_offset),
-        )
+        core_result = _core.plan_sliding(**core_task(scene, obj, config), seed=config.seed)
     except ValueError as error:
         raise InputError(f"planner rejected the input: {error}", source=scene.source) from None
     result = _wrap_core_result(core_result, scene, obj, config, robot)

@@ -1,5 +1,6 @@
 #include "bindings.hpp"
 
+#include "slideplan/ompl_peer.hpp"
 #include "slideplan/planner.hpp"
 
 #include <atomic>
@@ -34,17 +35,28 @@ namespace slideplan::bindings
             return out;
         }
 
+        std::shared_ptr<const SlidingTask> makeTask(std::shared_ptr<const RobotModel> robot, const SupportSurface &table,
+                                                    const std::vector<BoxObstacle> &obstacles,
+                                                    const std::vector<std::string> &contactLinks,
+                                                    const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
+                                                    const Eigen::Vector2d &objectCom, const std::string &graspLink,
+                                                    const Eigen::Matrix4d &graspOffset, double timeLimit)
+        {
+            if (!std::isfinite(timeLimit) || timeLimit <= 0.0)
+                throw std::invalid_argument("time limit must be a positive number of seconds, got " + std::to_string(timeLimit));
+            return std::make_shared<SlidingTask>(SlidingTask::make(robot, std::make_shared<SupportSurface>(table), obstacles,
+                                                                   contactLinks, graspLink, toIsometry(graspOffset),
+                                                                   objectPoints, objectCom));
+        }
+
         PlanResult plan(std::shared_ptr<const RobotModel> robot, const SupportSurface &table,
                         const std::vector<BoxObstacle> &obstacles, const std::vector<std::string> &contactLinks,
                         const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints, const Eigen::Vector2d &objectCom,
                         const PlannerParams &params, std::uint64_t seed, double timeLimit, const std::string &graspLink,
                         const Eigen::Matrix4d &graspOffset)
         {
-            if (!std::isfinite(timeLimit) || timeLimit <= 0.0)
-                throw std::invalid_argument("time limit must be a positive number of seconds, got " + std::to_string(timeLimit));
-            auto task = std::make_shared<SlidingTask>(SlidingTask::make(robot, std::make_shared<SupportSurface>(table), obstacles,
-                                                                        contactLinks, graspLink, toIsometry(graspOffset),
-                                                                        objectPoints, objectCom));
+            const auto task = makeTask(robot, table, obstacles, contactLinks, objectPoints, objectCom, graspLink, graspOffset,
+                                       timeLimit);
 
             // The GIL is released while planning; every 100 ms the termination condition takes it back
             // briefly to let Python run its signal handlers, so Ctrl-C stops planning promptly.
@@ -157,6 +169,29 @@ namespace slideplan::bindings
                    "time_limit: seconds; grasp_link, grasp_offset (4x4): the grasp frame H_g = link * offset.\n"
                    "Raises ValueError for bad input (object off the table or degenerate, bad parameters, non-positive "
                    "time limit, unknown grasp link).");
+        module.def(
+            "ompl_projected_connect",
+            [](std::shared_ptr<const RobotModel> robot, const SupportSurface &table, const std::vector<BoxObstacle> &obstacles,
+               const std::vector<std::string> &contactLinks, const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
+               const Eigen::Vector2d &objectCom, const PlannerParams &params, double timeLimit, const std::string &graspLink,
+               const Eigen::Matrix4d &graspOffset, const Eigen::VectorXd &start, const Eigen::VectorXd &goal) {
+                params.validate();
+                const auto task = makeTask(robot, table, obstacles, contactLinks, objectPoints, objectCom, graspLink,
+                                           graspOffset, timeLimit);
+                PeerResult result;
+                {
+                    py::gil_scoped_release release;
+                    result = connectWithOmplProjection(task, params, start, goal,
+                                                       ompl::base::timedPlannerTerminationCondition(timeLimit));
+                }
+                return py::make_tuple(result.solved, result.seconds, result.states);
+            },
+            py::arg("robot"), py::arg("table"), py::arg("obstacles"), py::arg("contact_links"), py::arg("object_points"),
+            py::arg("object_com_xy"), py::arg("params"), py::arg("time_limit"), py::arg("grasp_link"),
+            py::arg("grasp_offset"), py::arg("start"), py::arg("goal"),
+            "Benchmark peer: connect a valid start/goal pair (start, goal: configurations) with OMPL's "
+            "ProjectedStateSpace + RRTConnect on the same constraint and validity (the other arguments as for "
+            "plan_sliding). Returns (solved, seconds, path states).");
         module.def(
             "can_add_root",
             [](int startRoots, int goalRoots, double nStar, std::uint64_t rngSeed, int draws) {
