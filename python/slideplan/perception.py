@@ -1,0 +1,456 @@
+"""From a scene point cloud to a scene and objects: the table plane, its outline, the thin objects on it.
+
+The steps (docs/perception.md):
+
+1. Planes: RANSAC (scikit-learn's ``RANSACRegressor``, z as a linear function of x and y)
+   on a random subsample, repeated on the points left over, finds the large planes; the
+   table is the highest one covering at least ``min_table_area``. It must be horizontal
+   within ``max_tilt_deg``: a steeper one is a tilted table, or a cloud in the camera frame.
+2. The table: the points within ``plane_tolerance`` of the plane, binned in an xy grid; the
+   largest connected patch is the table top, its outline the convex hull of its points
+   (simplified), its height the median height of its bare (object-free) points.
+3. Objects: the mean height above the plane per grid cell, smoothed over 3 x 3 cells (the
+   sensor noise is of the order of the objects' thickness, so single points cannot tell
+   object from table); connected cells at least ``min_height`` above the table are a
+   cluster; its thickness is the median height of its inner points; clusters thicker than
+   ``max_thickness`` are clutter (box obstacles), the others thin objects, whose points are
+   those where the smoothed height is above half their thickness.
+
+Needs the ``perception`` extra (scikit-learn; SciPy for the grid filters).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import shapely
+from shapely.geometry import MultiPoint, Polygon
+
+from .errors import InputError
+from .geometry import SupportSurface
+from .objects import _checked_cloud
+from .scenes import BoxObstacle, Scene, load_scene
+
+_PLANE_SAMPLE = 20_000  # RANSAC runs on this many random points: plenty for a plane, fast for any cloud
+_MAX_PLANES = 4  # floor, table, and a couple of box tops are all a tabletop scene has
+_MIN_PLANE_FRACTION = 0.05  # a plane with fewer inliers is clutter or chance, not a support surface
+_AREA_CELL = 0.01  # m; grid for estimating the area a plane's inliers cover
+
+
+@dataclass(eq=False)
+class PerceivedObject:
+    """A thin object found on the table.
+
+    Attributes:
+        points: (N, 3) top-surface cloud, world frame: the measured xy of the object's
+            points, z = table height + thickness (the noise averaged out).
+        thickness: median height of the object's inner points above the table (m).
+        footprint: the grid cells the object covers, as a polygon (world frame).
+        centroid_xy: (2,) mean xy of ``points``.
+        yaw: direction of the footprint's principal axis (rad, in (-pi/2, pi/2]);
+            meaningless for objects with equal second moments (discs, squares).
+    """
+
+    points: np.ndarray
+    thickness: float
+    footprint: Polygon
+    centroid_xy: np.ndarray
+    yaw: float
+
+
+@dataclass(eq=False)
+class Perception:
+    """What :func:`perceive` found.
+
+    Attributes:
+        table: the table top (outline and height).
+        tilt_deg: angle between the table plane's normal and the world z axis (deg).
+        objects: the thin objects, largest first.
+        obstacles: clutter on the table (clusters thicker than ``max_thickness``) as boxes.
+        warnings: things a user should know, e.g. a cluster that looks like touching objects.
+        cell_size: the xy grid used (m).
+    """
+
+    table: SupportSurface
+    tilt_deg: float
+    objects: list[PerceivedObject]
+    obstacles: list[BoxObstacle] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    cell_size: float = 0.0
+
+    def scene(self, robot_scene: str | Path = "square") -> Scene:
+        """The perceived scene: this table and these obstacles, with another scene's robot.
+
+        Args:
+            robot_scene: built-in scene name or scene TOML whose robot (URDF, mount, links) is used.
+
+        Returns:
+            The scene.
+        """
+        robot = load_scene(robot_scene)
+        return Scene(
+            name="perceived",
+            table=self.table,
+            urdf_path=robot.urdf_path,
+            base_pose=robot.base_pose,
+            tip_link=robot.tip_link,
+            contact_links=robot.contact_links,
+            obstacles=tuple(self.obstacles),
+        )
+
+
+@dataclass
+class _Plane:
+    """z = a x + b y + c, with its inliers among the RANSAC sample."""
+
+    coefficients: np.ndarray  # (a, b, c)
+    inliers: np.ndarray  # (k, 3) sample points
+
+    @property
+    def tilt_deg(self) -> float:
+        return math.degrees(math.atan(math.hypot(*self.coefficients[:2])))
+
+    def covered_area(self) -> float:
+        """Area of the _AREA_CELL grid cells holding inliers (m^2)."""
+        cells = np.unique(np.floor(self.inliers[:, :2] / _AREA_CELL).astype(np.int64), axis=0)
+        return len(cells) * _AREA_CELL**2
+
+
+def _fit_planes(sample: np.ndarray, tolerance: float, seed: int) -> list[_Plane]:
+    """Large planes, one RANSAC run each on what the previous ones left."""
+    from sklearn.linear_model import LinearRegression, RANSACRegressor
+
+    planes = []
+    remaining = sample
+    min_inliers = max(3, int(_MIN_PLANE_FRACTION * len(sample)))
+    for _ in range(_MAX_PLANES):
+        if len(remaining) < min_inliers:
+            break
+        ransac = RANSACRegressor(
+            LinearRegression(), min_samples=3, residual_threshold=tolerance, max_trials=200, random_state=seed
+        )
+        try:
+            ransac.fit(remaining[:, :2], remaining[:, 2])
+        except ValueError:  # RANSAC found no consensus set at all
+            break
+        inliers = ransac.inlier_mask_
+        if inliers.sum() < min_inliers:
+            break
+        model = ransac.estimator_
+        planes.append(_Plane(np.array([*model.coef_, model.intercept_]), remaining[inliers]))
+        remaining = remaining[~inliers]
+    return planes
+
+
+def _cell_size(support_xy: np.ndarray) -> float:
+    """Twice the mean point spacing of the table's points, clipped to [3, 10] mm."""
+    cells = np.unique(np.floor(support_xy / _AREA_CELL).astype(np.int64), axis=0)
+    spacing = math.sqrt(len(cells) * _AREA_CELL**2 / len(support_xy))
+    return float(np.clip(2.0 * spacing, 0.003, 0.01))
+
+
+class _Grid:
+    """An xy grid over a box, mapping points to cells."""
+
+    def __init__(self, xy: np.ndarray, cell: float) -> None:
+        self.cell = cell
+        self.origin = xy.min(axis=0) - 2 * cell
+        self.shape = tuple((np.ceil((xy.max(axis=0) - self.origin) / cell) + 3).astype(int))
+
+    def index(self, xy: np.ndarray) -> np.ndarray:
+        """(N, 2) integer cell indices of points (all inside the grid by construction)."""
+        return np.floor((xy - self.origin) / self.cell).astype(np.int64)
+
+    def accumulate(self, cells: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """Per-cell sum of ``weights`` (or count) as a 2-D array."""
+        flat = np.ravel_multi_index((cells[:, 0], cells[:, 1]), self.shape)
+        return np.bincount(flat, weights, minlength=self.shape[0] * self.shape[1]).reshape(self.shape)
+
+    def polygon(self, mask: np.ndarray):
+        """Union of the cells of a mask, as a shapely geometry."""
+        i, j = np.nonzero(mask)
+        low = self.origin + np.column_stack([i, j]) * self.cell
+        return shapely.union_all(shapely.box(low[:, 0], low[:, 1], low[:, 0] + self.cell, low[:, 1] + self.cell))
+
+
+def perceive(
+    points,
+    *,
+    max_tilt_deg: float = 5.0,
+    plane_tolerance: float = 0.008,
+    min_table_area: float = 0.04,
+    min_height: float = 0.002,
+    max_thickness: float = 0.03,
+    min_object_area: float = 4e-4,
+    cell_size: float | None = None,
+    seed: int = 0,
+    source: str = "",
+) -> Perception:
+    """Find the table and the thin objects on it in a world-frame scene cloud (z up).
+
+    Args:
+        points: (N, 3) array-like, world frame, z up (m); all finite.
+        max_tilt_deg: largest accepted angle between the table plane and the horizontal (deg).
+        plane_tolerance: distance from the plane (along z) within which a point belongs to
+            it (m); about 3 times the sensor's depth noise.
+        min_table_area: a plane must cover at least this much (m^2) to be a table candidate.
+        min_height: a cluster must stand at least this high above the table (m); objects
+            thinner than this (or than about twice the depth noise) are not found.
+        max_thickness: clusters thicker than this are clutter (box obstacles), not thin objects (m).
+        min_object_area: smaller clusters are dropped as noise (m^2).
+        cell_size: xy grid cell (m); default twice the mean point spacing on the table.
+        seed: seed of the RANSAC sampling.
+        source: the file the points came from, for error messages.
+
+    Returns:
+        The perception.
+
+    Raises:
+        InputError: empty cloud, NaN/inf points, no large plane, a table plane tilted more
+            than ``max_tilt_deg`` (a tilted table or a camera-frame cloud), or no object on
+            the table.
+    """
+    from scipy import ndimage
+
+    cloud = _checked_cloud(points, source=source)
+    rng = np.random.default_rng(seed)
+    sample = cloud[rng.choice(len(cloud), _PLANE_SAMPLE, replace=False)] if len(cloud) > _PLANE_SAMPLE else cloud
+    field_name = "" if source else "points"
+
+    large = [plane for plane in _fit_planes(sample, plane_tolerance, seed) if plane.covered_area() >= min_table_area]
+    if not large:
+        raise InputError(
+            f"no plane of at least {min_table_area:g} m^2 found: the cloud shows no table top", source=source, field=field_name
+        )
+    plane = max(large, key=lambda candidate: float(np.median(candidate.inliers[:, 2])))
+    if plane.tilt_deg > max_tilt_deg:
+        raise InputError(
+            f"the table plane is tilted {plane.tilt_deg:.1f} deg from horizontal (limit {max_tilt_deg:g} deg): "
+            "a tilted table, or a cloud in the camera frame; give the cloud in the world frame with z up",
+            source=source,
+            field=field_name,
+        )
+
+    a, b, c = plane.coefficients
+    heights = cloud[:, 2] - (a * cloud[:, 0] + b * cloud[:, 1] + c)
+    on_plane = np.abs(heights) < plane_tolerance
+    cell = cell_size or _cell_size(cloud[on_plane, :2])
+    grid = _Grid(cloud[on_plane, :2], cell)
+
+    # The table top: the largest connected patch of plane cells (closing bridges dropouts).
+    support_cells = grid.accumulate(grid.index(cloud[on_plane, :2])) > 0
+    labels, _ = ndimage.label(ndimage.binary_closing(support_cells), structure=np.ones((3, 3)))
+    sizes = np.bincount(labels.ravel())
+    sizes[0] = 0
+    table_mask = ndimage.binary_fill_holes(labels == int(np.argmax(sizes)))
+
+    # Everything at or above the plane over the table, per cell.
+    inside = np.all(cloud[:, :2] > grid.origin, axis=1) & np.all(
+        cloud[:, :2] < grid.origin + np.array(grid.shape) * cell, axis=1
+    )
+    inside &= heights > -plane_tolerance
+    point_cells = np.full((len(cloud), 2), -1, dtype=np.int64)
+    point_cells[inside] = grid.index(cloud[inside, :2])
+    inside[inside] = table_mask[point_cells[inside, 0], point_cells[inside, 1]]
+    above_cells, above_heights, above_xy = point_cells[inside], heights[inside], cloud[inside, :2]
+    height_sum = ndimage.uniform_filter(grid.accumulate(above_cells, above_heights), 3, mode="constant")
+    count = ndimage.uniform_filter(grid.accumulate(above_cells), 3, mode="constant")
+    smoothed = np.where(count > 1e-9, height_sum / np.maximum(count, 1e-9), 0.0)
+    point_smoothed = ndimage.map_coordinates(smoothed, ((above_xy - grid.origin) / cell - 0.5).T, order=1)
+
+    clusters, n_clusters = ndimage.label(table_mask & (smoothed > min_height), structure=np.ones((3, 3)))
+    cluster_of_point = clusters[above_cells[:, 0], above_cells[:, 1]]
+    objects, obstacles, warnings = [], [], []
+    occupied = np.zeros_like(table_mask)
+    for label in range(1, n_clusters + 1):
+        mask = clusters == label
+        if mask.sum() * cell**2 < min_object_area:
+            continue
+        occupied |= mask
+        inner = ndimage.binary_erosion(mask)
+        members = cluster_of_point == label
+        inner_points = members & inner[above_cells[:, 0], above_cells[:, 1]]
+        thickness = float(np.median(above_heights[inner_points if inner_points.any() else members]))
+        if thickness > max_thickness:
+            obstacles.append(_box_obstacle(above_xy[members], above_heights[members], c, a, b))
+            continue
+        objects.append((thickness, members, mask, smoothed[inner] if inner.any() else smoothed[mask]))
+
+    if not objects:
+        clutter = f" ({len(obstacles)} clutter clusters thicker than {max_thickness:g} m)" if obstacles else ""
+        raise InputError(
+            f"no object on the table: nothing between {min_height:g} and {max_thickness:g} m above the table plane{clutter}",
+            source=source,
+            field=field_name,
+        )
+
+    # Table height from its bare points, so the objects on it do not lift it.
+    bare = on_plane.copy()
+    bare_cells = grid.index(cloud[bare, :2])
+    bare[bare] = table_mask[bare_cells[:, 0], bare_cells[:, 1]] & ~ndimage.binary_dilation(occupied, iterations=2)[
+        bare_cells[:, 0], bare_cells[:, 1]
+    ]
+    offset = float(np.median(heights[bare]))
+    # Hull of everything over the table, so a corner hidden under clutter is not cut off.
+    hull = MultiPoint(cloud[inside, :2]).convex_hull.simplify(0.5 * cell)
+    centroid = hull.centroid
+    table = SupportSurface.from_vertices(
+        np.asarray(hull.exterior.coords), a * centroid.x + b * centroid.y + c + offset, field="table outline"
+    )
+
+    perceived = []
+    for raw_thickness, members, mask, inner_heights in sorted(objects, key=lambda item: -item[2].sum()):
+        index = len(perceived)
+        thickness = raw_thickness - offset
+        # The object's edge is where the smoothed height crosses half way from table to top.
+        xy = above_xy[members & (point_smoothed > 0.5 * (raw_thickness + offset))]
+        spread = np.percentile(inner_heights, [5, 95])
+        if spread[1] - spread[0] > max(0.002, 0.5 * thickness):
+            warnings.append(
+                f"object {index} has parts at different heights ({1000 * (spread[0] - offset):.1f} to "
+                f"{1000 * (spread[1] - offset):.1f} mm): probably touching objects, reported as one"
+            )
+        perceived.append(_thin_object(xy, thickness, table.height, grid.polygon(mask)))
+    return Perception(table, plane.tilt_deg, perceived, obstacles, warnings, cell)
+
+
+def _thin_object(xy: np.ndarray, thickness: float, table_height: float, footprint) -> PerceivedObject:
+    """A perceived object: flat cloud at the table height + thickness, centroid and principal axis."""
+    centroid = xy.mean(axis=0)
+    covariance = np.cov((xy - centroid).T)
+    eigenvalues, eigenvectors = np.linalg.eigh(covariance)
+    major = eigenvectors[:, int(np.argmax(eigenvalues))]
+    yaw = math.atan2(major[1], major[0])
+    yaw = yaw - math.pi if yaw > math.pi / 2 else yaw + math.pi if yaw <= -math.pi / 2 else yaw
+    points = np.column_stack([xy, np.full(len(xy), table_height + thickness)])
+    return PerceivedObject(points, thickness, footprint, centroid, yaw)
+
+
+def _box_obstacle(xy: np.ndarray, heights: np.ndarray, intercept: float, a: float, b: float) -> BoxObstacle:
+    """The box around a clutter cluster: its minimum rotated rectangle up to its 98th height percentile."""
+    rectangle = MultiPoint(xy).minimum_rotated_rectangle
+    corners = np.asarray(rectangle.exterior.coords)[:4]
+    sides = np.diff(np.vstack([corners, corners[:1]]), axis=0)
+    length = np.linalg.norm(sides, axis=1)
+    yaw = math.atan2(sides[0, 1], sides[0, 0])
+    center = corners.mean(axis=0)
+    top = float(np.percentile(heights, 98))
+    base = a * center[0] + b * center[1] + intercept
+    return BoxObstacle(np.array([center[0], center[1], base + 0.5 * top]), np.array([length[0], length[1], top]), yaw)
+
+
+def _toml_numbers(values) -> str:
+    return "[" + ", ".join(f"{float(value):.6g}" for value in values) + "]"
+
+
+def scene_toml(perception: Perception, robot_scene: str | Path = "square") -> str:
+    """The perceived scene in the scene-file format of :func:`slideplan.scenes.load_scene`.
+
+    Args:
+        perception: what :func:`perceive` found.
+        robot_scene: built-in scene name or scene TOML whose robot section is copied (the
+            cloud does not show where the robot stands).
+
+    Returns:
+        The TOML text.
+    """
+    robot = load_scene(robot_scene)
+    polygon = ", ".join(_toml_numbers(vertex) for vertex in perception.table.vertices)
+    lines = [
+        f"# Perceived by slideplan perceive (table tilt {perception.tilt_deg:.2f} deg, grid {1000 * perception.cell_size:.1f} mm);",
+        f"# robot from {robot.source}. {len(perception.objects)} thin objects: object_<i> clouds beside this file.",
+        "",
+        "[table]",
+        f"polygon = [{polygon}]",
+        f"height = {perception.table.height:.6g}",
+        "",
+        "[robot]",
+        f'urdf = "{robot.urdf_path}"',
+        f"base_pose = {_toml_numbers(robot.base_pose)}",
+        f'tip_link = "{robot.tip_link}"',
+        "contact_links = [" + ", ".join(f'"{link}"' for link in robot.contact_links) + "]",
+    ]
+    for box in perception.obstacles:
+        lines += ["", "[[obstacles]]", f"center = {_toml_numbers(box.center)}", f"size = {_toml_numbers(box.size)}",
+                  f"yaw = {box.yaw:.6g}"]
+    return "\n".join(lines) + "\n"
+
+
+def write_perception(perception: Perception, out_dir: str | Path, *, robot_scene: str | Path = "square",
+                     cloud_suffix: str = ".ply") -> tuple[Path, list[Path]]:
+    """Write ``scene.toml`` and ``object_<i>.ply`` (or ``.npy``) for ``slideplan plan``.
+
+    Args:
+        perception: what :func:`perceive` found.
+        out_dir: output directory (created).
+        robot_scene: scene whose robot section goes into ``scene.toml``.
+        cloud_suffix: ``.ply`` or ``.npy``.
+
+    Returns:
+        (the scene file, the object cloud files in object order).
+
+    Raises:
+        InputError: an unsupported cloud suffix.
+    """
+    import plyfile
+
+    if cloud_suffix not in (".ply", ".npy"):
+        raise InputError(f"expected .ply or .npy, got {cloud_suffix!r}", field="cloud_suffix")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    scene_path = out_dir / "scene.toml"
+    scene_path.write_text(scene_toml(perception, robot_scene))
+    cloud_paths = []
+    for index, perceived in enumerate(perception.objects):
+        path = out_dir / f"object_{index}{cloud_suffix}"
+        if cloud_suffix == ".npy":
+            np.save(path, perceived.points)
+        else:
+            vertices = np.array([tuple(point) for point in perceived.points], dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
+            plyfile.PlyData([plyfile.PlyElement.describe(vertices, "vertex")]).write(str(path))
+        cloud_paths.append(path)
+    return scene_path, cloud_paths
+
+
+def register_outline(points_xy, outline: Polygon, *, resolution: float = 0.002) -> tuple[tuple[float, float, float], float]:
+    """The pose of a known outline that fits a perceived object's points best.
+
+    The position is the points' centroid (the outline's frame is at its area centroid, as
+    in ``data/objects``); the yaw minimises the symmetric chamfer distance between the
+    points and a sample of the posed outline, over all yaws (2 deg steps, then 0.05 deg).
+
+    Args:
+        points_xy: (N, 2) the perceived object's xy (e.g. ``PerceivedObject.points[:, :2]``).
+        outline: the outline in the object frame (origin at its area centroid).
+        resolution: sample spacing of the outline (m).
+
+    Returns:
+        ((x, y, yaw), rms chamfer distance in m at that pose).
+    """
+    from scipy.spatial import cKDTree
+
+    from .objects import ThinObject
+
+    points_xy = np.asarray(points_xy, dtype=float)[:, :2]
+    centroid = points_xy.mean(axis=0)
+    sample = ThinObject.from_outline(outline, thickness=1.0, table_height=0.0, pose=(0, 0, 0), resolution=resolution).points
+    sample_xy = sample[:, :2] - sample[:, :2].mean(axis=0)
+    perceived_tree = cKDTree(points_xy - centroid)
+
+    def cost(yaw: float) -> float:
+        rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+        posed = sample_xy @ rotation.T
+        to_points = perceived_tree.query(posed)[0]
+        to_outline = cKDTree(posed).query(points_xy - centroid)[0]
+        return float(np.mean(to_points**2) + np.mean(to_outline**2))
+
+    coarse = np.radians(np.arange(-180.0, 180.0, 2.0))
+    best = coarse[int(np.argmin([cost(yaw) for yaw in coarse]))]
+    fine = best + np.radians(np.arange(-2.0, 2.0001, 0.05))
+    costs = [cost(yaw) for yaw in fine]
+    yaw = float(fine[int(np.argmin(costs))])
+    yaw = math.atan2(math.sin(yaw), math.cos(yaw))
+    return (float(centroid[0]), float(centroid[1]), yaw), math.sqrt(0.5 * min(costs))
