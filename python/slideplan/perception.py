@@ -160,8 +160,12 @@ class _Grid:
         self.origin = xy.min(axis=0) - 2 * cell
         self.shape = tuple((np.ceil((xy.max(axis=0) - self.origin) / cell) + 3).astype(int))
 
+    def covers(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) bool: which points fall inside the grid."""
+        return np.all((xy > self.origin) & (xy < self.origin + np.array(self.shape) * self.cell), axis=1)
+
     def index(self, xy: np.ndarray) -> np.ndarray:
-        """(N, 2) integer cell indices of points (all inside the grid by construction)."""
+        """(N, 2) integer cell indices of points inside the grid (see :meth:`covers`)."""
         return np.floor((xy - self.origin) / self.cell).astype(np.int64)
 
     def accumulate(self, cells: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
@@ -216,105 +220,115 @@ def perceive(
     from scipy import ndimage
 
     cloud = _checked_cloud(points, source=source)
-    rng = np.random.default_rng(seed)
-    sample = cloud[rng.choice(len(cloud), _PLANE_SAMPLE, replace=False)] if len(cloud) > _PLANE_SAMPLE else cloud
-    field_name = "" if source else "points"
-
-    large = [plane for plane in _fit_planes(sample, plane_tolerance, seed) if plane.covered_area() >= min_table_area]
-    if not large:
-        raise InputError(
-            f"no plane of at least {min_table_area:g} m^2 found: the cloud shows no table top", source=source, field=field_name
-        )
-    plane = max(large, key=lambda candidate: float(np.median(candidate.inliers[:, 2])))
-    if plane.tilt_deg > max_tilt_deg:
-        raise InputError(
-            f"the table plane is tilted {plane.tilt_deg:.1f} deg from horizontal (limit {max_tilt_deg:g} deg): "
-            "a tilted table, or a cloud in the camera frame; give the cloud in the world frame with z up",
-            source=source,
-            field=field_name,
-        )
-
+    problem = _Problem(source)
+    plane = _table_plane(cloud, plane_tolerance, min_table_area, max_tilt_deg, seed, problem)
     a, b, c = plane.coefficients
     heights = cloud[:, 2] - (a * cloud[:, 0] + b * cloud[:, 1] + c)
     on_plane = np.abs(heights) < plane_tolerance
-    cell = cell_size or _cell_size(cloud[on_plane, :2])
-    grid = _Grid(cloud[on_plane, :2], cell)
+    grid = _Grid(cloud[on_plane, :2], cell_size or _cell_size(cloud[on_plane, :2]))
+    table_mask = _table_mask(grid, cloud[on_plane, :2])
 
-    # The table top: the largest connected patch of plane cells (closing bridges dropouts).
-    support_cells = grid.accumulate(grid.index(cloud[on_plane, :2])) > 0
-    labels, _ = ndimage.label(ndimage.binary_closing(support_cells), structure=np.ones((3, 3)))
-    sizes = np.bincount(labels.ravel())
-    sizes[0] = 0
-    table_mask = ndimage.binary_fill_holes(labels == int(np.argmax(sizes)))
+    # Everything at or above the plane over the table: the table top, the objects, the clutter.
+    over = grid.covers(cloud[:, :2]) & (heights > -plane_tolerance)
+    over[over] = table_mask[tuple(grid.index(cloud[over, :2]).T)]
+    xy, heights_over = cloud[over, :2], heights[over]
+    cells = grid.index(xy)
+    smoothed = _smoothed_heights(grid, cells, heights_over)
+    smoothed_at_point = ndimage.map_coordinates(smoothed, ((xy - grid.origin) / grid.cell - 0.5).T, order=1)
 
-    # Everything at or above the plane over the table, per cell.
-    inside = np.all(cloud[:, :2] > grid.origin, axis=1) & np.all(
-        cloud[:, :2] < grid.origin + np.array(grid.shape) * cell, axis=1
-    )
-    inside &= heights > -plane_tolerance
-    point_cells = np.full((len(cloud), 2), -1, dtype=np.int64)
-    point_cells[inside] = grid.index(cloud[inside, :2])
-    inside[inside] = table_mask[point_cells[inside, 0], point_cells[inside, 1]]
-    above_cells, above_heights, above_xy = point_cells[inside], heights[inside], cloud[inside, :2]
-    height_sum = ndimage.uniform_filter(grid.accumulate(above_cells, above_heights), 3, mode="constant")
-    count = ndimage.uniform_filter(grid.accumulate(above_cells), 3, mode="constant")
-    smoothed = np.where(count > 1e-9, height_sum / np.maximum(count, 1e-9), 0.0)
-    point_smoothed = ndimage.map_coordinates(smoothed, ((above_xy - grid.origin) / cell - 0.5).T, order=1)
-
-    clusters, n_clusters = ndimage.label(table_mask & (smoothed > min_height), structure=np.ones((3, 3)))
-    cluster_of_point = clusters[above_cells[:, 0], above_cells[:, 1]]
-    objects, obstacles, warnings = [], [], []
+    clusters, count = ndimage.label(table_mask & (smoothed > min_height), structure=np.ones((3, 3)))
+    cluster_of_point = clusters[tuple(cells.T)]
+    thin, obstacles = [], []
     occupied = np.zeros_like(table_mask)
-    for label in range(1, n_clusters + 1):
+    for label in range(1, count + 1):
         mask = clusters == label
-        if mask.sum() * cell**2 < min_object_area:
+        if mask.sum() * grid.cell**2 < min_object_area:
             continue
         occupied |= mask
         inner = ndimage.binary_erosion(mask)
+        inner = inner if inner.any() else mask
         members = cluster_of_point == label
-        inner_points = members & inner[above_cells[:, 0], above_cells[:, 1]]
-        thickness = float(np.median(above_heights[inner_points if inner_points.any() else members]))
-        if thickness > max_thickness:
-            obstacles.append(_box_obstacle(above_xy[members], above_heights[members], c, a, b))
-            continue
-        objects.append((thickness, members, mask, smoothed[inner] if inner.any() else smoothed[mask]))
-
-    if not objects:
+        inner_members = members & inner[tuple(cells.T)]
+        top = float(np.median(heights_over[inner_members if inner_members.any() else members]))
+        if top > max_thickness:
+            obstacles.append(_box_obstacle(xy[members], heights_over[members], plane.coefficients))
+        else:
+            thin.append((top, members, mask, smoothed[inner]))
+    if not thin:
         clutter = f" ({len(obstacles)} clutter clusters thicker than {max_thickness:g} m)" if obstacles else ""
-        raise InputError(
-            f"no object on the table: nothing between {min_height:g} and {max_thickness:g} m above the table plane{clutter}",
-            source=source,
-            field=field_name,
-        )
+        raise problem(f"no object on the table: nothing between {min_height:g} and {max_thickness:g} m above the table plane{clutter}")
 
-    # Table height from its bare points, so the objects on it do not lift it.
-    bare = on_plane.copy()
-    bare_cells = grid.index(cloud[bare, :2])
-    bare[bare] = table_mask[bare_cells[:, 0], bare_cells[:, 1]] & ~ndimage.binary_dilation(occupied, iterations=2)[
-        bare_cells[:, 0], bare_cells[:, 1]
-    ]
+    # The table height from its bare points (away from anything on it), so the objects do not lift it.
+    bare = on_plane & over
+    bare[bare] = ~ndimage.binary_dilation(occupied, iterations=2)[tuple(grid.index(cloud[bare, :2]).T)]
     offset = float(np.median(heights[bare]))
-    # Hull of everything over the table, so a corner hidden under clutter is not cut off.
-    hull = MultiPoint(cloud[inside, :2]).convex_hull.simplify(0.5 * cell)
-    centroid = hull.centroid
+    # Hull of everything over the table: objects and clutter hide the table under them.
+    hull = MultiPoint(xy).convex_hull.simplify(0.5 * grid.cell)
+    center = hull.centroid
     table = SupportSurface.from_vertices(
-        np.asarray(hull.exterior.coords), a * centroid.x + b * centroid.y + c + offset, field="table outline"
+        np.asarray(hull.exterior.coords), a * center.x + b * center.y + c + offset, field="table outline"
     )
 
-    perceived = []
-    for raw_thickness, members, mask, inner_heights in sorted(objects, key=lambda item: -item[2].sum()):
-        index = len(perceived)
-        thickness = raw_thickness - offset
-        # The object's edge is where the smoothed height crosses half way from table to top.
-        xy = above_xy[members & (point_smoothed > 0.5 * (raw_thickness + offset))]
-        spread = np.percentile(inner_heights, [5, 95])
-        if spread[1] - spread[0] > max(0.002, 0.5 * thickness):
+    objects, warnings = [], []
+    for top, members, mask, inner_heights in sorted(thin, key=lambda item: -item[2].sum()):
+        # The object's edge is where the smoothed height crosses half way from the table to its top.
+        half = 0.5 * (top + offset)
+        low, high = np.percentile(inner_heights, [5, 95]) - offset
+        if high - low > max(0.002, 0.5 * (top - offset)):
             warnings.append(
-                f"object {index} has parts at different heights ({1000 * (spread[0] - offset):.1f} to "
-                f"{1000 * (spread[1] - offset):.1f} mm): probably touching objects, reported as one"
+                f"object {len(objects)} has parts at different heights ({1000 * low:.1f} to {1000 * high:.1f} mm): "
+                "probably touching objects, reported as one"
             )
-        perceived.append(_thin_object(xy, thickness, table.height, grid.polygon(mask)))
-    return Perception(table, plane.tilt_deg, perceived, obstacles, warnings, cell)
+        footprint = grid.polygon(ndimage.binary_dilation(mask) & (smoothed > half))
+        objects.append(_thin_object(xy[members & (smoothed_at_point > half)], top - offset, table.height, footprint))
+    return Perception(table, plane.tilt_deg, objects, obstacles, warnings, grid.cell)
+
+
+class _Problem:
+    """Makes the InputErrors of one perceive() call, naming the file or the argument."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def __call__(self, problem: str) -> InputError:
+        return InputError(problem, source=self.source, field="" if self.source else "points")
+
+
+def _table_plane(cloud: np.ndarray, tolerance: float, min_area: float, max_tilt_deg: float, seed: int, problem: _Problem) -> _Plane:
+    """The highest large plane, checked to be horizontal."""
+    rng = np.random.default_rng(seed)
+    sample = cloud[rng.choice(len(cloud), _PLANE_SAMPLE, replace=False)] if len(cloud) > _PLANE_SAMPLE else cloud
+    large = [plane for plane in _fit_planes(sample, tolerance, seed) if plane.covered_area() >= min_area]
+    if not large:
+        raise problem(f"no plane of at least {min_area:g} m^2 found: the cloud shows no table top")
+    # The highest: the floor is often the largest plane in view, the table stands above it.
+    plane = max(large, key=lambda candidate: float(np.median(candidate.inliers[:, 2])))
+    if plane.tilt_deg > max_tilt_deg:
+        raise problem(
+            f"the table plane is tilted {plane.tilt_deg:.1f} deg from horizontal (limit {max_tilt_deg:g} deg): "
+            "a tilted table, or a cloud in the camera frame; give the cloud in the world frame with z up"
+        )
+    return plane
+
+
+def _table_mask(grid: _Grid, xy: np.ndarray) -> np.ndarray:
+    """The cells of the largest connected patch of the plane's points, holes filled (objects stand in them)."""
+    from scipy import ndimage
+
+    support = grid.accumulate(grid.index(xy)) > 0
+    labels, _ = ndimage.label(ndimage.binary_closing(support), structure=np.ones((3, 3)))  # closing bridges dropouts
+    sizes = np.bincount(labels.ravel())
+    sizes[0] = 0
+    return ndimage.binary_fill_holes(labels == int(np.argmax(sizes)))
+
+
+def _smoothed_heights(grid: _Grid, cells: np.ndarray, heights: np.ndarray) -> np.ndarray:
+    """Mean height per cell over its 3 x 3 neighbourhood (0 where there are no points)."""
+    from scipy import ndimage
+
+    height_sum = ndimage.uniform_filter(grid.accumulate(cells, heights), 3, mode="constant")
+    count = ndimage.uniform_filter(grid.accumulate(cells), 3, mode="constant")
+    return np.where(count > 1e-9, height_sum / np.maximum(count, 1e-9), 0.0)
 
 
 def _thin_object(xy: np.ndarray, thickness: float, table_height: float, footprint) -> PerceivedObject:
@@ -329,7 +343,7 @@ def _thin_object(xy: np.ndarray, thickness: float, table_height: float, footprin
     return PerceivedObject(points, thickness, footprint, centroid, yaw)
 
 
-def _box_obstacle(xy: np.ndarray, heights: np.ndarray, intercept: float, a: float, b: float) -> BoxObstacle:
+def _box_obstacle(xy: np.ndarray, heights: np.ndarray, coefficients: np.ndarray) -> BoxObstacle:
     """The box around a clutter cluster: its minimum rotated rectangle up to its 98th height percentile."""
     rectangle = MultiPoint(xy).minimum_rotated_rectangle
     corners = np.asarray(rectangle.exterior.coords)[:4]
@@ -338,7 +352,7 @@ def _box_obstacle(xy: np.ndarray, heights: np.ndarray, intercept: float, a: floa
     yaw = math.atan2(sides[0, 1], sides[0, 0])
     center = corners.mean(axis=0)
     top = float(np.percentile(heights, 98))
-    base = a * center[0] + b * center[1] + intercept
+    base = coefficients @ (center[0], center[1], 1.0)
     return BoxObstacle(np.array([center[0], center[1], base + 0.5 * top]), np.array([length[0], length[1], top]), yaw)
 
 
