@@ -7,8 +7,8 @@ The steps (docs/perception.md):
    table is the highest one covering at least ``min_table_area``. It must be horizontal
    within ``max_tilt_deg``: a steeper one is a tilted table, or a cloud in the camera frame.
 2. The table: the points within ``plane_tolerance`` of the plane, binned in an xy grid; the
-   largest connected patch is the table top, its outline the convex hull of its points
-   (simplified), its height the median height of its bare (object-free) points.
+   largest connected patch is the table top, its outline the convex hull of the points over
+   it (simplified), its height the median height of its bare (object-free) points.
 3. Objects: the mean height above the plane per grid cell, smoothed over 3 x 3 cells (the
    sensor noise is of the order of the objects' thickness, so single points cannot tell
    object from table); connected cells at least ``min_height`` above the table are a
@@ -173,6 +173,10 @@ class _Grid:
         flat = np.ravel_multi_index((cells[:, 0], cells[:, 1]), self.shape)
         return np.bincount(flat, weights, minlength=self.shape[0] * self.shape[1]).reshape(self.shape)
 
+    def centers(self, mask: np.ndarray) -> np.ndarray:
+        """(k, 2) xy of the centres of a mask's cells, in row-major order."""
+        return self.origin + (np.column_stack(np.nonzero(mask)) + 0.5) * self.cell
+
     def polygon(self, mask: np.ndarray):
         """Union of the cells of a mask, as a shapely geometry."""
         i, j = np.nonzero(mask)
@@ -312,14 +316,20 @@ def _table_plane(cloud: np.ndarray, tolerance: float, min_area: float, max_tilt_
 
 
 def _table_mask(grid: _Grid, xy: np.ndarray) -> np.ndarray:
-    """The cells of the largest connected patch of the plane's points, holes filled (objects stand in them)."""
+    """The cells inside the convex hull of the largest connected patch of the plane's points.
+
+    The hull, not the patch: objects and clutter hide the table under them, and a tall box's
+    shadow can reach the table's edge, so the patch has holes and bays that are table.
+    """
     from scipy import ndimage
 
     support = grid.accumulate(grid.index(xy)) > 0
     labels, _ = ndimage.label(ndimage.binary_closing(support), structure=np.ones((3, 3)))  # closing bridges dropouts
     sizes = np.bincount(labels.ravel())
     sizes[0] = 0
-    return ndimage.binary_fill_holes(labels == int(np.argmax(sizes)))
+    hull = MultiPoint(grid.centers(labels == int(np.argmax(sizes)))).convex_hull.buffer(0.5 * grid.cell)
+    all_cells = np.ones(grid.shape, dtype=bool)
+    return shapely.contains_xy(hull, *grid.centers(all_cells).T).reshape(grid.shape)
 
 
 def _smoothed_heights(grid: _Grid, cells: np.ndarray, heights: np.ndarray) -> np.ndarray:
@@ -344,14 +354,17 @@ def _thin_object(xy: np.ndarray, thickness: float, table_height: float, footprin
 
 
 def _box_obstacle(xy: np.ndarray, heights: np.ndarray, coefficients: np.ndarray) -> BoxObstacle:
-    """The box around a clutter cluster: its minimum rotated rectangle up to its 98th height percentile."""
-    rectangle = MultiPoint(xy).minimum_rotated_rectangle
+    """The box around a clutter cluster: the minimum rotated rectangle of its upper half, up to its 98th height percentile.
+
+    The upper half only: the cluster's cells also hold table points around the clutter's foot.
+    """
+    top = float(np.percentile(heights, 98))
+    rectangle = MultiPoint(xy[heights > 0.5 * top]).minimum_rotated_rectangle
     corners = np.asarray(rectangle.exterior.coords)[:4]
     sides = np.diff(np.vstack([corners, corners[:1]]), axis=0)
     length = np.linalg.norm(sides, axis=1)
     yaw = math.atan2(sides[0, 1], sides[0, 0])
     center = corners.mean(axis=0)
-    top = float(np.percentile(heights, 98))
     base = coefficients @ (center[0], center[1], 1.0)
     return BoxObstacle(np.array([center[0], center[1], base + 0.5 * top]), np.array([length[0], length[1], top]), yaw)
 

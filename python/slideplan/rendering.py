@@ -165,7 +165,8 @@ def scene_mjcf(table: SupportSurface, objects: list[PlacedObject], clutter: list
     for box in clutter:
         half = " ".join(f"{0.5 * size:.6f}" for size in box.size)
         center = " ".join(f"{value:.6f}" for value in box.center)
-        geoms.append(f'<geom type="box" size="{half}" pos="{center}" euler="0 0 {box.yaw:.6f}" rgba="0.8 0.3 0.2 1"/>')
+        # MJCF angles are in degrees by default.
+        geoms.append(f'<geom type="box" size="{half}" pos="{center}" euler="0 0 {math.degrees(box.yaw):.6f}" rgba="0.8 0.3 0.2 1"/>')
     axes = camera.axes()
     xyaxes = " ".join(f"{value:.6f}" for value in np.concatenate([axes[:, 0], axes[:, 1]]))
     position = " ".join(f"{value:.6f}" for value in camera.position)

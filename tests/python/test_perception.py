@@ -68,6 +68,8 @@ def test_square_table_with_clutter(square_scene):
     truth = CLUTTER[0]
     assert np.linalg.norm(box.center[:2] - truth.center[:2]) < 0.01
     assert abs(box.size[2] - truth.size[2]) < 0.01
+    np.testing.assert_allclose(sorted(box.size[:2]), truth.size[:2], atol=0.005)
+    assert abs(math.remainder(box.yaw - truth.yaw, math.pi / 2)) < math.radians(5)  # a square's yaw is mod 90 deg
 
 
 def test_round_table_noisier(round_scene):
