@@ -9,12 +9,13 @@ The steps (docs/perception.md):
 2. The table: the points within ``plane_tolerance`` of the plane, binned in an xy grid; the
    largest connected patch is the table top, its outline the convex hull of the points over
    it (simplified), its height the median height of its bare (object-free) points.
-3. Objects: the mean height above the plane per grid cell, smoothed over 3 x 3 cells (the
-   sensor noise is of the order of the objects' thickness, so single points cannot tell
-   object from table); connected cells at least ``min_height`` above the table are a
-   cluster; its thickness is the median height of its inner points; clusters thicker than
-   ``max_thickness`` are clutter (box obstacles), the others thin objects, whose points are
-   those where the smoothed height is above half their thickness.
+3. Objects: the mean height above the plane per grid cell, Gaussian-smoothed (sigma one
+   cell: the sensor noise is of the order of the objects' thickness, so single points
+   cannot tell object from table); connected cells at least ``min_height`` above the table
+   are a cluster (SciPy's ``ndimage.label``); its thickness is the median height of its
+   inner points; clusters thicker than ``max_thickness`` are clutter (box obstacles), the
+   others thin objects, whose points are those near the cluster where a less smoothed
+   height (sigma half a cell, so thin parts survive) is above half their thickness.
 
 Needs the ``perception`` extra (scikit-learn; SciPy for the grid filters).
 """
@@ -31,13 +32,16 @@ from shapely.geometry import MultiPoint, Polygon
 
 from .errors import InputError
 from .geometry import SupportSurface
-from .objects import _checked_cloud
+from .objects import _checked_cloud, place_points
 from .scenes import BoxObstacle, Scene, load_scene
 
 _PLANE_SAMPLE = 20_000  # RANSAC runs on this many random points: plenty for a plane, fast for any cloud
 _MAX_PLANES = 4  # floor, table, and a couple of box tops are all a tabletop scene has
 _MIN_PLANE_FRACTION = 0.05  # a plane with fewer inliers is clutter or chance, not a support surface
 _AREA_CELL = 0.01  # m; grid for estimating the area a plane's inliers cover
+_DETECTION_SIGMA = 1.0  # cells; averages ~15 points per cell at the default cell size
+_EDGE_SIGMA = 0.5  # cells
+_OUTLINE_TOLERANCE = 0.001  # m; the outline's simplification moves it at most this much
 
 
 @dataclass(eq=False)
@@ -48,10 +52,12 @@ class PerceivedObject:
         points: (N, 3) top-surface cloud, world frame: the measured xy of the object's
             points, z = table height + thickness (the noise averaged out).
         thickness: median height of the object's inner points above the table (m).
-        footprint: the grid cells the object covers, as a polygon (world frame).
+        footprint: the grid cells the object covers, as a polygon (world frame; for plots
+            and overlap checks).
         centroid_xy: (2,) mean xy of ``points``.
-        yaw: direction of the footprint's principal axis (rad, in (-pi/2, pi/2]);
-            meaningless for objects with equal second moments (discs, squares).
+        yaw: direction of the principal axis of ``points`` (rad, in (-pi/2, pi/2]);
+            meaningless for objects with equal second moments (discs, squares). For the
+            pose of a known outline use :func:`register_outline`.
     """
 
     points: np.ndarray
@@ -169,9 +175,9 @@ class _Grid:
         return np.floor((xy - self.origin) / self.cell).astype(np.int64)
 
     def accumulate(self, cells: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
-        """Per-cell sum of ``weights`` (or count) as a 2-D array."""
+        """Per-cell sum of ``weights`` (or count) as a 2-D float array (filters keep their input's dtype)."""
         flat = np.ravel_multi_index((cells[:, 0], cells[:, 1]), self.shape)
-        return np.bincount(flat, weights, minlength=self.shape[0] * self.shape[1]).reshape(self.shape)
+        return np.bincount(flat, weights, minlength=self.shape[0] * self.shape[1]).reshape(self.shape).astype(float)
 
     def centers(self, mask: np.ndarray) -> np.ndarray:
         """(k, 2) xy of the centres of a mask's cells, in row-major order."""
@@ -237,11 +243,17 @@ def perceive(
     over[over] = table_mask[tuple(grid.index(cloud[over, :2]).T)]
     xy, heights_over = cloud[over, :2], heights[over]
     cells = grid.index(xy)
-    smoothed = _smoothed_heights(grid, cells, heights_over)
-    smoothed_at_point = ndimage.map_coordinates(smoothed, ((xy - grid.origin) / grid.cell - 0.5).T, order=1)
+    smoothed = _smoothed_heights(grid, cells, heights_over, _DETECTION_SIGMA)
+    # The edges from a less smoothed field: more noise, but thin parts (a crescent's tips) survive.
+    edge_field = _smoothed_heights(grid, cells, heights_over, _EDGE_SIGMA)
+    edge_at_point = ndimage.map_coordinates(edge_field, ((xy - grid.origin) / grid.cell - 0.5).T, order=1)
 
     clusters, count = ndimage.label(table_mask & (smoothed > min_height), structure=np.ones((3, 3)))
-    cluster_of_point = clusters[tuple(cells.T)]
+    # A point belongs to the nearest cluster within 2 cells: the detection blur erodes thin
+    # parts and corners, the edge field (below) decides which of these points are the object's.
+    distance, nearest = ndimage.distance_transform_edt(clusters == 0, return_indices=True)
+    near_cluster = np.where(distance <= 2, clusters[tuple(nearest)], 0)
+    cluster_of_point = near_cluster[tuple(cells.T)]
     thin, obstacles = [], []
     occupied = np.zeros_like(table_mask)
     for label in range(1, count + 1):
@@ -257,7 +269,7 @@ def perceive(
         if top > max_thickness:
             obstacles.append(_box_obstacle(xy[members], heights_over[members], plane.coefficients))
         else:
-            thin.append((top, members, mask, smoothed[inner]))
+            thin.append((int(mask.sum()), top, members, near_cluster == label, smoothed[inner]))
     if not thin:
         clutter = f" ({len(obstacles)} clutter clusters thicker than {max_thickness:g} m)" if obstacles else ""
         raise problem(f"no object on the table: nothing between {min_height:g} and {max_thickness:g} m above the table plane{clutter}")
@@ -267,15 +279,15 @@ def perceive(
     bare[bare] = ~ndimage.binary_dilation(occupied, iterations=2)[tuple(grid.index(cloud[bare, :2]).T)]
     offset = float(np.median(heights[bare]))
     # Hull of everything over the table: objects and clutter hide the table under them.
-    hull = MultiPoint(xy).convex_hull.simplify(0.5 * grid.cell)
+    hull = MultiPoint(xy).convex_hull.simplify(_OUTLINE_TOLERANCE)
     center = hull.centroid
     table = SupportSurface.from_vertices(
         np.asarray(hull.exterior.coords), a * center.x + b * center.y + c + offset, field="table outline"
     )
 
     objects, warnings = [], []
-    for top, members, mask, inner_heights in sorted(thin, key=lambda item: -item[2].sum()):
-        # The object's edge is where the smoothed height crosses half way from the table to its top.
+    for _, top, members, near, inner_heights in sorted(thin, key=lambda item: -item[0]):
+        # The object's edge is where the edge field crosses half way from the table to its top.
         half = 0.5 * (top + offset)
         low, high = np.percentile(inner_heights, [5, 95]) - offset
         if high - low > max(0.002, 0.5 * (top - offset)):
@@ -283,8 +295,8 @@ def perceive(
                 f"object {len(objects)} has parts at different heights ({1000 * low:.1f} to {1000 * high:.1f} mm): "
                 "probably touching objects, reported as one"
             )
-        footprint = grid.polygon(ndimage.binary_dilation(mask) & (smoothed > half))
-        objects.append(_thin_object(xy[members & (smoothed_at_point > half)], top - offset, table.height, footprint))
+        footprint = grid.polygon(near & (edge_field > half))
+        objects.append(_thin_object(xy[members & (edge_at_point > half)], top - offset, table.height, footprint))
     return Perception(table, plane.tilt_deg, objects, obstacles, warnings, grid.cell)
 
 
@@ -332,12 +344,19 @@ def _table_mask(grid: _Grid, xy: np.ndarray) -> np.ndarray:
     return shapely.contains_xy(hull, *grid.centers(all_cells).T).reshape(grid.shape)
 
 
-def _smoothed_heights(grid: _Grid, cells: np.ndarray, heights: np.ndarray) -> np.ndarray:
-    """Mean height per cell over its 3 x 3 neighbourhood (0 where there are no points)."""
+def _smoothed_heights(grid: _Grid, cells: np.ndarray, heights: np.ndarray, sigma: float) -> np.ndarray:
+    """Gaussian-weighted mean height per cell (0 where there are no points near).
+
+    Args:
+        grid: the grid.
+        cells: (N, 2) the points' cells.
+        heights: (N,) their heights above the plane.
+        sigma: the Gaussian's standard deviation, in cells.
+    """
     from scipy import ndimage
 
-    height_sum = ndimage.uniform_filter(grid.accumulate(cells, heights), 3, mode="constant")
-    count = ndimage.uniform_filter(grid.accumulate(cells), 3, mode="constant")
+    height_sum = ndimage.gaussian_filter(grid.accumulate(cells, heights), sigma, mode="constant", truncate=2.0)
+    count = ndimage.gaussian_filter(grid.accumulate(cells), sigma, mode="constant", truncate=2.0)
     return np.where(count > 1e-9, height_sum / np.maximum(count, 1e-9), 0.0)
 
 
@@ -445,39 +464,38 @@ def write_perception(perception: Perception, out_dir: str | Path, *, robot_scene
 def register_outline(points_xy, outline: Polygon, *, resolution: float = 0.002) -> tuple[tuple[float, float, float], float]:
     """The pose of a known outline that fits a perceived object's points best.
 
-    The position is the points' centroid (the outline's frame is at its area centroid, as
-    in ``data/objects``); the yaw minimises the symmetric chamfer distance between the
-    points and a sample of the posed outline, over all yaws (2 deg steps, then 0.05 deg).
+    Minimises the symmetric chamfer distance between the points and a sample of the posed
+    outline: over all yaws in 2 deg steps with the outline's origin (its area centroid, as in
+    ``data/objects``) at the points' centroid, then over (x, y, yaw) together (Nelder-Mead).
 
     Args:
-        points_xy: (N, 2) the perceived object's xy (e.g. ``PerceivedObject.points[:, :2]``).
+        points_xy: (N, 2) or (N, 3) the perceived object's points (e.g. ``PerceivedObject.points``).
         outline: the outline in the object frame (origin at its area centroid).
         resolution: sample spacing of the outline (m).
 
     Returns:
         ((x, y, yaw), rms chamfer distance in m at that pose).
     """
+    from scipy.optimize import minimize
     from scipy.spatial import cKDTree
 
     from .objects import ThinObject
 
     points_xy = np.asarray(points_xy, dtype=float)[:, :2]
     centroid = points_xy.mean(axis=0)
-    sample = ThinObject.from_outline(outline, thickness=1.0, table_height=0.0, pose=(0, 0, 0), resolution=resolution).points
-    sample_xy = sample[:, :2] - sample[:, :2].mean(axis=0)
-    perceived_tree = cKDTree(points_xy - centroid)
+    sample_xy = ThinObject.from_outline(outline, thickness=1.0, table_height=0.0, pose=(0, 0, 0), resolution=resolution).points[:, :2]
+    perceived_tree = cKDTree(points_xy)
 
-    def cost(yaw: float) -> float:
-        rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
-        posed = sample_xy @ rotation.T
+    def cost(pose) -> float:
+        posed = place_points(sample_xy, pose)
         to_points = perceived_tree.query(posed)[0]
-        to_outline = cKDTree(posed).query(points_xy - centroid)[0]
+        to_outline = cKDTree(posed).query(points_xy)[0]
         return float(np.mean(to_points**2) + np.mean(to_outline**2))
 
-    coarse = np.radians(np.arange(-180.0, 180.0, 2.0))
-    best = coarse[int(np.argmin([cost(yaw) for yaw in coarse]))]
-    fine = best + np.radians(np.arange(-2.0, 2.0001, 0.05))
-    costs = [cost(yaw) for yaw in fine]
-    yaw = float(fine[int(np.argmin(costs))])
-    yaw = math.atan2(math.sin(yaw), math.cos(yaw))
-    return (float(centroid[0]), float(centroid[1]), yaw), math.sqrt(0.5 * min(costs))
+    coarse = [(*centroid, yaw) for yaw in np.radians(np.arange(-180.0, 180.0, 2.0))]
+    start = coarse[int(np.argmin([cost(pose) for pose in coarse]))]
+    # Simplex steps: a few mm and about a degree, the size of the coarse search's errors.
+    simplex = np.array([start, start + np.array([0.003, 0, 0]), start + np.array([0, 0.003, 0]), start + np.array([0, 0, 0.03])])
+    best = minimize(cost, start, method="Nelder-Mead", options={"initial_simplex": simplex, "xatol": 1e-5, "fatol": 1e-12})
+    x, y, yaw = best.x
+    return (float(x), float(y), math.atan2(math.sin(yaw), math.cos(yaw))), math.sqrt(0.5 * best.fun)
