@@ -39,7 +39,7 @@ def random_scene(rng: np.random.Generator):
     """A table, three placed objects and a box, none touching, all on the table."""
     table = load_scene(TABLES[rng.integers(len(TABLES))]).table
     while True:
-        placed, footprints = [], []
+        placed = []
         for name in rng.choice(OBJECTS, size=3, replace=False):
             outline, thickness, label = load_outline(str(name))
             pose = sample_pose_on_table(outline, table, rng, margin=0.01)
@@ -142,7 +142,7 @@ def figure(path: Path) -> None:
         panels[2].scatter(*moved_object_xy(result).T, s=0.5, color="tab:blue", label="object 0 at goal")
         panels[2].plot(*result.fingertip_poses[:, :2].T, "k-", linewidth=1, label="fingertip path")
     panels[2].set_title(f"plan for object 0: {result.status}, overhang {100 * result.overhang_m:.1f} cm")
-    limits = [((0.1, 0.9), (-0.35, 0.35)), ((0.27, 0.73), (-0.23, 0.23)), ((0.27, 0.73), (-0.23, 0.23))]
+    limits = [((0.0, 1.1), (-0.5, 0.5)), ((0.27, 0.73), (-0.23, 0.23)), ((0.27, 0.73), (-0.23, 0.23))]
     for axes, (x_limits, y_limits) in zip(panels, limits):
         axes.set_aspect("equal")
         axes.set_xlabel("x (m)")
