@@ -43,6 +43,7 @@ demo: install
 bench: install
 	$(BUILD_DIR)/bench_core
 	$(PYTHON) benchmarks/plan_bench.py
+	$(PYTHON) benchmarks/perceive_bench.py
 
 clean:
 	rm -rf build out $(VENV)
