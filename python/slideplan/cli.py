@@ -210,7 +210,7 @@ def perceive_command(
         perception = perceive(load_point_cloud(cloud), seed=seed, source=str(cloud))
         scene_path, cloud_paths = write_perception(perception, out, robot_scene=robot_scene)
         if plan_target is not None and not 0 <= plan_target < len(cloud_paths):
-            raise InputError(f"there are {len(cloud_paths)} perceived objects (0 to {len(cloud_paths) - 1})", field="--plan-target")
+            raise InputError(f"no object {plan_target}: the perceived objects are 0 to {len(cloud_paths) - 1}", field="--plan-target")
     except (ImportError, InputError, OSError) as error:
         raise _fail(error) from None
     table = perception.table

@@ -115,12 +115,20 @@ def test_perceive_and_plan_passes_verification_against_the_truth(tmp_path, squar
     assert verification.ok, str(verification)
 
 
-def test_touching_objects_are_one_cluster_with_a_warning():
+def test_touching_objects_are_one_cluster_with_a_warning(tmp_path):
     # A thin L lying against a thicker crescent: one cluster, with parts at two heights.
     truth = rendered("square", [("L", (0.47, 0.0, 0.0), 0.004), ("crescent", (0.53, 0.005, 0.0), 0.010)], seed=3)
     perception = perceive(truth.points)
     assert len(perception.objects) == 1
     assert len(perception.warnings) == 1 and "touching objects" in perception.warnings[0]
+    cloud = tmp_path / "touching.npy"
+    np.save(cloud, truth.points)
+    result = runner.invoke(app, ["perceive", str(cloud), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 0
+    assert result.stderr.startswith("slideplan: warning: object 0 has parts at different heights")
+    assert (tmp_path / "out" / "object_0.ply").is_file() and not (tmp_path / "out" / "object_1.ply").exists()
+    result = runner.invoke(app, ["perceive", str(cloud), "--out", str(tmp_path / "out"), "--plan-target", "1"])
+    assert result.exit_code == 2 and "--plan-target: no object 1: the perceived objects are 0 to 0" in result.stderr
 
 
 def tilted(points, degrees, about=(0.5, 0.0, 0.0)):
