@@ -5,7 +5,9 @@ BUILD_DIR := build/py
 export CMAKE_BUILD_PARALLEL_LEVEL ?= 2
 
 APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev libompl-dev \
-                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev
+                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev \
+                libegl1 libegl-mesa0 libgl1-mesa-dri
+# The last three: Mesa's software EGL, for MuJoCo's headless renderer (the perception tests' scenes).
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps install test test-cpp test-python demo bench clean
