@@ -6,13 +6,15 @@ above the table; the depth image is back-projected through the camera intrinsics
 field of view, square pixels) into a world-frame cloud, with depth noise that grows with
 the square of the distance (as for structured-light and stereo sensors) and random
 dropouts. Needs the ``perception`` extra (``mujoco``); headless machines need
-``MUJOCO_GL=egl`` (set here unless the environment sets it).
+``MUJOCO_GL=egl`` (set here unless the environment sets it; it must be set before anything
+imports ``mujoco``).
 """
 
 from __future__ import annotations
 
 import math
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,6 +26,7 @@ from .objects import load_outline, place_outline
 
 TABLE_SLAB_M = 0.03  # table top thickness
 FLOOR_BELOW_M = 0.75  # floor this far below the table top, as under an ordinary table
+_FAR = 50.0  # far clipping plane, in model extents (MJCF's unit for it): a pixel there saw nothing
 
 
 @dataclass(frozen=True)
@@ -171,7 +174,7 @@ def scene_mjcf(table: SupportSurface, objects: list[PlacedObject], clutter: list
     xyaxes = " ".join(f"{value:.6f}" for value in np.concatenate([axes[:, 0], axes[:, 1]]))
     position = " ".join(f"{value:.6f}" for value in camera.position)
     return f"""<mujoco>
-  <visual><global offwidth="{camera.width}" offheight="{camera.height}"/><map znear="0.01" zfar="50"/></visual>
+  <visual><global offwidth="{camera.width}" offheight="{camera.height}"/><map znear="0.01" zfar="{_FAR:g}"/></visual>
   <asset>{"".join(assets)}</asset>
   <worldbody>
     <geom type="plane" size="5 5 0.1" pos="0 0 {top - FLOOR_BELOW_M:.6f}"/>
@@ -189,7 +192,7 @@ def depth_image(mjcf: str, camera: Camera) -> np.ndarray:
         camera: its camera (for the image size).
 
     Returns:
-        (height, width) array, row 0 at the top of the image.
+        (height, width) array, row 0 at the top of the image; NaN where no surface is in view.
     """
     os.environ.setdefault("MUJOCO_GL", "egl")
     import mujoco
@@ -200,7 +203,9 @@ def depth_image(mjcf: str, camera: Camera) -> np.ndarray:
     with mujoco.Renderer(model, camera.height, camera.width) as renderer:
         renderer.enable_depth_rendering()
         renderer.update_scene(data, camera="depth")
-        return renderer.render().copy()
+        depth = renderer.render().copy()
+    depth[depth >= 0.99 * _FAR * model.stat.extent] = np.nan
+    return depth
 
 
 def back_project(depth: np.ndarray, camera: Camera) -> np.ndarray:
@@ -247,7 +252,7 @@ def render_scene(
     table: SupportSurface,
     objects: list[PlacedObject],
     *,
-    clutter: list[Box] = (),
+    clutter: Sequence[Box] = (),
     camera: Camera | None = None,
     noise_at_1m: float = 0.002,
     dropout: float = 0.05,
