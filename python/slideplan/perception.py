@@ -33,6 +33,7 @@ from shapely.geometry import MultiPoint, Polygon
 from .errors import InputError
 from .geometry import SupportSurface
 from .objects import _checked_cloud, place_points
+from .paths import data_dir
 from .scenes import BoxObstacle, Scene, load_scene
 
 _PLANE_SAMPLE = 20_000  # RANSAC runs on this many random points: plenty for a plane, fast for any cloud
@@ -392,6 +393,12 @@ def _toml_numbers(values) -> str:
     return "[" + ", ".join(f"{float(value):.6g}" for value in values) + "]"
 
 
+def _urdf_reference(urdf_path: Path) -> str:
+    """A bundled URDF by its file name (load_scene looks in data/robots/), any other by its absolute path."""
+    bundled = data_dir() / "robots" / urdf_path.name
+    return urdf_path.name if bundled.is_file() and bundled.resolve() == urdf_path.resolve() else str(urdf_path.resolve())
+
+
 def scene_toml(perception: Perception, robot_scene: str | Path = "square") -> str:
     """The perceived scene in the scene-file format of :func:`slideplan.scenes.load_scene`.
 
@@ -414,7 +421,7 @@ def scene_toml(perception: Perception, robot_scene: str | Path = "square") -> st
         f"height = {perception.table.height:.6g}",
         "",
         "[robot]",
-        f'urdf = "{robot.urdf_path}"',
+        f'urdf = "{_urdf_reference(robot.urdf_path)}"',
         f"base_pose = {_toml_numbers(robot.base_pose)}",
         f'tip_link = "{robot.tip_link}"',
         "contact_links = [" + ", ".join(f'"{link}"' for link in robot.contact_links) + "]",

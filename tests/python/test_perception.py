@@ -83,6 +83,8 @@ def test_written_files_load_as_scene_and_objects(tmp_path, square_scene):
     assert scene.table.height == pytest.approx(perception.table.height, abs=1e-6)
     np.testing.assert_allclose(scene.table.vertices, perception.table.vertices, atol=1e-6)
     assert len(scene.obstacles) == 1
+    assert scene.urdf_path == load_scene("square").urdf_path
+    assert 'urdf = "wam_t42.urdf"' in scene_path.read_text()  # bundled: by name, so the file can move
     for perceived, path in zip(perception.objects, cloud_paths):
         obj = load_object(str(path), table_height=scene.table.height)
         assert obj.thickness == pytest.approx(perceived.thickness, abs=1e-6)
