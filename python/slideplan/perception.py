@@ -30,6 +30,7 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiPoint, Polygon
 
+from ._fields import as_number
 from .errors import InputError
 from .geometry import SupportSurface
 from .objects import _checked_cloud, place_points
@@ -224,12 +225,21 @@ def perceive(
         The perception.
 
     Raises:
-        InputError: empty cloud, NaN/inf points, no large plane, a table plane tilted more
+        InputError: a setting that is not a positive number (or ``max_thickness <=
+            min_height``), empty cloud, NaN/inf points, no large plane, a table plane tilted more
             than ``max_tilt_deg`` (a tilted table or a camera-frame cloud), or no object on
             the table.
     """
     from scipy import ndimage
 
+    settings = {"max_tilt_deg": max_tilt_deg, "plane_tolerance": plane_tolerance, "min_table_area": min_table_area,
+                "min_height": min_height, "max_thickness": max_thickness, "min_object_area": min_object_area}
+    for name, value in settings.items():
+        as_number(value, source="", field=name, positive=True)
+    if cell_size is not None:
+        as_number(cell_size, source="", field="cell_size", positive=True)
+    if max_thickness <= min_height:
+        raise InputError(f"must be > min_height ({min_height:g}), got {max_thickness!r}", field="max_thickness")
     cloud = _checked_cloud(points, source=source)
     problem = _Problem(source)
     plane = _table_plane(cloud, plane_tolerance, min_table_area, max_tilt_deg, seed, problem)

@@ -169,6 +169,18 @@ def test_empty_or_nan_cloud(points, problem):
         perceive(points)
 
 
+@pytest.mark.parametrize("setting, value", [("cell_size", -0.005), ("min_height", float("nan")), ("max_thickness", 0.001)])
+def test_bad_settings(square_scene, setting, value):
+    with pytest.raises(InputError, match=setting):
+        perceive(square_scene.points, **{setting: value})
+
+
+def test_slightly_tilted_table_is_accepted_and_measured(square_scene):
+    perception = perceive(tilted(square_scene.points, 2.0))
+    assert perception.tilt_deg == pytest.approx(2.0, abs=0.2)
+    assert len(perception.objects) == len(square_scene.objects)
+
+
 def test_cli_bad_cloud_is_one_error_line(tmp_path, square_scene):
     cloud = tmp_path / "tilted.npy"
     np.save(cloud, tilted(square_scene.points, 20.0))
