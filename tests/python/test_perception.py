@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from slideplan import InputError, load_scene
+from slideplan import InputError, load_scene, perceive
 from slideplan.cli import app
 from slideplan.objects import ThinObject, load_object, load_outline
-from slideplan.perception import perceive, register_outline, write_perception
+from slideplan.perception import register_outline, write_perception
 from slideplan.planning import PlanResult
 from slideplan.rendering import Box, place_objects, render_scene
 from slideplan.verify import moved_object_xy, overhang, verify
