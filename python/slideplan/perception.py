@@ -230,7 +230,11 @@ def perceive(
             than ``max_tilt_deg`` (a tilted table or a camera-frame cloud), or no object on
             the table.
     """
-    from scipy import ndimage
+    try:
+        import sklearn  # noqa: F401  (imported here so a missing extra is named before any work)
+        from scipy import ndimage
+    except ImportError as error:
+        raise ImportError(f"perceive needs the perception extra (pip install 'slideplan[perception]'): {error}") from None
 
     settings = {"max_tilt_deg": max_tilt_deg, "plane_tolerance": plane_tolerance, "min_table_area": min_table_area,
                 "min_height": min_height, "max_thickness": max_thickness, "min_object_area": min_object_area}
