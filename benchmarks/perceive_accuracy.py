@@ -119,7 +119,7 @@ def figure(path: Path) -> None:
 
     fig = Figure(figsize=(15, 5), layout="constrained")
     panels = fig.subplots(1, 3)
-    points = truth.points
+    points = truth.points[::2]  # every other point: the picture looks the same, the file is half the size
     # Colour scale from just below the table to above the objects: floor dark, clutter saturated.
     scatter = panels[0].scatter(points[:, 0], points[:, 1], c=points[:, 2], s=0.2, cmap="viridis", vmin=-0.003, vmax=0.008)
     fig.colorbar(scatter, ax=panels[0], label="z (m), clipped", shrink=0.8)
@@ -152,7 +152,7 @@ def figure(path: Path) -> None:
     for axes in panels[1:]:
         axes.legend(loc="lower left", fontsize=7, markerscale=8)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
 
 
 def main() -> None:
