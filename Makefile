@@ -5,7 +5,9 @@ BUILD_DIR := build/py
 export CMAKE_BUILD_PARALLEL_LEVEL ?= 2
 
 APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev libompl-dev \
-                  libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev libassimp-dev libqhull-dev chromium
+                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev libassimp-dev libqhull-dev chromium \
+                libegl1 libegl-mesa0 libgl1-mesa-dri
+# chromium: the 3D view's browser test; the last three: Mesa's software EGL, for MuJoCo's headless renderer.
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps install test test-cpp test-python test-sanitize fuzz demo view bench clean
@@ -27,7 +29,7 @@ $(PYTHON):
 install: deps $(PYTHON)
 	$(PYTHON) -m pip install -q scikit-build-core pybind11
 	$(PYTHON) -m pip install -q --no-build-isolation -C build-dir=$(BUILD_DIR) \
-	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,robots,view,test]"
+	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,robots,view,perception,test]"
 
 test-cpp: install
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2
@@ -63,6 +65,7 @@ bench: install
 	  --variants "slideplan hand" --out docs/benchmarks/robots.md
 	$(PYTHON) benchmarks/thread_bench.py
 	$(PYTHON) benchmarks/timing_bench.py
+	$(PYTHON) benchmarks/perceive_bench.py
 
 clean:
 	rm -rf build out $(VENV)

@@ -22,6 +22,7 @@ from . import _core
 from .errors import InputError
 from .geometry import SupportSurface
 from .objects import ThinObject, load_object
+from .perception import Perception, perceive
 from .planning import PlannerConfig, PlanResult, plan
 from .scenes import Scene, load_scene
 from .verify import Verification, verify
@@ -36,6 +37,7 @@ if "SLIDEPLAN_OMPL_LOG" not in os.environ:
 
 __all__ = [
     "InputError",
+    "Perception",
     "PlanResult",
     "PlannerConfig",
     "Scene",
@@ -45,6 +47,7 @@ __all__ = [
     "__version__",
     "load_object",
     "load_scene",
+    "perceive",
     "plan",
     "verify",
 ]

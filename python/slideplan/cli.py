@@ -1,4 +1,5 @@
-"""Command line: ``slideplan plan``, ``demo``, ``export``, ``view``, ``experiment`` and ``plot`` (DESIGN.md 5).
+"""Command line: ``slideplan plan``, ``demo``, ``export``, ``view``, ``perceive``, ``experiment`` and ``plot``
+(DESIGN.md 5).
 
 Exit codes of ``plan``: 0 solved (and verified), 1 not solved within the time limit,
 2 bad input (one line ``slideplan: error: ...`` on stderr), 3 solved but the plan fails
@@ -6,7 +7,7 @@ the independent verification (a planner bug; the violations go to stderr and the
 is written with status ``"invalid"``).
 
 ``experiment`` and ``plot`` need the ``experiments`` extra (pandas, pyarrow, dask); ``view`` the
-``view`` extra (viser, yourdfpy). Warnings (e.g. a URDF velocity limit replaced by a default) go to
+``view`` extra (viser, yourdfpy); ``perceive`` the ``perception`` extra (scikit-learn, SciPy). Warnings (e.g. a URDF velocity limit replaced by a default) go to
 stderr as one line ``slideplan: warning: ...`` each.
 """
 
@@ -267,6 +268,60 @@ def demo_command(
     else:
         typer.echo(_summary(result))
         raise typer.Exit(EXIT_NOT_SOLVED)
+
+
+@app.command("perceive")
+def perceive_command(
+    cloud: Path = typer.Argument(..., help="Scene point cloud, world frame, z up (.ply, .npy, .csv or .pcd)."),
+    out: Path = typer.Option(..., "--out", help="Directory for scene.toml and object_<i>.ply."),
+    robot_scene: str = typer.Option("square", "--robot-scene", help="Scene (name or TOML) whose robot mount scene.toml copies."),
+    plan_target: Optional[int] = typer.Option(None, "--plan-target", help="Then plan for perceived object N (0 = largest)."),
+    seed: int = typer.Option(0, "--seed", help="Random seed (RANSAC and planner)."),
+    time_limit: float = typer.Option(60.0, "--time-limit", help="Planning time budget (s), with --plan-target."),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="With --plan-target: write the plan JSON here."),
+    png_out: Optional[Path] = typer.Option(None, "--png", help="With --plan-target: write a top-down picture here."),
+) -> None:
+    """Find the table and the thin objects in a scene cloud; write a scene and object clouds (and plan).
+
+    Exit codes: 0 perceived (and, with --plan-target, solved and verified), 1 not solved,
+    2 bad input (including no table, a tilted table, no object), 3 plan fails verification.
+    """
+    from .objects import load_point_cloud
+    from .perception import perceive, write_perception
+    from .planning import plan
+
+    try:
+        perception = perceive(load_point_cloud(cloud), seed=seed, source=str(cloud))
+        scene_path, cloud_paths = write_perception(perception, out, robot_scene=robot_scene)
+        if plan_target is not None and not 0 <= plan_target < len(cloud_paths):
+            raise InputError(f"no object {plan_target}: the perceived objects are 0 to {len(cloud_paths) - 1}", field="--plan-target")
+    except (ImportError, InputError, OSError) as error:
+        raise _fail(error) from None
+    table = perception.table
+    typer.echo(f"table: height {table.height:.4f} m, {len(table.vertices)} vertices, area {table.area:.3f} m^2 -> {scene_path}")
+    for index, (perceived, path) in enumerate(zip(perception.objects, cloud_paths)):
+        x, y = perceived.centroid_xy
+        typer.echo(f"object {index}: centre ({x:.3f}, {y:.3f}), thickness {1000 * perceived.thickness:.1f} mm, "
+                   f"area {100 * 100 * perceived.footprint.area:.0f} cm^2 -> {path}")
+    for warning in perception.warnings:
+        typer.echo(f"slideplan: warning: {warning}", err=True)
+    if plan_target is None:
+        return
+    try:
+        scene = load_scene(str(scene_path))
+        config = _config_from_options(scene, seed, time_limit, None, "slideplan", [])
+        obj, _ = _load_object(scene, str(cloud_paths[plan_target]), None, seed)
+        with _warnings_as_lines():
+            result = plan(scene, obj, config)
+        if result.solved:
+            result = _verify_and_mark(result)
+        _write_outputs(result, json_out, png_out)
+    except (InputError, ValueError, OSError) as error:
+        raise _fail(error) from None
+    typer.echo(_summary(result) + (", verified" if result.solved else ""))
+    if result.status == "invalid":
+        raise typer.Exit(EXIT_INVALID_PLAN)
+    raise typer.Exit(EXIT_SOLVED if result.solved else EXIT_NOT_SOLVED)
 
 
 @app.command("export")

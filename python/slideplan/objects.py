@@ -17,7 +17,7 @@ from .errors import InputError
 from .geometry import SupportSurface, simple_polygon_vertices
 from .paths import find_data_file
 
-CLOUD_SUFFIXES = (".ply", ".npy", ".csv")
+CLOUD_SUFFIXES = (".ply", ".npy", ".csv", ".pcd")
 DEFAULT_THICKNESS = 0.004  # m; a few mm, like the paper's objects
 _MAX_SAMPLES = 2_000_000  # guards against a resolution typo (e.g. 5e-6) eating all memory
 
@@ -233,15 +233,52 @@ def _read_csv(path: Path) -> np.ndarray:
     return np.loadtxt(rows, delimiter=",", ndmin=2)
 
 
-_CLOUD_READERS = {".ply": _read_ply, ".npy": _read_npy, ".csv": _read_csv}
+_PCD_TYPES = {("F", 4): "<f4", ("F", 8): "<f8", ("I", 1): "i1", ("I", 2): "<i2", ("I", 4): "<i4", ("I", 8): "<i8",
+              ("U", 1): "u1", ("U", 2): "<u2", ("U", 4): "<u4", ("U", 8): "<u8"}  # PCL writes little-endian
+
+
+def _read_pcd(path: Path) -> np.ndarray:
+    """Read x, y, z of a PCL ``.pcd`` file (ascii or binary; binary_compressed is not supported)."""
+    raw = path.read_bytes()
+    header, offset = {}, 0
+    while True:
+        end = raw.find(b"\n", offset)
+        if end < 0:
+            raise ValueError("no DATA line in the header")
+        words = raw[offset:end].decode("ascii", errors="replace").split()
+        offset = end + 1
+        if words and not words[0].startswith("#"):
+            header[words[0].upper()] = words[1:]
+            if words[0].upper() == "DATA":
+                break
+    names = header.get("FIELDS", [])
+    if not all(axis in names for axis in "xyz"):
+        raise ValueError(f"FIELDS {' '.join(names)} lack x, y or z")
+    counts = [int(count) for count in header.get("COUNT", ["1"] * len(names))]
+    points = int(header.get("POINTS", ["0"])[0])
+    kind = header["DATA"][0] if header["DATA"] else ""
+    if kind == "ascii":
+        columns = np.cumsum([0, *counts])
+        table = np.loadtxt(raw[offset:].decode("ascii").splitlines(), ndmin=2)
+        return np.column_stack([table[:, columns[names.index(axis)]] for axis in "xyz"])
+    if kind != "binary":
+        raise ValueError(f"DATA {kind} is not supported (save as ascii or binary)")
+    dtype = np.dtype([(name, _PCD_TYPES[(kind_, int(size))], (count,)) if count > 1 else (name, _PCD_TYPES[(kind_, int(size))])
+                      for name, kind_, size, count in zip(names, header["TYPE"], header["SIZE"], counts)])
+    record = np.frombuffer(raw, dtype=dtype, count=points, offset=offset)
+    return np.column_stack([record[axis].astype(float) for axis in "xyz"])
+
+
+_CLOUD_READERS = {".ply": _read_ply, ".npy": _read_npy, ".csv": _read_csv, ".pcd": _read_pcd}
 
 
 def load_point_cloud(path: str | Path) -> np.ndarray:
     """Read a top-surface point cloud (world frame).
 
     Args:
-        path: a ``.ply`` (ascii or binary, vertex properties x, y, z), ``.npy`` (N x 3)
-            or ``.csv`` (x,y,z rows, optionally one header line) file.
+        path: a ``.ply`` (ascii or binary, vertex properties x, y, z), ``.npy`` (N x 3),
+            ``.csv`` (x,y,z rows, optionally one header line) or ``.pcd`` (PCL, ascii or
+            binary, fields x, y, z) file.
 
     Returns:
         (N, 3) float array, N >= 3, all finite.
@@ -261,7 +298,7 @@ def load_point_cloud(path: str | Path) -> np.ndarray:
         raise InputError("file not found", source=str(path))
     try:
         points = reader(path)
-    except (OSError, ValueError, plyfile.PlyParseError) as error:  # ValueError covers numpy's parse errors
+    except (OSError, ValueError, KeyError, plyfile.PlyParseError) as error:  # ValueError covers numpy's parse errors
         raise InputError(f"cannot read point cloud ({error})", source=str(path)) from None
     return _checked_cloud(points, source=str(path))
 
@@ -311,7 +348,7 @@ def load_object(
 
     Args:
         spec: a built-in object name, an outline TOML file, or a point-cloud file
-            (``.ply``/``.npy``/``.csv``, used where it lies).
+            (``.ply``/``.npy``/``.csv``/``.pcd``, used where it lies).
         table_height: z of the table top (m).
         pose: (x, y, yaw) for an outline object (required); must be None for a cloud.
         scale: factor on the outline's x and y (not the thickness), e.g. 0.5 for the

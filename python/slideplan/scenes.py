@@ -309,3 +309,55 @@ def load_scene(name_or_path: str | Path) -> Scene:
         obstacles=tuple(_read_obstacle(obstacle) for obstacle in obstacles),
         source=str(path),
     )
+
+
+def robot_toml(scene: Scene) -> list[str]:
+    """The scene's ``[robot]`` and ``[hand]`` sections as TOML lines (bundled files by name, others by
+    absolute path), so a
+    scene file written elsewhere (e.g. by ``slideplan perceive``) plans with the same robot and hand.
+
+    Args:
+        scene: a loaded scene.
+
+    Returns:
+        The lines, without a trailing blank line.
+    """
+
+    def text(value: str) -> str:
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+    def numbers(values) -> str:
+        return "[" + ", ".join(repr(float(value)) for value in values) + "]"
+
+    def strings(values) -> str:
+        return "[" + ", ".join(text(str(value)) for value in values) + "]"
+
+    def reference(path: Path) -> str:
+        # A bundled file by its name (load_scene also looks in data/robots/), so the scene file can move.
+        bundled = data_dir() / "robots" / path.name
+        return path.name if bundled.is_file() and bundled.resolve() == path.resolve() else str(path.resolve())
+
+    robot = ["[robot]", f"urdf = {text(reference(scene.urdf_path))}", f"base_pose = {numbers(scene.base_pose)}"]
+    if scene.attach:
+        robot.append(f"attach = {strings(reference(path) for path in scene.attach)}")
+    if scene.package_dirs:
+        robot.append(f"package_dirs = {strings(path.resolve() for path in scene.package_dirs)}")
+    if scene.base_link:
+        robot.append(f"base_link = {text(scene.base_link)}")
+    if scene.fixed_joints:
+        robot.append("fixed_joints = { " + ", ".join(f"{text(name)} = {value!r}" for name, value in scene.fixed_joints.items()) + " }")
+    hand = scene.hand
+    lines = robot + [
+        "",
+        "[hand]",
+        f"tip_link = {text(hand.tip_link)}",
+        f"tip_offset = {numbers(hand.tip_offset)}",
+        f"grasp_link = {text(hand.grasp_link)}",
+        f"grasp_offset = {numbers(hand.grasp_offset)}",
+        f"contact_links = {strings(hand.contact_links)}",
+    ]
+    if hand.params:
+        lines.append("params = { " + ", ".join(f"{name} = {str(value).lower() if isinstance(value, bool) else repr(value)}"
+                                               for name, value in hand.params.items()) + " }")
+    return lines
+

@@ -139,12 +139,24 @@ def write_ply(path, points, *, text):
     plyfile.PlyData([plyfile.PlyElement.describe(vertex, "vertex")], text=text).write(str(path))
 
 
+def write_pcd(path, cloud, binary):
+    """A PCL .pcd file with doubles x, y, z and a float intensity, so the reader must pick x, y, z out."""
+    header = (f"# .PCD v0.7\nVERSION 0.7\nFIELDS x y z intensity\nSIZE 8 8 8 4\nTYPE F F F F\nCOUNT 1 1 1 1\n"
+              f"WIDTH {len(cloud)}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {len(cloud)}\nDATA {'binary' if binary else 'ascii'}\n")
+    rows = np.zeros(len(cloud), dtype=[("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("intensity", "<f4")])
+    rows["x"], rows["y"], rows["z"], rows["intensity"] = *cloud.T, 7.0
+    body = rows.tobytes() if binary else "".join(f"{x!r} {y!r} {z!r} 7\n" for x, y, z in cloud.tolist()).encode()
+    path.write_bytes(header.encode() + body)
+
+
 WRITERS = {
     "cloud.npy": lambda path: np.save(path, CLOUD),
     "plain.csv": lambda path: np.savetxt(path, CLOUD, delimiter=","),
     "header.csv": lambda path: np.savetxt(path, CLOUD, delimiter=",", header="x,y,z", comments=""),
     "ascii.ply": lambda path: write_ply(path, CLOUD, text=True),
     "binary.ply": lambda path: write_ply(path, CLOUD, text=False),
+    "ascii.pcd": lambda path: write_pcd(path, CLOUD, binary=False),
+    "binary.pcd": lambda path: write_pcd(path, CLOUD, binary=True),
 }
 
 
@@ -184,6 +196,9 @@ BAD_CLOUDS = {
         [plyfile.PlyElement.describe(np.zeros(3, dtype=[("x", "f4"), ("y", "f4")]), "vertex")]
     ).write(str(path)), "vertex.z"),
     "garbage.ply": (lambda path: path.write_bytes(b"not a ply file"), "cannot read"),
+    "compressed.pcd": (lambda path: path.write_bytes(b"FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 3\nDATA binary_compressed\n"),
+                       "binary_compressed is not supported"),
+    "no_z.pcd": (lambda path: path.write_text("FIELDS x y\nSIZE 4 4\nTYPE F F\nPOINTS 1\nDATA ascii\n0 0\n"), "lack x, y or z"),
     "cloud.txt": (lambda path: path.write_text("0,0,1\n"), "unsupported"),
     "missing.npy": (lambda path: None, "not found"),
 }

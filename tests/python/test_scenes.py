@@ -1,6 +1,7 @@
 """Scene files: the built-in scenes and error messages for bad files."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -160,3 +161,22 @@ def test_default_robot_urdf_has_the_default_tip_and_contact_links():
     urdf = scene.urdf_path.read_text()
     for link in (scene.tip_link, *scene.contact_links):
         assert f'<link name="{link}"' in urdf
+
+
+@pytest.mark.parametrize("name", ["square", "panda_square", "ur5_round"])
+def test_robot_toml_writes_a_robot_and_hand_that_load_back_the_same(name, tmp_path):
+    from slideplan.planning import robot_description
+    from slideplan.scenes import robot_toml
+
+    scene = load_scene(name)
+    path = tmp_path / "elsewhere.toml"
+    path.write_text("[table]\npolygon = [[0.3, -0.2], [0.7, -0.2], [0.7, 0.2], [0.3, 0.2]]\n" + "\n".join(robot_toml(scene)) + "\n")
+    copy = load_scene(path)
+    original, reloaded = robot_description(scene), robot_description(copy)
+    assert Path(reloaded["urdf"]).resolve() == Path(original["urdf"]).resolve()
+    assert [Path(p).resolve() for p in reloaded["attach"]] == [Path(p).resolve() for p in original["attach"]]
+    for key in ("base_pose", "tip_offset", "grasp_offset"):
+        np.testing.assert_array_equal(reloaded[key], original[key])
+    for key in ("base_link", "fixed_joints", "tip_link", "grasp_link", "contact_links"):
+        assert reloaded[key] == original[key], key
+    assert copy.hand.params == scene.hand.params

@@ -1,0 +1,511 @@
+"""From a scene point cloud to a scene and objects: the table plane, its outline, the thin objects on it.
+
+The steps (docs/perception.md):
+
+1. Planes: RANSAC (scikit-learn's ``RANSACRegressor``, z as a linear function of x and y)
+   on a random subsample, repeated on the points left over, finds the large planes; the
+   table is the highest one covering at least ``min_table_area``. It must be horizontal
+   within ``max_tilt_deg``: a steeper one is a tilted table, or a cloud in the camera frame.
+2. The table: the points within ``plane_tolerance`` of the plane, binned in an xy grid; the
+   largest connected patch is the table top, its outline the convex hull of the points over
+   it (simplified), its height the median height of its bare (object-free) points.
+3. Objects: the mean height above the plane per grid cell, Gaussian-smoothed (sigma one
+   cell: the sensor noise is of the order of the objects' thickness, so single points
+   cannot tell object from table); connected cells at least ``min_height`` above the table
+   are a cluster (SciPy's ``ndimage.label``); its thickness is the median height of its
+   inner points; clusters thicker than ``max_thickness`` are clutter (box obstacles), the
+   others thin objects, whose points are those near the cluster where a less smoothed
+   height (sigma half a cell, so thin parts survive) is above half their thickness.
+
+Needs the ``perception`` extra (scikit-learn; SciPy for the grid filters).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import shapely
+from shapely.geometry import MultiPoint, Polygon
+
+from ._fields import as_number
+from .errors import InputError
+from .geometry import SupportSurface
+from .objects import _checked_cloud, place_points
+from .scenes import BoxObstacle, Scene, load_scene, robot_toml
+
+_PLANE_SAMPLE = 20_000  # RANSAC runs on this many random points: plenty for a plane, fast for any cloud
+_MAX_PLANES = 4  # floor, table, and a couple of box tops are all a tabletop scene has
+_MIN_PLANE_FRACTION = 0.05  # a plane with fewer inliers is clutter or chance, not a support surface
+_AREA_CELL = 0.01  # m; grid for estimating the area a plane's inliers cover
+_DETECTION_SIGMA = 1.0  # cells; averages ~15 points per cell at the default cell size
+_EDGE_SIGMA = 0.5  # cells
+_OUTLINE_TOLERANCE = 0.001  # m; the outline's simplification moves it at most this much
+
+
+@dataclass(eq=False)
+class PerceivedObject:
+    """A thin object found on the table.
+
+    Attributes:
+        points: (N, 3) top-surface cloud, world frame: the measured xy of the object's
+            points, z = table height + thickness (the noise averaged out).
+        thickness: median height of the object's inner points above the table (m).
+        footprint: the grid cells the object covers, as a polygon (world frame; for plots
+            and overlap checks).
+        centroid_xy: (2,) mean xy of ``points``.
+        yaw: direction of the principal axis of ``points`` (rad, in (-pi/2, pi/2]);
+            meaningless for objects with equal second moments (discs, squares). For the
+            pose of a known outline use :func:`register_outline`.
+    """
+
+    points: np.ndarray
+    thickness: float
+    footprint: Polygon
+    centroid_xy: np.ndarray
+    yaw: float
+
+
+@dataclass(eq=False)
+class Perception:
+    """What :func:`perceive` found.
+
+    Attributes:
+        table: the table top (outline and height).
+        tilt_deg: angle between the table plane's normal and the world z axis (deg).
+        objects: the thin objects, largest first.
+        obstacles: clutter on the table (clusters thicker than ``max_thickness``) as boxes.
+        warnings: things a user should know, e.g. a cluster that looks like touching objects.
+        cell_size: the xy grid used (m).
+    """
+
+    table: SupportSurface
+    tilt_deg: float
+    objects: list[PerceivedObject]
+    obstacles: list[BoxObstacle] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    cell_size: float = 0.0
+
+    def scene(self, robot_scene: str | Path = "square") -> Scene:
+        """The perceived scene: this table and these obstacles, with another scene's robot.
+
+        Args:
+            robot_scene: built-in scene name or scene TOML whose robot (URDF, mount, links) is used.
+
+        Returns:
+            The scene.
+        """
+        robot = load_scene(robot_scene)
+        return Scene(
+            name="perceived",
+            table=self.table,
+            urdf_path=robot.urdf_path,
+            base_pose=robot.base_pose,
+            tip_link=robot.tip_link,
+            contact_links=robot.contact_links,
+            obstacles=tuple(self.obstacles),
+        )
+
+
+@dataclass
+class _Plane:
+    """z = a x + b y + c, with its inliers among the RANSAC sample."""
+
+    coefficients: np.ndarray  # (a, b, c)
+    inliers: np.ndarray  # (k, 3) sample points
+
+    @property
+    def tilt_deg(self) -> float:
+        return math.degrees(math.atan(math.hypot(*self.coefficients[:2])))
+
+    def covered_area(self) -> float:
+        """Area of the _AREA_CELL grid cells holding inliers (m^2)."""
+        cells = np.unique(np.floor(self.inliers[:, :2] / _AREA_CELL).astype(np.int64), axis=0)
+        return len(cells) * _AREA_CELL**2
+
+
+def _fit_planes(sample: np.ndarray, tolerance: float, seed: int) -> list[_Plane]:
+    """Large planes, one RANSAC run each on what the previous ones left."""
+    from sklearn.linear_model import LinearRegression, RANSACRegressor
+
+    planes = []
+    remaining = sample
+    min_inliers = max(3, int(_MIN_PLANE_FRACTION * len(sample)))
+    for _ in range(_MAX_PLANES):
+        if len(remaining) < min_inliers:
+            break
+        ransac = RANSACRegressor(
+            LinearRegression(), min_samples=3, residual_threshold=tolerance, max_trials=200, random_state=seed
+        )
+        try:
+            ransac.fit(remaining[:, :2], remaining[:, 2])
+        except ValueError:  # RANSAC found no consensus set at all
+            break
+        inliers = ransac.inlier_mask_
+        if inliers.sum() < min_inliers:
+            break
+        model = ransac.estimator_
+        planes.append(_Plane(np.array([*model.coef_, model.intercept_]), remaining[inliers]))
+        remaining = remaining[~inliers]
+    return planes
+
+
+def _cell_size(support_xy: np.ndarray) -> float:
+    """Twice the mean point spacing of the table's points, clipped to [3, 10] mm."""
+    cells = np.unique(np.floor(support_xy / _AREA_CELL).astype(np.int64), axis=0)
+    spacing = math.sqrt(len(cells) * _AREA_CELL**2 / len(support_xy))
+    return float(np.clip(2.0 * spacing, 0.003, 0.01))
+
+
+class _Grid:
+    """An xy grid over a box, mapping points to cells."""
+
+    def __init__(self, xy: np.ndarray, cell: float) -> None:
+        self.cell = cell
+        self.origin = xy.min(axis=0) - 2 * cell
+        self.shape = tuple((np.ceil((xy.max(axis=0) - self.origin) / cell) + 3).astype(int))
+
+    def covers(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) bool: which points fall inside the grid."""
+        return np.all((xy > self.origin) & (xy < self.origin + np.array(self.shape) * self.cell), axis=1)
+
+    def index(self, xy: np.ndarray) -> np.ndarray:
+        """(N, 2) integer cell indices of points inside the grid (see :meth:`covers`)."""
+        return np.floor((xy - self.origin) / self.cell).astype(np.int64)
+
+    def accumulate(self, cells: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """Per-cell sum of ``weights`` (or count) as a 2-D float array (filters keep their input's dtype)."""
+        flat = np.ravel_multi_index((cells[:, 0], cells[:, 1]), self.shape)
+        return np.bincount(flat, weights, minlength=self.shape[0] * self.shape[1]).reshape(self.shape).astype(float)
+
+    def centers(self, mask: np.ndarray) -> np.ndarray:
+        """(k, 2) xy of the centres of a mask's cells, in row-major order."""
+        return self.origin + (np.column_stack(np.nonzero(mask)) + 0.5) * self.cell
+
+    def polygon(self, mask: np.ndarray):
+        """Union of the cells of a mask, as a shapely geometry."""
+        i, j = np.nonzero(mask)
+        low = self.origin + np.column_stack([i, j]) * self.cell
+        return shapely.union_all(shapely.box(low[:, 0], low[:, 1], low[:, 0] + self.cell, low[:, 1] + self.cell))
+
+
+def perceive(
+    points,
+    *,
+    max_tilt_deg: float = 5.0,
+    plane_tolerance: float = 0.008,
+    min_table_area: float = 0.04,
+    min_height: float = 0.002,
+    max_thickness: float = 0.03,
+    min_object_area: float = 4e-4,
+    cell_size: float | None = None,
+    seed: int = 0,
+    source: str = "",
+) -> Perception:
+    """Find the table and the thin objects on it in a world-frame scene cloud (z up).
+
+    Args:
+        points: (N, 3) array-like, world frame, z up (m); all finite.
+        max_tilt_deg: largest accepted angle between the table plane and the horizontal (deg).
+        plane_tolerance: distance from the plane (along z) within which a point belongs to
+            it (m); about 3 times the sensor's depth noise.
+        min_table_area: a plane must cover at least this much (m^2) to be a table candidate.
+        min_height: a cluster must stand at least this high above the table (m); objects
+            thinner than this (or than about twice the depth noise) are not found.
+        max_thickness: clusters thicker than this are clutter (box obstacles), not thin objects (m).
+        min_object_area: smaller clusters are dropped as noise (m^2).
+        cell_size: xy grid cell (m); default twice the mean point spacing on the table.
+        seed: seed of the RANSAC sampling.
+        source: the file the points came from, for error messages.
+
+    Returns:
+        The perception.
+
+    Raises:
+        InputError: a setting that is not a positive number (or ``max_thickness <=
+            min_height``), empty cloud, NaN/inf points, no large plane, a table plane tilted more
+            than ``max_tilt_deg`` (a tilted table or a camera-frame cloud), or no object on
+            the table.
+    """
+    try:
+        import sklearn  # noqa: F401  (imported here so a missing extra is named before any work)
+        from scipy import ndimage
+    except ImportError as error:
+        raise ImportError(f"perceive needs the perception extra (pip install 'slideplan[perception]'): {error}") from None
+
+    settings = {"max_tilt_deg": max_tilt_deg, "plane_tolerance": plane_tolerance, "min_table_area": min_table_area,
+                "min_height": min_height, "max_thickness": max_thickness, "min_object_area": min_object_area}
+    for name, value in settings.items():
+        as_number(value, source="", field=name, positive=True)
+    if cell_size is not None:
+        as_number(cell_size, source="", field="cell_size", positive=True)
+    if max_thickness <= min_height:
+        raise InputError(f"must be > min_height ({min_height:g}), got {max_thickness!r}", field="max_thickness")
+    cloud = _checked_cloud(points, source=source)
+    problem = _Problem(source)
+    plane = _table_plane(cloud, plane_tolerance, min_table_area, max_tilt_deg, seed, problem)
+    a, b, c = plane.coefficients
+    heights = cloud[:, 2] - (a * cloud[:, 0] + b * cloud[:, 1] + c)
+    on_plane = np.abs(heights) < plane_tolerance
+    grid = _Grid(cloud[on_plane, :2], cell_size or _cell_size(cloud[on_plane, :2]))
+    table_mask = _table_mask(grid, cloud[on_plane, :2])
+
+    # Everything at or above the plane over the table: the table top, the objects, the clutter.
+    over = grid.covers(cloud[:, :2]) & (heights > -plane_tolerance)
+    over[over] = table_mask[tuple(grid.index(cloud[over, :2]).T)]
+    xy, heights_over = cloud[over, :2], heights[over]
+    cells = grid.index(xy)
+    smoothed = _smoothed_heights(grid, cells, heights_over, _DETECTION_SIGMA)
+    # The edges from a less smoothed field: more noise, but thin parts (a crescent's tips) survive.
+    edge_field = _smoothed_heights(grid, cells, heights_over, _EDGE_SIGMA)
+    edge_at_point = ndimage.map_coordinates(edge_field, ((xy - grid.origin) / grid.cell - 0.5).T, order=1)
+
+    clusters, count = ndimage.label(table_mask & (smoothed > min_height), structure=np.ones((3, 3)))
+    # A point belongs to the nearest cluster within 2 cells: the detection blur erodes thin
+    # parts and corners, the edge field (below) decides which of these points are the object's.
+    distance, nearest = ndimage.distance_transform_edt(clusters == 0, return_indices=True)
+    near_cluster = np.where(distance <= 2, clusters[tuple(nearest)], 0)
+    cluster_of_point = near_cluster[tuple(cells.T)]
+    thin, obstacles = [], []
+    occupied = np.zeros_like(table_mask)
+    for label in range(1, count + 1):
+        mask = clusters == label
+        if mask.sum() * grid.cell**2 < min_object_area:
+            continue
+        occupied |= mask
+        inner = ndimage.binary_erosion(mask)
+        inner = inner if inner.any() else mask
+        members = cluster_of_point == label
+        inner_members = members & inner[tuple(cells.T)]
+        top = float(np.median(heights_over[inner_members if inner_members.any() else members]))
+        if top > max_thickness:
+            obstacles.append(_box_obstacle(xy[members], heights_over[members], plane.coefficients))
+        else:
+            thin.append((int(mask.sum()), top, members, near_cluster == label, smoothed[inner]))
+    if not thin:
+        clutter = f" ({len(obstacles)} clutter clusters thicker than {max_thickness:g} m)" if obstacles else ""
+        raise problem(f"no object on the table: nothing between {min_height:g} and {max_thickness:g} m above the table plane{clutter}")
+
+    # The table height from its bare points (away from anything on it), so the objects do not lift it.
+    bare = on_plane & over
+    bare[bare] = ~ndimage.binary_dilation(occupied, iterations=2)[tuple(grid.index(cloud[bare, :2]).T)]
+    offset = float(np.median(heights[bare]))
+    # Hull of everything over the table: objects and clutter hide the table under them.
+    hull = MultiPoint(xy).convex_hull.simplify(_OUTLINE_TOLERANCE)
+    center = hull.centroid
+    table = SupportSurface.from_vertices(
+        np.asarray(hull.exterior.coords), a * center.x + b * center.y + c + offset, field="table outline"
+    )
+
+    objects, warnings = [], []
+    for _, top, members, near, inner_heights in sorted(thin, key=lambda item: -item[0]):
+        # The object's edge is where the edge field crosses half way from the table to its top.
+        half = 0.5 * (top + offset)
+        low, high = np.percentile(inner_heights, [5, 95]) - offset
+        if high - low > max(0.002, 0.5 * (top - offset)):
+            warnings.append(
+                f"object {len(objects)} has parts at different heights ({1000 * low:.1f} to {1000 * high:.1f} mm): "
+                "probably touching objects, reported as one"
+            )
+        footprint = grid.polygon(near & (edge_field > half))
+        objects.append(_thin_object(xy[members & (edge_at_point > half)], top - offset, table.height, footprint))
+    return Perception(table, plane.tilt_deg, objects, obstacles, warnings, grid.cell)
+
+
+class _Problem:
+    """Makes the InputErrors of one perceive() call, naming the file or the argument."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def __call__(self, problem: str) -> InputError:
+        return InputError(problem, source=self.source, field="" if self.source else "points")
+
+
+def _table_plane(cloud: np.ndarray, tolerance: float, min_area: float, max_tilt_deg: float, seed: int, problem: _Problem) -> _Plane:
+    """The highest large plane, checked to be horizontal."""
+    rng = np.random.default_rng(seed)
+    sample = cloud[rng.choice(len(cloud), _PLANE_SAMPLE, replace=False)] if len(cloud) > _PLANE_SAMPLE else cloud
+    large = [plane for plane in _fit_planes(sample, tolerance, seed) if plane.covered_area() >= min_area]
+    if not large:
+        raise problem(f"no plane of at least {min_area:g} m^2 found: the cloud shows no table top")
+    # The highest: the floor is often the largest plane in view, the table stands above it.
+    plane = max(large, key=lambda candidate: float(np.median(candidate.inliers[:, 2])))
+    if plane.tilt_deg > max_tilt_deg:
+        raise problem(
+            f"the table plane is tilted {plane.tilt_deg:.1f} deg from horizontal (limit {max_tilt_deg:g} deg): "
+            "a tilted table, or a cloud in the camera frame; give the cloud in the world frame with z up"
+        )
+    return plane
+
+
+def _table_mask(grid: _Grid, xy: np.ndarray) -> np.ndarray:
+    """The cells inside the convex hull of the largest connected patch of the plane's points.
+
+    The hull, not the patch: objects and clutter hide the table under them, and a tall box's
+    shadow can reach the table's edge, so the patch has holes and bays that are table.
+    """
+    from scipy import ndimage
+
+    support = grid.accumulate(grid.index(xy)) > 0
+    labels, _ = ndimage.label(ndimage.binary_closing(support), structure=np.ones((3, 3)))  # closing bridges dropouts
+    sizes = np.bincount(labels.ravel())
+    sizes[0] = 0
+    hull = MultiPoint(grid.centers(labels == int(np.argmax(sizes)))).convex_hull.buffer(0.5 * grid.cell)
+    all_cells = np.ones(grid.shape, dtype=bool)
+    return shapely.contains_xy(hull, *grid.centers(all_cells).T).reshape(grid.shape)
+
+
+def _smoothed_heights(grid: _Grid, cells: np.ndarray, heights: np.ndarray, sigma: float) -> np.ndarray:
+    """Gaussian-weighted mean height per cell (0 where there are no points near).
+
+    Args:
+        grid: the grid.
+        cells: (N, 2) the points' cells.
+        heights: (N,) their heights above the plane.
+        sigma: the Gaussian's standard deviation, in cells.
+    """
+    from scipy import ndimage
+
+    height_sum = ndimage.gaussian_filter(grid.accumulate(cells, heights), sigma, mode="constant", truncate=2.0)
+    count = ndimage.gaussian_filter(grid.accumulate(cells), sigma, mode="constant", truncate=2.0)
+    return np.where(count > 1e-9, height_sum / np.maximum(count, 1e-9), 0.0)
+
+
+def _thin_object(xy: np.ndarray, thickness: float, table_height: float, footprint) -> PerceivedObject:
+    """A perceived object: flat cloud at the table height + thickness, centroid and principal axis."""
+    centroid = xy.mean(axis=0)
+    covariance = np.cov((xy - centroid).T)
+    eigenvalues, eigenvectors = np.linalg.eigh(covariance)
+    major = eigenvectors[:, int(np.argmax(eigenvalues))]
+    yaw = math.atan2(major[1], major[0])
+    yaw = yaw - math.pi if yaw > math.pi / 2 else yaw + math.pi if yaw <= -math.pi / 2 else yaw
+    points = np.column_stack([xy, np.full(len(xy), table_height + thickness)])
+    return PerceivedObject(points, thickness, footprint, centroid, yaw)
+
+
+def _box_obstacle(xy: np.ndarray, heights: np.ndarray, coefficients: np.ndarray) -> BoxObstacle:
+    """The box around a clutter cluster: the minimum rotated rectangle of its upper half, up to its 98th height percentile.
+
+    The upper half only: the cluster's cells also hold table points around the clutter's foot.
+    """
+    top = float(np.percentile(heights, 98))
+    rectangle = MultiPoint(xy[heights > 0.5 * top]).minimum_rotated_rectangle
+    corners = np.asarray(rectangle.exterior.coords)[:4]
+    sides = np.diff(np.vstack([corners, corners[:1]]), axis=0)
+    length = np.linalg.norm(sides, axis=1)
+    yaw = math.atan2(sides[0, 1], sides[0, 0])
+    center = corners.mean(axis=0)
+    base = coefficients @ (center[0], center[1], 1.0)
+    return BoxObstacle(np.array([center[0], center[1], base + 0.5 * top]), np.array([length[0], length[1], top]), yaw)
+
+
+def _toml_numbers(values) -> str:
+    return "[" + ", ".join(f"{float(value):.6g}" for value in values) + "]"
+
+
+def scene_toml(perception: Perception, robot_scene: str | Path = "square") -> str:
+    """The perceived scene in the scene-file format of :func:`slideplan.scenes.load_scene`.
+
+    Args:
+        perception: what :func:`perceive` found.
+        robot_scene: built-in scene name or scene TOML whose robot section is copied (the
+            cloud does not show where the robot stands).
+
+    Returns:
+        The TOML text.
+    """
+    robot = load_scene(robot_scene)
+    polygon = ", ".join(_toml_numbers(vertex) for vertex in perception.table.vertices)
+    lines = [
+        f"# Perceived by slideplan perceive (table tilt {perception.tilt_deg:.2f} deg, grid {1000 * perception.cell_size:.1f} mm);",
+        f"# robot from {robot.source}. {len(perception.objects)} thin objects: object_<i> clouds beside this file.",
+        "",
+        "[table]",
+        f"polygon = [{polygon}]",
+        f"height = {perception.table.height:.6g}",
+        "",
+        *robot_toml(robot),
+    ]
+    for box in perception.obstacles:
+        lines += ["", "[[obstacles]]", f"center = {_toml_numbers(box.center)}", f"size = {_toml_numbers(box.size)}",
+                  f"yaw = {box.yaw:.6g}"]
+    return "\n".join(lines) + "\n"
+
+
+def write_perception(perception: Perception, out_dir: str | Path, *, robot_scene: str | Path = "square",
+                     cloud_suffix: str = ".ply") -> tuple[Path, list[Path]]:
+    """Write ``scene.toml`` and ``object_<i>.ply`` (or ``.npy``) for ``slideplan plan``.
+
+    Args:
+        perception: what :func:`perceive` found.
+        out_dir: output directory (created).
+        robot_scene: scene whose robot section goes into ``scene.toml``.
+        cloud_suffix: ``.ply`` or ``.npy``.
+
+    Returns:
+        (the scene file, the object cloud files in object order).
+
+    Raises:
+        InputError: an unsupported cloud suffix.
+    """
+    import plyfile
+
+    if cloud_suffix not in (".ply", ".npy"):
+        raise InputError(f"expected .ply or .npy, got {cloud_suffix!r}", field="cloud_suffix")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    scene_path = out_dir / "scene.toml"
+    scene_path.write_text(scene_toml(perception, robot_scene))
+    cloud_paths = []
+    for index, perceived in enumerate(perception.objects):
+        path = out_dir / f"object_{index}{cloud_suffix}"
+        if cloud_suffix == ".npy":
+            np.save(path, perceived.points)
+        else:
+            vertices = np.array([tuple(point) for point in perceived.points], dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
+            plyfile.PlyData([plyfile.PlyElement.describe(vertices, "vertex")]).write(str(path))
+        cloud_paths.append(path)
+    return scene_path, cloud_paths
+
+
+def register_outline(points_xy, outline: Polygon, *, resolution: float = 0.002) -> tuple[tuple[float, float, float], float]:
+    """The pose of a known outline that fits a perceived object's points best.
+
+    Minimises the symmetric chamfer distance between the points and a sample of the posed
+    outline: over all yaws in 2 deg steps with the outline's origin (its area centroid, as in
+    ``data/objects``) at the points' centroid, then over (x, y, yaw) together (Nelder-Mead).
+
+    Args:
+        points_xy: (N, 2) or (N, 3) the perceived object's points (e.g. ``PerceivedObject.points``).
+        outline: the outline in the object frame (origin at its area centroid).
+        resolution: sample spacing of the outline (m).
+
+    Returns:
+        ((x, y, yaw), rms chamfer distance in m at that pose).
+    """
+    from scipy.optimize import minimize
+    from scipy.spatial import cKDTree
+
+    from .objects import ThinObject
+
+    points_xy = np.asarray(points_xy, dtype=float)[:, :2]
+    centroid = points_xy.mean(axis=0)
+    sample_xy = ThinObject.from_outline(outline, thickness=1.0, table_height=0.0, pose=(0, 0, 0), resolution=resolution).points[:, :2]
+    perceived_tree = cKDTree(points_xy)
+
+    def cost(pose) -> float:
+        posed = place_points(sample_xy, pose)
+        to_points = perceived_tree.query(posed)[0]
+        to_outline = cKDTree(posed).query(points_xy)[0]
+        return float(np.mean(to_points**2) + np.mean(to_outline**2))
+
+    coarse = [(*centroid, yaw) for yaw in np.radians(np.arange(-180.0, 180.0, 2.0))]
+    start = coarse[int(np.argmin([cost(pose) for pose in coarse]))]
+    # Simplex steps: a few mm and about a degree, the size of the coarse search's errors.
+    simplex = np.array([start, start + np.array([0.003, 0, 0]), start + np.array([0, 0.003, 0]), start + np.array([0, 0, 0.03])])
+    best = minimize(cost, start, method="Nelder-Mead", options={"initial_simplex": simplex, "xatol": 1e-5, "fatol": 1e-12})
+    x, y, yaw = best.x
+    return (float(x), float(y), math.atan2(math.sin(yaw), math.cos(yaw))), math.sqrt(0.5 * best.fun)

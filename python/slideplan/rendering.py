@@ -1,0 +1,282 @@
+"""Scene clouds rendered with MuJoCo, with their ground truth: test data for :mod:`slideplan.perception`.
+
+A scene's table (a 3 cm slab), thin objects (their outlines extruded as prisms) and box
+clutter stand on a floor; MuJoCo's offscreen renderer takes a depth image from a camera
+above the table; the depth image is back-projected through the camera intrinsics (vertical
+field of view, square pixels) into a world-frame cloud, with depth noise that grows with
+the square of the distance (as for structured-light and stereo sensors) and random
+dropouts. Needs the ``perception`` extra (``mujoco``); headless machines need
+``MUJOCO_GL=egl`` (set here unless the environment sets it; it must be set before anything
+imports ``mujoco``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+
+from .geometry import SupportSurface
+from .objects import load_outline, place_outline
+
+TABLE_SLAB_M = 0.03  # table top thickness
+FLOOR_BELOW_M = 0.75  # floor this far below the table top, as under an ordinary table
+_FAR = 50.0  # far clipping plane, in model extents (MJCF's unit for it): a pixel there saw nothing
+
+
+@dataclass(frozen=True)
+class PlacedObject:
+    """A thin object of the scene, as placed (the ground truth).
+
+    Attributes:
+        name: the outline's name (``data/objects/<name>.toml`` or a TOML path).
+        pose: (x, y, yaw) of the object frame (m, m, rad).
+        thickness: prism height (m).
+        outline: the outline in the world frame.
+    """
+
+    name: str
+    pose: tuple[float, float, float]
+    thickness: float
+    outline: Polygon
+
+
+@dataclass(frozen=True)
+class Box:
+    """A box of clutter standing on the table or the floor.
+
+    Attributes:
+        center: (x, y, z) of the box centre (m).
+        size: full extents (m).
+        yaw: rotation about z (rad).
+    """
+
+    center: tuple[float, float, float]
+    size: tuple[float, float, float]
+    yaw: float = 0.0
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole depth camera looking at a point from above.
+
+    Attributes:
+        position: (x, y, z) of the optical centre (m).
+        target: the point on the optical axis it looks at (m).
+        fovy_deg: vertical field of view (deg).
+        width, height: image size (pixels).
+    """
+
+    position: tuple[float, float, float]
+    target: tuple[float, float, float]
+    fovy_deg: float = 45.0
+    width: int = 320
+    height: int = 240
+
+    def axes(self) -> np.ndarray:
+        """Camera frame axes as the columns of a 3x3 matrix: image right, image up, backwards.
+
+        MuJoCo's convention: the camera looks along its -z axis.
+        """
+        forward = np.subtract(self.target, self.position)
+        forward = forward / np.linalg.norm(forward)
+        up_hint = np.array([1.0, 0.0, 0.0]) if abs(forward[2]) > 0.999 else np.array([0.0, 0.0, 1.0])
+        right = np.cross(forward, up_hint)
+        right /= np.linalg.norm(right)
+        up = np.cross(right, forward)
+        return np.column_stack([right, up, -forward])
+
+
+@dataclass
+class RenderedScene:
+    """A rendered scene cloud and its ground truth.
+
+    Attributes:
+        points: (N, 3) world-frame cloud (dropouts removed).
+        table: the true table.
+        objects: the true thin objects.
+        clutter: the clutter boxes.
+        camera: the camera used.
+    """
+
+    points: np.ndarray
+    table: SupportSurface
+    objects: list[PlacedObject]
+    clutter: list[Box] = field(default_factory=list)
+    camera: Camera | None = None
+
+
+def place_objects(specs) -> list[PlacedObject]:
+    """Read outlines and place them.
+
+    Args:
+        specs: iterable of (name or TOML path, (x, y, yaw)) or (name, (x, y, yaw), thickness);
+            the thickness defaults to the outline file's.
+
+    Returns:
+        The placed objects.
+    """
+    placed = []
+    for spec in specs:
+        name, pose = spec[0], tuple(float(value) for value in spec[1])
+        outline, thickness, label = load_outline(name)
+        thickness = float(spec[2]) if len(spec) > 2 else thickness
+        placed.append(PlacedObject(label, pose, thickness, place_outline(outline, pose)))
+    return placed
+
+
+def _prism_pieces(outline: Polygon) -> list[np.ndarray]:
+    """Convex pieces covering the outline (its constrained Delaunay triangles), as (k, 2) arrays.
+
+    MuJoCo renders a vertex-only mesh as its convex hull, so a non-convex outline needs
+    convex pieces.
+    """
+    triangles = shapely.constrained_delaunay_triangles(outline)
+    return [np.asarray(triangle.exterior.coords)[:3] for triangle in triangles.geoms]
+
+
+def _mesh_asset(name: str, xy: np.ndarray, bottom: float, top: float) -> str:
+    vertices = np.vstack([np.column_stack([xy, np.full(len(xy), z)]) for z in (bottom, top)])
+    return f'<mesh name="{name}" vertex="{" ".join(f"{value:.6f}" for value in vertices.ravel())}"/>'
+
+
+def scene_mjcf(table: SupportSurface, objects: list[PlacedObject], clutter: list[Box], camera: Camera) -> str:
+    """The MuJoCo model (MJCF XML) of a table scene.
+
+    Args:
+        table: the table (its top at ``table.height``; convex polygons render exactly).
+        objects: the thin objects lying on it.
+        clutter: boxes.
+        camera: the depth camera.
+
+    Returns:
+        The XML text.
+    """
+    top = table.height
+    assets = [_mesh_asset("table", table.vertices, top - TABLE_SLAB_M, top)]
+    geoms = ['<geom type="mesh" mesh="table" rgba="0.6 0.5 0.4 1"/>']
+    for index, placed in enumerate(objects):
+        for piece_index, piece in enumerate(_prism_pieces(placed.outline)):
+            name = f"object{index}_{piece_index}"
+            assets.append(_mesh_asset(name, piece, top, top + placed.thickness))
+            geoms.append(f'<geom type="mesh" mesh="{name}" rgba="0.2 0.4 0.8 1"/>')
+    for box in clutter:
+        half = " ".join(f"{0.5 * size:.6f}" for size in box.size)
+        center = " ".join(f"{value:.6f}" for value in box.center)
+        # MJCF angles are in degrees by default.
+        geoms.append(f'<geom type="box" size="{half}" pos="{center}" euler="0 0 {math.degrees(box.yaw):.6f}" rgba="0.8 0.3 0.2 1"/>')
+    axes = camera.axes()
+    xyaxes = " ".join(f"{value:.6f}" for value in np.concatenate([axes[:, 0], axes[:, 1]]))
+    position = " ".join(f"{value:.6f}" for value in camera.position)
+    return f"""<mujoco>
+  <visual><global offwidth="{camera.width}" offheight="{camera.height}"/><map znear="0.01" zfar="{_FAR:g}"/></visual>
+  <asset>{"".join(assets)}</asset>
+  <worldbody>
+    <geom type="plane" size="5 5 0.1" pos="0 0 {top - FLOOR_BELOW_M:.6f}"/>
+    {"".join(geoms)}
+    <camera name="depth" pos="{position}" xyaxes="{xyaxes}" fovy="{camera.fovy_deg}"/>
+  </worldbody>
+</mujoco>"""
+
+
+def depth_image(mjcf: str, camera: Camera) -> np.ndarray:
+    """Render the depth image (distance along the optical axis, m) of the model's camera.
+
+    Args:
+        mjcf: the model (from :func:`scene_mjcf`).
+        camera: its camera (for the image size).
+
+    Returns:
+        (height, width) array, row 0 at the top of the image; NaN where no surface is in view.
+    """
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_string(mjcf)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    with mujoco.Renderer(model, camera.height, camera.width) as renderer:
+        renderer.enable_depth_rendering()
+        renderer.update_scene(data, camera="depth")
+        depth = renderer.render().copy()
+    depth[depth >= 0.99 * _FAR * model.stat.extent] = np.nan
+    return depth
+
+
+def back_project(depth: np.ndarray, camera: Camera) -> np.ndarray:
+    """Turn a depth image into a world-frame cloud through the pinhole intrinsics.
+
+    Args:
+        depth: (height, width) distances along the optical axis (m); NaN or <= 0 for no return.
+        camera: the camera that took it.
+
+    Returns:
+        (N, 3) points, one per valid pixel, row by row.
+    """
+    rows, cols = depth.shape
+    focal = 0.5 * rows / math.tan(math.radians(camera.fovy_deg) / 2)  # pixels; square pixels
+    v, u = np.mgrid[0:rows, 0:cols]
+    valid = np.isfinite(depth) & (depth > 0)
+    d = depth[valid]
+    # Camera frame: x right, y up, looking along -z; pixel centres at +0.5.
+    camera_points = np.column_stack(
+        [(u[valid] + 0.5 - 0.5 * cols) / focal * d, -(v[valid] + 0.5 - 0.5 * rows) / focal * d, -d]
+    )
+    return camera_points @ camera.axes().T + np.asarray(camera.position)
+
+
+def noisy_depth(depth: np.ndarray, noise_at_1m: float, dropout: float, rng: np.random.Generator) -> np.ndarray:
+    """Add sensor noise and dropouts to a depth image.
+
+    Args:
+        depth: (height, width) true depths (m).
+        noise_at_1m: standard deviation of the depth error at 1 m (m); it scales with depth
+            squared (about 1 mm at 0.7 m and 3 mm at 1.2 m for 0.002).
+        dropout: fraction of pixels with no return, in [0, 1).
+        rng: random generator.
+
+    Returns:
+        The noisy depth image, NaN where a pixel dropped out.
+    """
+    noisy = depth + rng.normal(size=depth.shape) * noise_at_1m * depth**2
+    noisy[rng.random(depth.shape) < dropout] = np.nan
+    return noisy
+
+
+def render_scene(
+    table: SupportSurface,
+    objects: list[PlacedObject],
+    *,
+    clutter: Sequence[Box] = (),
+    camera: Camera | None = None,
+    noise_at_1m: float = 0.002,
+    dropout: float = 0.05,
+    seed: int = 0,
+) -> RenderedScene:
+    """Render a table scene into a noisy world-frame cloud.
+
+    Args:
+        table: the table.
+        objects: thin objects on it (see :func:`place_objects`).
+        clutter: boxes.
+        camera: the camera; default 0.75 m above the table's centroid, 0.15 m towards -x,
+            looking at the centroid, 320 x 240 pixels, 45 deg vertical field of view.
+        noise_at_1m: depth noise at 1 m (m), see :func:`noisy_depth`.
+        dropout: fraction of missing pixels.
+        seed: seed of the noise.
+
+    Returns:
+        The cloud and the ground truth.
+    """
+    if camera is None:
+        center = table.polygon.centroid
+        camera = Camera((center.x - 0.15, center.y, table.height + 0.75), (center.x, center.y, table.height))
+    clutter = list(clutter)
+    depth = depth_image(scene_mjcf(table, objects, clutter, camera), camera)
+    depth = noisy_depth(depth, noise_at_1m, dropout, np.random.default_rng(seed))
+    return RenderedScene(back_project(depth, camera), table, list(objects), clutter, camera)

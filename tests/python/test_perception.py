@@ -1,0 +1,195 @@
+"""Perception on clouds rendered by MuJoCo (slideplan.rendering): accuracy against the ground truth,
+a plan from the perceived scene checked against the true geometry, and bad input."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from shapely.geometry import Point
+from typer.testing import CliRunner
+
+from slideplan import InputError, load_scene, perceive
+from slideplan.cli import app
+from slideplan.objects import ThinObject, load_object, load_outline
+from slideplan.perception import register_outline, write_perception
+from slideplan.planning import PlanResult
+from slideplan.rendering import Box, place_objects, render_scene
+from slideplan.verify import moved_object_xy, overhang, verify
+
+runner = CliRunner()
+
+# Objects without rotational symmetry, so their yaw is defined; the box is clutter on the table.
+SQUARE_OBJECTS = [("L", (0.42, -0.08, 0.4)), ("crescent", (0.55, 0.09, -1.0)), ("E", (0.58, -0.10, 2.0))]
+ROUND_OBJECTS = [("Y", (0.45, 0.08, 0.3)), ("crescent", (0.52, -0.08, 2.5))]
+CLUTTER = [Box((0.665, 0.0, 0.03), (0.04, 0.04, 0.06), 0.5)]
+
+
+def rendered(scene_name, specs, **options):
+    return render_scene(load_scene(scene_name).table, place_objects(specs), **options)
+
+
+@pytest.fixture(scope="module")
+def square_scene():
+    return rendered("square", SQUARE_OBJECTS, clutter=CLUTTER, noise_at_1m=0.002, seed=1)
+
+
+@pytest.fixture(scope="module")
+def round_scene():
+    return rendered("round", ROUND_OBJECTS, noise_at_1m=0.003, seed=2)
+
+
+def angle_difference_deg(first, second):
+    return abs(math.degrees(math.remainder(first - second, 2 * math.pi)))
+
+
+def assert_matches_truth(truth, perception):
+    assert abs(perception.table.height - truth.table.height) < 0.002
+    assert perception.table.polygon.hausdorff_distance(truth.table.polygon) < 0.01
+    assert len(perception.objects) == len(truth.objects)
+    for placed in truth.objects:
+        center = np.array(placed.outline.centroid.coords[0])
+        found = min(perception.objects, key=lambda perceived: np.linalg.norm(perceived.centroid_xy - center))
+        assert np.linalg.norm(found.centroid_xy - center) < 0.005, placed.name
+        # The perceived pose: where the known outline fits the perceived points best, over all yaws.
+        (x, y, yaw), _ = register_outline(found.points, load_outline(placed.name)[0])
+        assert np.hypot(x - placed.pose[0], y - placed.pose[1]) < 0.005, placed.name
+        assert angle_difference_deg(yaw, placed.pose[2]) < 3.0, placed.name
+        overlap = found.footprint.intersection(placed.outline).area / found.footprint.union(placed.outline).area
+        assert overlap > 0.75, (placed.name, overlap)
+        assert abs(found.thickness - placed.thickness) < 0.001, placed.name
+
+
+def test_square_table_with_clutter(square_scene):
+    perception = perceive(square_scene.points)
+    assert_matches_truth(square_scene, perception)
+    assert perception.tilt_deg < 0.5
+    assert not perception.warnings
+    (box,) = perception.obstacles
+    truth = CLUTTER[0]
+    assert np.linalg.norm(box.center[:2] - truth.center[:2]) < 0.01
+    assert abs(box.size[2] - truth.size[2]) < 0.01
+    np.testing.assert_allclose(sorted(box.size[:2]), truth.size[:2], atol=0.005)
+    assert abs(math.remainder(box.yaw - truth.yaw, math.pi / 2)) < math.radians(5)  # a square's yaw is mod 90 deg
+
+
+def test_round_table_noisier(round_scene):
+    assert_matches_truth(round_scene, perceive(round_scene.points))
+
+
+def test_written_files_load_as_scene_and_objects(tmp_path, square_scene):
+    perception = perceive(square_scene.points)
+    scene_path, cloud_paths = write_perception(perception, tmp_path, cloud_suffix=".npy")
+    scene = load_scene(scene_path)
+    assert scene.table.height == pytest.approx(perception.table.height, abs=1e-6)
+    np.testing.assert_allclose(scene.table.vertices, perception.table.vertices, atol=1e-6)
+    assert len(scene.obstacles) == 1
+    assert scene.urdf_path == load_scene("square").urdf_path
+    assert 'urdf = "wam_t42.urdf"' in scene_path.read_text()  # bundled: by name, so the file can move
+    for perceived, path in zip(perception.objects, cloud_paths):
+        obj = load_object(str(path), table_height=scene.table.height)
+        assert obj.thickness == pytest.approx(perceived.thickness, abs=1e-6)
+        assert len(obj.points) == len(perceived.points)
+
+
+def true_geometry_plan(result, truth, placed):
+    """The plan with the table and the object replaced by the ground truth (overhang recomputed)."""
+    true_object = ThinObject.from_outline(
+        placed.outline, thickness=placed.thickness, table_height=truth.table.height, pose=(0, 0, 0)
+    )
+    table = {"polygon": truth.table.vertices, "height": truth.table.height}
+    obj = {**result.object, "thickness": placed.thickness, "points": true_object.points,
+           "com_xy": np.array(placed.outline.centroid.coords[0])}
+    swapped = dataclasses.replace(result, table=table, object=obj)
+    return dataclasses.replace(swapped, overhang_m=overhang(truth.table, moved_object_xy(swapped))[0])
+
+
+def test_perceive_and_plan_passes_verification_against_the_truth(tmp_path, square_scene):
+    cloud = tmp_path / "scene.npy"
+    np.save(cloud, square_scene.points)
+    plan_json = tmp_path / "plan.json"
+    result = runner.invoke(app, ["perceive", str(cloud), "--out", str(tmp_path / "out"), "--plan-target", "0",
+                                 "--time-limit", "30", "--json", str(plan_json)])
+    assert result.exit_code == 0, (result.output, result.stderr)
+    plan = PlanResult.from_json(plan_json.read_text())
+    target = perceive(square_scene.points).objects[0]
+    placed = min(square_scene.objects, key=lambda item: np.linalg.norm(np.array(item.outline.centroid.coords[0]) - target.centroid_xy))
+    verification = verify(true_geometry_plan(plan, square_scene, placed))
+    assert verification.ok, str(verification)
+    # verify() does not ask whether the fingertip touches the object; the object moves rigidly
+    # with the fingertip, so it is enough that the first contact lies on the true object.
+    assert placed.outline.contains(Point(plan.fingertip_poses[0][:2]))
+
+
+def test_touching_objects_are_one_cluster_with_a_warning(tmp_path):
+    # A thin L lying against a thicker crescent: one cluster, with parts at two heights.
+    truth = rendered("square", [("L", (0.47, 0.0, 0.0), 0.004), ("crescent", (0.53, 0.005, 0.0), 0.010)], seed=3)
+    perception = perceive(truth.points)
+    assert len(perception.objects) == 1
+    assert len(perception.warnings) == 1 and "touching objects" in perception.warnings[0]
+    cloud = tmp_path / "touching.npy"
+    np.save(cloud, truth.points)
+    result = runner.invoke(app, ["perceive", str(cloud), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 0
+    assert result.stderr.startswith("slideplan: warning: object 0 has parts at different heights")
+    assert (tmp_path / "out" / "object_0.ply").is_file() and not (tmp_path / "out" / "object_1.ply").exists()
+    result = runner.invoke(app, ["perceive", str(cloud), "--out", str(tmp_path / "out"), "--plan-target", "1"])
+    assert result.exit_code == 2 and "--plan-target: no object 1: the perceived objects are 0 to 0" in result.stderr
+
+
+def tilted(points, degrees, about=(0.5, 0.0, 0.0)):
+    angle = math.radians(degrees)
+    rotation = np.array([[1, 0, 0], [0, math.cos(angle), -math.sin(angle)], [0, math.sin(angle), math.cos(angle)]])
+    return (points - about) @ rotation.T + about
+
+
+def test_tilted_table_names_the_angle(square_scene):
+    with pytest.raises(InputError, match=r"tilted 10\.0 deg"):
+        perceive(tilted(square_scene.points, 10.0))
+
+
+def test_camera_frame_cloud_is_refused(square_scene):
+    camera = square_scene.camera
+    camera_frame = (square_scene.points - camera.position) @ camera.axes()  # world -> camera coordinates
+    with pytest.raises(InputError, match="camera frame"):
+        perceive(camera_frame)
+
+
+def test_no_object_on_the_table():
+    truth = rendered("square", [])
+    with pytest.raises(InputError, match="no object on the table"):
+        perceive(truth.points)
+
+
+def test_no_plane_at_all():
+    blob = np.random.default_rng(0).uniform(-0.5, 0.5, size=(30000, 3))
+    with pytest.raises(InputError, match="no plane"):
+        perceive(blob)
+
+
+@pytest.mark.parametrize("points, problem", [(np.empty((0, 3)), "empty"), (np.array([[0, 0, 0], [1, 0, 0], [np.nan, 1, 0]]), "NaN")])
+def test_empty_or_nan_cloud(points, problem):
+    with pytest.raises(InputError, match=problem):
+        perceive(points)
+
+
+@pytest.mark.parametrize("setting, value", [("cell_size", -0.005), ("min_height", float("nan")), ("max_thickness", 0.001)])
+def test_bad_settings(square_scene, setting, value):
+    with pytest.raises(InputError, match=setting):
+        perceive(square_scene.points, **{setting: value})
+
+
+def test_slightly_tilted_table_is_accepted_and_measured(square_scene):
+    perception = perceive(tilted(square_scene.points, 2.0))
+    assert perception.tilt_deg == pytest.approx(2.0, abs=0.2)
+    assert len(perception.objects) == len(square_scene.objects)
+
+
+def test_cli_bad_cloud_is_one_error_line(tmp_path, square_scene):
+    cloud = tmp_path / "tilted.npy"
+    np.save(cloud, tilted(square_scene.points, 20.0))
+    result = runner.invoke(app, ["perceive", str(cloud), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("slideplan: error: ") and "tilted 20.0 deg" in lines[0]
+    assert str(cloud) in lines[0]
