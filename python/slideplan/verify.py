@@ -217,6 +217,20 @@ def contact_angles(pose: np.ndarray) -> tuple[float, float, float]:
     )
 
 
+def _start_contact_violations(cloud_xy: np.ndarray, tip_xy: np.ndarray) -> list[str]:
+    """Eq. 3: the slide starts with the fingertip on the object (within the cloud's own point spacing
+    of one of its points), or nothing is pushed."""
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(cloud_xy)
+    spacing = float(np.median(tree.query(cloud_xy, k=2)[0][:, 1])) if len(cloud_xy) > 1 else 0.0
+    gap = float(tree.query(tip_xy)[0])
+    if gap <= max(spacing, 1e-3):
+        return []
+    return [f"trajectory[0]: the fingertip is {gap:.4f} m from the nearest point of the object (point spacing "
+            f"{spacing:.4f} m): the slide does not start on the object"]
+
+
 def check_sliding_path(result: PlanResult, world: _PlanWorld) -> list[str]:
     """Check every trajectory waypoint against the contact constraint, and the path density.
 
@@ -258,6 +272,8 @@ def check_sliding_path(result: PlanResult, world: _PlanWorld) -> list[str]:
     violations += _density_violations(
         "trajectory", np.asarray(result.trajectory), params["max_joint_step"], np.array(tips), params["max_tip_step"]
     )
+    if tips:
+        violations += _start_contact_violations(np.asarray(result.object["points"], dtype=float)[:, :2], tips[0][:2])
     return violations
 
 

@@ -130,3 +130,8 @@ def test_planar_motion_and_overhang_on_known_numbers():
 def test_draw_plan_writes_png_and_svg(valid_plan, tmp_path):
     assert draw_plan(valid_plan, tmp_path / "plan.png").stat().st_size > 1000
     assert draw_plan(valid_plan, tmp_path / "plan.svg").read_text().lstrip().startswith("<?xml")
+
+
+def test_a_slide_that_does_not_start_on_the_object_is_reported(plan):
+    plan.object["points"] = plan.object["points"] + np.array([0.0, 0.15, 0.0])  # the object lies 15 cm aside
+    assert_reported(plan, "trajectory[0]: the fingertip is", "the slide does not start on the object")
