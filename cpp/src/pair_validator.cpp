@@ -40,27 +40,39 @@ namespace slideplan
     {
     }
 
-    Overhang PairValidator::overhang(const PlanarMotion &motion) const
+    Overhang PairValidator::overhang(const PlanarMotion &motion, bool exact) const
     {
         const SupportSurface &table = *task_->table;
+        const Polygon2 &points = exact ? task_->objectXY : task_->footprintXY;
         Overhang result;
         result.motion = motion;
-        std::vector<Eigen::Vector2d> outside;
-        for (int i = 0; i < task_->objectXY.rows(); ++i)
-        {
-            const Eigen::Vector2d moved = motion.apply(task_->objectXY.row(i).transpose());
-            if (!table.contains(moved))
-                outside.push_back(moved);
-        }
         result.comInside = table.contains(motion.apply(task_->objectCom));
-        result.outsideCount = static_cast<int>(outside.size());
+        std::vector<Eigen::Vector2d> outside;
+        double weight = 0.0;
+        for (int i = 0; i < points.rows(); ++i)
+        {
+            const Eigen::Vector2d moved = motion.apply(points.row(i).transpose());
+            if (table.contains(moved))
+                continue;
+            const double w = exact ? 1.0 : task_->footprintWeight(i);
+            outside.push_back(moved);
+            result.outsideCentroid += w * moved;
+            weight += w;
+        }
+        result.outsideCount = static_cast<int>(weight);
         if (outside.empty())
             return result;
-        for (const auto &point : outside)
-            result.outsideCentroid += point / static_cast<double>(outside.size());
+        result.outsideCentroid /= weight;
         result.edge = table.closestEdge(result.outsideCentroid);
-        for (const auto &point : outside)
+        const auto beyond = [&](const Eigen::Vector2d &point) {
             result.overhang = std::max(result.overhang, (point - result.edge.closest).dot(result.edge.outwardNormal));
+        };
+        for (const auto &point : outside)
+            beyond(point);
+        if (!exact)
+            for (const Eigen::Vector2d &vertex : task_->hullXY)
+                if (const Eigen::Vector2d moved = motion.apply(vertex); !table.contains(moved))
+                    beyond(moved);
         return result;
     }
 
@@ -250,9 +262,9 @@ namespace slideplan
             }
             verdict.graspPose = flipped;
         }
-        std::vector<Eigen::Vector2d> moved;
-        for (int i = 0; i < task_->objectXY.rows(); ++i)
-            moved.push_back(result.motion.apply(task_->objectXY.row(i).transpose()));
+        std::vector<Eigen::Vector2d> moved;  // the hull moves rigidly with the object (Eq. 2)
+        for (const Eigen::Vector2d &vertex : task_->hullXY)
+            moved.push_back(result.motion.apply(vertex));
         world_->setObject(moved, task_->surfaceZ);
         const ObjectGuard guard{*world_};
         if (!world_->isValid(verdict.graspConfig, ContactMode::Free))
@@ -286,6 +298,15 @@ namespace slideplan
             verdict.reason = "no transfer motion to the grasp";
             return verdict;
         }
+        // The checks above ran on the fixed-resolution footprint; the accepted pair must also hold on P_o
+        // itself (the paper's definition), once, here at the end where it costs one pass over the cloud.
+        const Overhang exact = overhang(result.motion, true);
+        if (exact.outsideCount == 0 || exact.overhang < params_.uStar)
+        {
+            verdict.reason = "overhang below u* on the full cloud";
+            return verdict;
+        }
+        verdict.overhang = exact;
         verdict.approach.reserve(approach.size() + 1);
         verdict.approach.push_back(goal);
         verdict.approach.insert(verdict.approach.end(), approach.begin(), approach.end());

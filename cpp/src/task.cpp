@@ -1,6 +1,8 @@
 #include "slideplan/task.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 
@@ -55,6 +57,7 @@ namespace slideplan
         for (int i = 0; i < task.objectXY.rows(); ++i)
             points[static_cast<std::size_t>(i)] = task.objectXY.row(i).transpose();
         const std::vector<Eigen::Vector2d> hull = convexHull(std::move(points));
+        task.hullXY = hull;
         Polygon2 hullPolygon(static_cast<long>(hull.size()), 2);
         for (std::size_t i = 0; i < hull.size(); ++i)
         {
@@ -70,6 +73,25 @@ namespace slideplan
             message << "object cloud is degenerate: its points lie on a line or a point (footprint " << area * 1e6
                     << " mm^2 over an extent of " << task.extent * 1e3 << " mm; a thin object needs an area)";
             throw std::invalid_argument(message.str());
+        }
+
+        std::map<std::pair<long, long>, std::pair<Eigen::Vector2d, int>> cells;  // sorted: a reproducible order
+        for (int i = 0; i < task.objectXY.rows(); ++i)
+        {
+            const Eigen::Vector2d p = task.objectXY.row(i).transpose();
+            auto &cell = cells[{static_cast<long>(std::floor(p.x() / kFootprintCell)), static_cast<long>(std::floor(p.y() / kFootprintCell))}];
+            if (cell.second == 0)
+                cell.first.setZero();
+            cell.first += p;
+            ++cell.second;
+        }
+        task.footprintXY.resize(static_cast<long>(cells.size()), 2);
+        task.footprintWeight.resize(static_cast<long>(cells.size()));
+        long row = 0;
+        for (const auto &[key, cell] : cells)
+        {
+            task.footprintXY.row(row) = (cell.first / cell.second).transpose();
+            task.footprintWeight(row++) = cell.second;
         }
         return task;
     }

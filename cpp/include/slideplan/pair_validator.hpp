@@ -46,8 +46,10 @@ namespace slideplan
         PairVerdict check(const Eigen::VectorXd &start, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
                           const ompl::base::PlannerTerminationCondition &ptc) const;
 
-        /// P'_o by Eq. 2, P_out by point-in-polygon, u from the edge closest to the centroid of P_out.
-        Overhang overhang(const PlanarMotion &motion) const;
+        /// P'_o by Eq. 2, P_out by point-in-polygon, u from the edge closest to the centroid of P_out:
+        /// on P_o itself (`exact`), or on its fixed-resolution footprint, u then also over the convex
+        /// hull's vertices (the farthest point of P_o beyond an edge is one of them).
+        Overhang overhang(const PlanarMotion &motion, bool exact = false) const;
 
         /// H_g: the grasp frame at the centroid of P_out, mid-thickness, approaching perpendicular to
         /// the edge in the table plane, the straight (+Y) finger above the object.

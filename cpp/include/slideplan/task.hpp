@@ -36,6 +36,15 @@ namespace slideplan
 
         double thickness() const { return surfaceZ - table->height(); }
         double extent{0.0};      ///< largest distance between two points of P_o (over its convex hull)
+        std::vector<Eigen::Vector2d> hullXY;  ///< convex hull of P_o, counter-clockwise
+
+        /// P_o at a fixed resolution, for the many pair checks: the mean of the points in each
+        /// kFootprintCell-sided grid cell and how many points it stands for. Its size is bounded by the
+        /// object's area, not by the sensor's resolution (beyond the paper; the accepted pair is
+        /// re-checked on P_o itself).
+        static constexpr double kFootprintCell = 0.002;  // m
+        Polygon2 footprintXY;
+        Eigen::VectorXd footprintWeight;
     };
 
 }  // namespace slideplan
