@@ -16,6 +16,7 @@ import argparse
 import datetime
 import os
 import platform
+import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -108,6 +109,49 @@ def peer_table(scene: str, poses: int, time_limit: float, workers: int) -> list[
     return rows
 
 
+def run_dense(job: tuple[int, int, float]) -> tuple[float, float]:
+    """The crescent as a uniform random cloud of `points` points (a sensor's resolution) on the square
+    table at seeded pose `pose_index`; returns (planning seconds, plan() wall seconds), inf if unsolved."""
+    import shapely
+
+    from slideplan.objects import ThinObject, place_outline
+
+    points, pose_index, time_limit = job
+    scene = load_scene("square")
+    outline, thickness, _ = load_outline("crescent")
+    placed = place_outline(outline, sample_pose_on_table(outline, scene.table, np.random.default_rng(pose_index)))
+    rng = np.random.default_rng([pose_index, points])
+    minx, miny, maxx, maxy = placed.bounds
+    xy = np.empty((0, 2))
+    while len(xy) < points:
+        draw = rng.uniform((minx, miny), (maxx, maxy), size=(points, 2))
+        xy = np.concatenate([xy, draw[shapely.contains_xy(placed, draw[:, 0], draw[:, 1])]])
+    cloud = np.column_stack([xy[:points], np.full(points, scene.table.height + thickness)])
+    obj = ThinObject.from_points(cloud, table_height=scene.table.height)
+    started = time.perf_counter()
+    result = plan(scene, obj, PlannerConfig.for_scene(scene, seed=pose_index, time_limit_s=time_limit))
+    wall = time.perf_counter() - started
+    return (result.planning_time_s, wall) if result.solved else (np.inf, np.inf)
+
+
+def dense_table(poses: int, time_limit: float, workers: int) -> list[str]:
+    """Markdown lines: the crescent at 1,000 and 100,000 points, same poses."""
+    rows = ["", f"## Cloud density (crescent, square table, {poses} seeded poses)", "",
+            "A uniform random cloud of the crescent's top surface at two resolutions. Planning time is what the "
+            "planner reports; plan() wall time adds building the task from the cloud and the time parameterization.",
+            "", "| points | solved | median planning | median plan() wall |", "|---|---|---|---|"]
+    medians = {}
+    for points in (1_000, 100_000):
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            runs = np.array(list(pool.map(run_dense, [(points, pose, time_limit) for pose in range(poses)])))
+        medians[points] = np.median(runs, axis=0)
+        rows.append(f"| {points:,} | {np.isfinite(runs[:, 0]).mean():.0%} | {medians[points][0]:.3f} s | "
+                    f"{medians[points][1]:.3f} s |")
+    ratio = medians[100_000] / medians[1_000]
+    rows += ["", f"100,000 / 1,000 points: {ratio[0]:.2f}x planning time, {ratio[1]:.2f}x plan() wall time."]
+    return rows
+
+
 def summarise(times: np.ndarray, limit: float) -> dict[str, str]:
     """Success rates and quantiles of one variant; `times` holds inf for unsolved runs."""
     row = {}
@@ -128,6 +172,7 @@ def main() -> None:
     parser.add_argument("--variants", nargs="+", default=[label for label, _, _ in VARIANTS if label != "slideplan hand"],
                         choices=[label for label, _, _ in VARIANTS], help="which variants to run")
     parser.add_argument("--peers", action="store_true", help="also compare with OMPL's constrained planning (first scene)")
+    parser.add_argument("--dense", action="store_true", help="also time a 1,000- and a 100,000-point crescent")
     parser.add_argument("--out", type=Path, default=Path("docs/benchmarks/plan_bench.md"))
     args = parser.parse_args()
 
@@ -157,6 +202,8 @@ def main() -> None:
         lines.append("| " + " | ".join([scene, label, *row.values()]) + " |")
     if args.peers:
         lines += peer_table(args.scenes[0], args.poses, args.time_limit, args.workers)
+    if args.dense:
+        lines += dense_table(10, args.time_limit, args.workers)
     report = "\n".join(lines) + "\n"
     print(report)
     args.out.parent.mkdir(parents=True, exist_ok=True)
