@@ -113,7 +113,7 @@ namespace slideplan
     };
 
     CollisionWorld::CollisionWorld(std::shared_ptr<const RobotModel> robot, const SupportSurface &table,
-                                   const std::vector<BoxObstacle> &obstacles,
+                                   const std::vector<Obstacle> &obstacles,
                                    const std::vector<std::string> &contactLinks, double tableDepth)
       : robot_(std::move(robot)), impl_(std::make_unique<Impl>())
     {
@@ -155,11 +155,24 @@ namespace slideplan
             }
         for (std::size_t i = 0; i < obstacles.size(); ++i)
         {
-            const BoxObstacle &box = obstacles[i];
-            if (!box.size.allFinite() || (box.size.array() <= 0).any() || !box.pose.matrix().allFinite())
-                throw std::invalid_argument("obstacle " + std::to_string(i) + ": size must be positive and finite");
-            impl_->addEnvironment("obstacle" + std::to_string(i),
-                                  std::make_shared<fcl::Boxd>(box.size.x(), box.size.y(), box.size.z()), box.pose, false);
+            const Obstacle &obstacle = obstacles[i];
+            obstacle.validate(i);
+            const std::string name = "obstacle" + std::to_string(i);
+            switch (obstacle.shape)
+            {
+                case Obstacle::Shape::Box:
+                    impl_->addEnvironment(name, std::make_shared<fcl::Boxd>(obstacle.size.x(), obstacle.size.y(), obstacle.size.z()),
+                                          obstacle.pose, false);
+                    break;
+                case Obstacle::Shape::Cylinder:
+                    impl_->addEnvironment(name, std::make_shared<fcl::Cylinderd>(obstacle.size.x(), obstacle.size.y()),
+                                          obstacle.pose, false);
+                    break;
+                case Obstacle::Shape::Prism:
+                    impl_->addEnvironment(name, makePrism(obstacle.polygon, obstacle.bottom(), obstacle.bottom() + obstacle.height()),
+                                          Eigen::Isometry3d::Identity(), false);
+                    break;
+            }
         }
         impl_->firstObjectPiece = impl_->environment.size();
 

@@ -242,6 +242,11 @@ namespace slideplan
             verdict.reason = "centre of mass off the table";
             return verdict;
         }
+        if (!task_->objectClear(result.motion))
+        {
+            verdict.reason = "object overlaps an obstacle at its final pose";
+            return verdict;
+        }
 
         if (knownUnreachable(result))
         {

@@ -68,6 +68,7 @@ namespace slideplan
         constraint_ = constraint;
         validity_ = validity;
         pairValidator_ = std::make_unique<PairValidator>(task_, params_);
+        objectWorld_ = std::make_unique<CollisionWorld>(task_->robot, *task_->table, task_->obstacles, task_->contactLinks);
         clear();
     }
 
@@ -102,7 +103,8 @@ namespace slideplan
     }
 
     bool SlidingPlanner::constrainedStep(const Eigen::VectorXd &from, const Eigen::Isometry3d &fromTip,
-                                         const Eigen::VectorXd &target, Eigen::VectorXd &q, Eigen::Isometry3d &tip) const
+                                         const Eigen::VectorXd &target, const Eigen::Isometry3d *startTip,
+                                         Eigen::VectorXd &q, Eigen::Isometry3d &tip) const
     {
         const Eigen::VectorXd towards = target - from;
         // Aim inside the step bounds: projection moves the state a little further.
@@ -121,7 +123,9 @@ namespace slideplan
         const double step = (q - from).norm(), before = towards.norm(), after = (target - q).norm();
         if (step < 1e-3 * params_.maxJointStep || after > before - 0.25 * step)
             return false;  // stalled: the projection (or a joint limit) undoes the step
-        return validity_->isValid(q, tip);
+        // Where the slide started is known in start trees only: there the object must stay clear of
+        // the obstacles (goal trees are checked once connected, pathClear).
+        return validity_->isValid(q, tip) && (!startTip || task_->objectClear(objectMotion(*startTip, tip)));
     }
 
     SlidingPlanner::Node *SlidingPlanner::constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target,
@@ -138,7 +142,8 @@ namespace slideplan
                 reached = true;
                 return current;
             }
-            if (!constrainedStep(current->q, current->tip, target, q, tip))
+            if (!constrainedStep(current->q, current->tip, target, forest.isStart ? &forest.roots[current->root]->tip : nullptr,
+                                 q, tip))
                 return current;
             current = forest.add(q, tip, current);
         }
@@ -163,12 +168,13 @@ namespace slideplan
             Eigen::VectorXd q;
             Eigen::Isometry3d tip;
             while (walk.size() < j - i && (path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9 &&
-                   constrainedStep(walk.back(), walkTips.back(), path[j], q, tip))
+                   constrainedStep(walk.back(), walkTips.back(), path[j], &tips.front(), q, tip))
             {
                 walk.push_back(q);
                 walkTips.push_back(tip);
             }
-            if (walk.size() >= j - i || (path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9)
+            if (walk.size() >= j - i || (path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9 ||
+                !armClearOfObject(walk, walkTips, tips.front()))
                 continue;
             walk.back() = path[j];  // arrived: the last step landed on waypoint j itself
             walkTips.back() = tips[j];
@@ -177,6 +183,50 @@ namespace slideplan
             tips.erase(tips.begin() + i, tips.begin() + j + 1);
             tips.insert(tips.begin() + i, walkTips.begin(), walkTips.end());
         }
+    }
+
+    bool SlidingPlanner::armClearOfObject(const std::vector<Eigen::VectorXd> &path,
+                                          const std::vector<Eigen::Isometry3d> &tips, const Eigen::Isometry3d &startTip)
+    {
+        for (std::size_t k = 0; k < path.size(); ++k)
+        {
+            const PlanarMotion motion = objectMotion(startTip, tips[k]);
+            std::vector<Eigen::Vector2d> hull;
+            for (const Eigen::Vector2d &vertex : task_->hullXY)
+                hull.push_back(motion.apply(vertex));
+            objectWorld_->setObject(hull, task_->surfaceZ);
+            if (!objectWorld_->isValid(path[k], ContactMode::Sliding))
+                return false;
+        }
+        return true;
+    }
+
+    bool SlidingPlanner::pathClear(Node *startNode, Node *goalNode)
+    {
+        std::vector<Eigen::VectorXd> path;
+        std::vector<Eigen::Isometry3d> tips;
+        for (Node *node = startNode; node; node = node->parent)
+        {
+            path.push_back(node->q);
+            tips.push_back(node->tip);
+        }
+        const Eigen::Isometry3d startTip = tips.back();
+        for (Node *node = goalNode->parent; node; node = node->parent)
+        {
+            if (!task_->objectClear(objectMotion(startTip, node->tip)))
+            {
+                ++result_.stats.rejections["object meets an obstacle along the path"];
+                return false;
+            }
+            path.push_back(node->q);
+            tips.push_back(node->tip);
+        }
+        if (!armClearOfObject(path, tips, startTip))
+        {
+            ++result_.stats.rejections["arm meets the sliding object along the path"];
+            return false;
+        }
+        return true;
     }
 
     const PairVerdict *SlidingPlanner::validatePair(Node *startNode, Node *goalNode, const ob::PlannerTerminationCondition &ptc)
@@ -337,7 +387,7 @@ namespace slideplan
             {
                 Node *startNode = a->isStart ? extendedA : extendedB, *goalNode = a->isStart ? extendedB : extendedA;
                 const PairVerdict *verdict = validatePair(startNode, goalNode, ptc);
-                if (verdict->valid)
+                if (verdict->valid && pathClear(startNode, goalNode))
                 {
                     extractPath(startNode, goalNode, *verdict, ptc);
                     break;

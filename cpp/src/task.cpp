@@ -9,7 +9,7 @@
 namespace slideplan
 {
     SlidingTask SlidingTask::make(std::shared_ptr<const RobotModel> robot, std::shared_ptr<const SupportSurface> table,
-                                  std::vector<BoxObstacle> obstacles, std::vector<std::string> contactLinks,
+                                  std::vector<Obstacle> obstacles, std::vector<std::string> contactLinks,
                                   std::string graspLink, const Eigen::Isometry3d &graspOffset,
                                   const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
                                   const Eigen::Vector2d &objectCom)
@@ -85,6 +85,23 @@ namespace slideplan
             cell.first += p;
             ++cell.second;
         }
+        for (std::size_t i = 0; i < task.obstacles.size(); ++i)
+        {
+            const Obstacle &obstacle = task.obstacles[i];
+            obstacle.validate(i);
+            const std::string name = "obstacle " + std::to_string(i);
+            if (obstacle.bottom() < task.table->height() - 1e-3)
+                throw std::invalid_argument(name + " reaches into the table top (its bottom is " +
+                                            std::to_string(task.table->height() - obstacle.bottom()) + " m below it)");
+            const Eigen::Vector2d centre = obstacle.shape == Obstacle::Shape::Prism
+                                               ? Eigen::Map<const Eigen::Matrix2Xd>(obstacle.polygon.front().data(), 2,
+                                                                                     static_cast<long>(obstacle.polygon.size()))
+                                                     .rowwise()
+                                                     .mean()
+                                               : Eigen::Vector2d(obstacle.pose.translation().head<2>());
+            if (!task.table->contains(centre))
+                throw std::invalid_argument(name + " is off the table (its centre is outside the table polygon)");
+        }
         task.footprintXY.resize(static_cast<long>(cells.size()), 2);
         task.footprintWeight.resize(static_cast<long>(cells.size()));
         long row = 0;
@@ -93,7 +110,25 @@ namespace slideplan
             task.footprintXY.row(row) = (cell.first / cell.second).transpose();
             task.footprintWeight(row++) = cell.second;
         }
+        if (!task.objectClear(PlanarMotion()))
+            throw std::invalid_argument("an obstacle overlaps the object where it lies");
         return task;
+    }
+
+    bool SlidingTask::objectClear(const PlanarMotion &motion) const
+    {
+        for (const Obstacle &obstacle : obstacles)
+        {
+            if (obstacle.bottom() >= surfaceZ)
+                continue;  // above the object: only the arm has to avoid it
+            for (int i = 0; i < footprintXY.rows(); ++i)
+                if (obstacle.covers(motion.apply(footprintXY.row(i).transpose())))
+                    return false;
+            for (const Eigen::Vector2d &vertex : hullXY)
+                if (obstacle.covers(motion.apply(vertex)))
+                    return false;
+        }
+        return true;
     }
 
 }  // namespace slideplan

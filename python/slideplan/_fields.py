@@ -117,6 +117,20 @@ class Fields:
                     field=self.field(key),
                 )
 
+    def only(self, allowed: set[str]) -> None:
+        """Narrow the allowed keys (e.g. per kind of entry).
+
+        Raises:
+            InputError: the table has a key outside ``allowed``, naming it.
+        """
+        for key in self._table:
+            if key not in allowed:
+                raise InputError(
+                    f"not a key of this kind of entry (expected one of: {', '.join(sorted(allowed))})",
+                    source=self.source,
+                    field=self.field(key),
+                )
+
     def field(self, key: str) -> str:
         """Return the dotted name of ``key`` for error messages."""
         return f"{self.prefix}.{key}" if self.prefix else key

@@ -214,8 +214,9 @@ class PlanResult:
             frame), "com_xy": (2,) array}``.
         robot: :func:`robot_description` of the scene: URDF, mount, chain, held joints, contact
             and grasp frames (4x4 offsets), contact links.
-        obstacles: the scene's boxes, ``[{"center": (3,) array, "size": (3,) array, "yaw": float}]``
-            (not in DESIGN.md's field list, but a collision re-check needs them).
+        obstacles: the scene's obstacles, ``Obstacle.to_dict()`` each: ``{"shape": "box", "center",
+            "size", "yaw"}``, ``{"shape": "cylinder", "center", "radius", "height"}`` or
+            ``{"shape": "object", "name", "polygon", "bottom", "height"}`` (a collision re-check needs them).
         object_motion: ``{"x", "y", "yaw"}``: ``p' = R(yaw) p + (x, y)`` moves the object
             from its start to its final pose (Eq. 2).
         overhang_m: overhang ``u`` of the final pose (m).
@@ -316,9 +317,7 @@ class PlanResult:
                     "com_xy": _array(data["object"]["com_xy"]),
                 },
                 robot=_robot_block(data["robot"]),
-                obstacles=[
-                    {**box, "center": _array(box["center"]), "size": _array(box["size"])} for box in data["obstacles"]
-                ],
+                obstacles=[_obstacle_entry(entry) for entry in data["obstacles"]],
                 object_motion=dict(data["object_motion"]),
                 overhang_m=data["overhang_m"],
                 joint_names=list(data["joint_names"]),
@@ -352,6 +351,15 @@ class PlanResult:
         except json.JSONDecodeError as error:
             raise InputError(f"invalid JSON ({error})") from None
         return cls.from_dict(data)
+
+
+def _obstacle_entry(entry: dict[str, Any]) -> dict[str, Any]:
+    """An obstacle entry of a plan with arrays; older plans' entries (boxes) get their shape."""
+    entry = {"shape": "box", **entry}
+    for key, columns in (("center", None), ("size", None), ("polygon", 2)):
+        if key in entry:
+            entry[key] = _array(entry[key], columns)
+    return entry
 
 
 def _robot_block(robot: dict[str, Any]) -> dict[str, Any]:
@@ -528,14 +536,21 @@ def robot_model(scene: Scene):
         raise InputError(error.problem, source=scene.source or error.source, field="robot") from None
 
 
-def _box_obstacles(scene: Scene) -> list:
-    """The scene's boxes as C++ obstacles (yaw about the world z axis)."""
+def core_obstacles(entries: list[dict[str, Any]]) -> list:
+    """Plan JSON obstacle entries (``Obstacle.to_dict()``; ``shape`` box, cylinder or object, box if
+    absent as in older plans) as the C++ core's obstacles."""
     from . import _core
 
-    return [
-        _core.BoxObstacle(yawed_pose(box.center, box.yaw), np.asarray(box.size, dtype=float))
-        for box in scene.obstacles
-    ]
+    obstacles = []
+    for entry in entries:
+        shape = entry.get("shape", "box")
+        if shape == "box":
+            obstacles.append(_core.BoxObstacle(yawed_pose(entry["center"], entry["yaw"]), np.asarray(entry["size"], dtype=float)))
+        elif shape == "cylinder":
+            obstacles.append(_core.CylinderObstacle(yawed_pose(entry["center"], 0.0), entry["radius"], entry["height"]))
+        else:
+            obstacles.append(_core.PrismObstacle(np.asarray(entry["polygon"], dtype=float), entry["bottom"], entry["height"]))
+    return obstacles
 
 
 def core_task(scene: Scene, obj: ThinObject, config: PlannerConfig) -> dict[str, Any]:
@@ -550,7 +565,7 @@ def core_task(scene: Scene, obj: ThinObject, config: PlannerConfig) -> dict[str,
     return {
         "robot": robot_model(scene),
         "table": _core.SupportSurface(scene.table.vertices, scene.table.height),
-        "obstacles": _box_obstacles(scene),
+        "obstacles": core_obstacles([obstacle.to_dict() for obstacle in scene.obstacles]),
         "contact_links": list(scene.contact_links),
         "object_points": np.asarray(obj.points, dtype=float),
         "object_com_xy": np.asarray(obj.centroid_xy, dtype=float),
@@ -616,10 +631,7 @@ def _wrap_core_result(core_result, scene: Scene, obj: ThinObject, config: Planne
             "com_xy": np.array(obj.centroid_xy, dtype=float),
         },
         robot=robot_description(scene),
-        obstacles=[
-            {"center": np.array(box.center, dtype=float), "size": np.array(box.size, dtype=float), "yaw": float(box.yaw)}
-            for box in scene.obstacles
-        ],
+        obstacles=[obstacle.to_dict() for obstacle in scene.obstacles],
         object_motion={"x": float(motion[0]), "y": float(motion[1]), "yaw": float(motion[2])},
         overhang_m=float(core_result.overhang),
         joint_names=list(robot.joint_names),

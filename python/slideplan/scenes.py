@@ -7,8 +7,11 @@ import site
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import shapely
+import shapely.geometry
 
 from ._fields import Fields, read_toml
 from .errors import InputError
@@ -29,7 +32,7 @@ def default_robot_file() -> Path:
 
 @dataclass(frozen=True, eq=False)
 class BoxObstacle:
-    """An axis-aligned-in-yaw box on or above the table.
+    """A box (rotated about z only) on or above the table.
 
     Attributes:
         center: (3,) box centre in the world frame (m).
@@ -40,6 +43,55 @@ class BoxObstacle:
     center: np.ndarray
     size: np.ndarray
     yaw: float = 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        """The plan JSON entry."""
+        return {"shape": "box", "center": np.asarray(self.center, float), "size": np.asarray(self.size, float), "yaw": float(self.yaw)}
+
+
+@dataclass(frozen=True, eq=False)
+class CylinderObstacle:
+    """An upright cylinder standing on the table: a can, a mug.
+
+    Attributes:
+        center: (3,) centre of the cylinder (m); it stands on the table, so z = table height + height / 2.
+        radius: (m), > 0.
+        height: (m), > 0.
+    """
+
+    center: np.ndarray
+    radius: float
+    height: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """The plan JSON entry."""
+        return {"shape": "cylinder", "center": np.asarray(self.center, float), "radius": float(self.radius),
+                "height": float(self.height)}
+
+
+@dataclass(frozen=True, eq=False)
+class ObjectObstacle:
+    """Another thin object lying on the table, as a prism over its convex footprint.
+
+    Attributes:
+        name: its label.
+        polygon: (n, 2) convex footprint in the world frame, counter-clockwise (m).
+        bottom: z of its underside, the table top (m).
+        height: its thickness (m).
+    """
+
+    name: str
+    polygon: np.ndarray
+    bottom: float
+    height: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """The plan JSON entry."""
+        return {"shape": "object", "name": self.name, "polygon": np.asarray(self.polygon, float),
+                "bottom": float(self.bottom), "height": float(self.height)}
+
+
+Obstacle = BoxObstacle | CylinderObstacle | ObjectObstacle
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,7 +134,8 @@ class Scene:
             Other joints off the chain are held at 0 (clamped into their limits).
         package_dirs: where ``package://NAME/...`` resolves (see :func:`package_search_dirs`).
         hand: the contact and grasp frames and the contact links.
-        obstacles: boxes to avoid.
+        obstacles: boxes, cylinders and other thin objects: the arm avoids them, the sliding object
+            does not overlap them.
         source: the file the scene was read from ("" if built in code).
     """
 
@@ -95,7 +148,7 @@ class Scene:
     base_link: str = ""
     fixed_joints: dict[str, float] = field(default_factory=dict)
     package_dirs: tuple[Path, ...] = ()
-    obstacles: tuple[BoxObstacle, ...] = ()
+    obstacles: tuple[Obstacle, ...] = ()
     source: str = ""
 
     @property
@@ -169,11 +222,39 @@ def _resolve_robot_file(text: str, *, source: str, field: str, scene_dir: Path, 
     )
 
 
-def _read_obstacle(obstacle: Fields) -> BoxObstacle:
-    size = obstacle.numbers("size", 3)
-    if np.any(size <= 0):
-        raise InputError(f"extents must be > 0, got {size.tolist()}", source=obstacle.source, field=obstacle.field("size"))
-    return BoxObstacle(obstacle.numbers("center", 3), size, obstacle.number("yaw", 0.0))
+def _read_obstacle(obstacle: Fields, table: SupportSurface, scene_dir: Path) -> Obstacle:
+    """One [[obstacles]] entry: a box (default), a cylinder standing on the table, or a thin object."""
+    shape = obstacle.string("shape", "box")
+    if shape == "box":
+        obstacle.only({"shape", "center", "size", "yaw"})
+        size = obstacle.numbers("size", 3)
+        if np.any(size <= 0):
+            raise InputError(f"extents must be > 0, got {size.tolist()}", source=obstacle.source, field=obstacle.field("size"))
+        return BoxObstacle(obstacle.numbers("center", 3), size, obstacle.number("yaw", 0.0))
+    if shape == "cylinder":
+        obstacle.only({"shape", "center", "radius", "height"})
+        height = obstacle.number("height", positive=True)
+        x, y = obstacle.numbers("center", 2)
+        return CylinderObstacle(np.array([x, y, table.height + height / 2]), obstacle.number("radius", positive=True), height)
+    if shape == "object":
+        from .objects import load_object
+
+        obstacle.only({"shape", "object", "pose"})
+        spec = obstacle.string("object")
+        path = scene_dir / spec
+        spec = str(path) if path.is_file() else spec
+        pose = obstacle.numbers("pose", 3) if obstacle.has("pose") else None
+        try:
+            thin = load_object(spec, table_height=table.height, pose=pose)
+        except InputError as error:
+            raise InputError(error.problem, source=obstacle.source, field=f"{obstacle.field('object')} ({spec})") from None
+        hull = shapely.MultiPoint(thin.points[:, :2]).convex_hull
+        if hull.geom_type != "Polygon":
+            raise InputError("the object's footprint has no area", source=obstacle.source, field=obstacle.field("object"))
+        ring = shapely.geometry.polygon.orient(hull, 1.0).exterior.coords[:-1]
+        return ObjectObstacle(thin.name, np.array(ring), table.height, thin.thickness)
+    raise InputError(f"unknown shape {shape!r} (expected box, cylinder or object)", source=obstacle.source,
+                     field=obstacle.field("shape"))
 
 
 def _read_offset(fields: Fields, key: str) -> np.ndarray:
@@ -289,7 +370,9 @@ def load_scene(name_or_path: str | Path) -> Scene:
     fields = Fields(read_toml(path), source=str(path), allowed={"table", "robot", "hand", "obstacles"})
     table = _read_table(fields)
     robot, hand = _robot_and_hand(fields)
-    obstacles = fields.array_of_tables("obstacles", allowed={"center", "size", "yaw"})
+    obstacles = fields.array_of_tables(
+        "obstacles", allowed={"shape", "center", "size", "yaw", "radius", "height", "object", "pose"}
+    )
     package_dirs = package_search_dirs(_read_package_dirs(robot, path.parent))
     attach = robot.strings("attach") if robot.has("attach") else ()
 
@@ -306,7 +389,7 @@ def load_scene(name_or_path: str | Path) -> Scene:
         fixed_joints=_read_fixed_joints(robot),
         package_dirs=package_dirs,
         hand=_read_hand(hand),
-        obstacles=tuple(_read_obstacle(obstacle) for obstacle in obstacles),
+        obstacles=tuple(_read_obstacle(obstacle, table, path.parent) for obstacle in obstacles),
         source=str(path),
     )
 

@@ -20,8 +20,8 @@ import shapely
 from shapely.geometry import MultiPoint
 
 from .geometry import SupportSurface
-from .planning import build_robot
-from .transforms import rotation_angle_between, row_to_pose, wrap_angle, yawed_pose
+from .planning import build_robot, core_obstacles
+from .transforms import rotation_angle_between, row_to_pose, wrap_angle
 
 if TYPE_CHECKING:
     from .planning import PlanResult
@@ -102,6 +102,7 @@ def verify(result: PlanResult) -> Verification:
     world = _rebuild_world(result)
     violations += check_sliding_path(result, world)
     violations += check_object_motion(result)
+    violations += check_clutter(result, world)
     violations += check_graspability(result, world.table)
     violations += check_grasp(result, world)
     return Verification(violations)
@@ -114,10 +115,7 @@ def _rebuild_world(result: PlanResult) -> _PlanWorld:
     robot = build_robot(result.robot)
     polygon = np.asarray(result.table["polygon"], dtype=float)
     height = float(result.table["height"])
-    obstacles = [
-        _core.BoxObstacle(yawed_pose(box["center"], box["yaw"]), np.asarray(box["size"], dtype=float))
-        for box in result.obstacles
-    ]
+    obstacles = core_obstacles(result.obstacles)
     collision_world = _core.CollisionWorld(
         robot, _core.SupportSurface(polygon, height), obstacles, list(result.robot["contact_links"])
     )
@@ -291,6 +289,64 @@ def planar_motion(first_pose: np.ndarray, last_pose: np.ndarray) -> tuple[float,
     rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
     x, y = last_pose[:2, 3] - rotation @ first_pose[:2, 3]
     return float(x), float(y), yaw
+
+
+def obstacle_footprints(result: PlanResult):
+    """The footprints (shapely, world xy) of the plan's obstacles that reach down to the object's top:
+    the sliding object must not overlap them. None if there are none."""
+    top = float(result.table["height"]) + float(result.object["thickness"])
+    shapes = []
+    for entry in result.obstacles:
+        shape = entry.get("shape", "box")
+        if shape == "box":
+            if entry["center"][2] - entry["size"][2] / 2 >= top:
+                continue
+            corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * np.asarray(entry["size"][:2]) / 2
+            rotation = np.array([[math.cos(entry["yaw"]), -math.sin(entry["yaw"])], [math.sin(entry["yaw"]), math.cos(entry["yaw"])]])
+            shapes.append(shapely.Polygon(corners @ rotation.T + np.asarray(entry["center"][:2])))
+        elif shape == "cylinder":
+            if entry["center"][2] - entry["height"] / 2 < top:
+                shapes.append(shapely.Point(entry["center"][:2]).buffer(entry["radius"], quad_segs=32))
+        elif entry["bottom"] < top:
+            shapes.append(shapely.Polygon(entry["polygon"]))
+    return shapely.union_all(shapes) if shapes else None
+
+
+def check_clutter(result: PlanResult, world: _PlanWorld) -> list[str]:
+    """Check that the object, carried by Eq. 2 from its start, overlaps no obstacle at any waypoint,
+    and that the arm meets it only through the contact links (sliding mode).
+
+    Args:
+        result: the plan (array shapes already checked).
+        world: the rebuilt robot, table and collision world (its object is set and cleared here).
+
+    Returns:
+        Violations naming ``trajectory[i]``.
+    """
+    from . import _core
+
+    points = np.asarray(result.object["points"], dtype=float)[:, :2]
+    hull = np.asarray(MultiPoint(points).convex_hull.exterior.coords)[:-1]
+    footprints = obstacle_footprints(result)
+    first = row_to_pose(result.fingertip_poses[0])
+    violations = []
+    try:
+        for index, config in enumerate(np.asarray(result.trajectory)):
+            x, y, yaw = planar_motion(first, row_to_pose(result.fingertip_poses[index]))
+            rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+            if footprints is not None:
+                moved = points @ rotation.T + (x, y)
+                inside = shapely.contains_xy(footprints, moved[:, 0], moved[:, 1])
+                if inside.any():
+                    violations.append(f"trajectory[{index}]: {int(inside.sum())} object points lie inside an obstacle")
+            world.collision_world.set_object(hull @ rotation.T + (x, y), world.object_top_z)
+            hits = world.collision_world.collisions(config, _core.ContactMode.SLIDING)
+            hits = [pair for pair in hits if "object" in pair]
+            if hits:
+                violations.append(f"trajectory[{index}]: the arm meets the sliding object ({hits[0][0]})")
+    finally:
+        world.collision_world.clear_object()
+    return violations
 
 
 def check_object_motion(result: PlanResult) -> list[str]:

@@ -59,7 +59,7 @@ TEST(CollisionWorld, BoxObstaclesAndTheObjectBlock)
     const auto robot = wamT42();
     const Eigen::VectorXd q = pressing(*robot, 0.6, 0.0, 0.01);
     const Eigen::Vector3d palm = robot->linkPose(q, "t42_palm").translation();
-    BoxObstacle box;
+    Obstacle box;
     box.pose.translation() = palm;
     box.size << 0.05, 0.05, 0.05;
     CollisionWorld blocked(robot, squareTable(), {box}, kContactLinks);

@@ -40,7 +40,7 @@ def make_plan(status="solved", waypoints=5, approach=3):
             "grasp_offset": np.eye(4),
             "contact_links": ["a", "b"],
         },
-        obstacles=[{"center": np.array([0.5, 0.3, 0.1]), "size": np.array([0.1, 0.1, 0.2]), "yaw": 0.4}],
+        obstacles=[{"shape": "box", "center": np.array([0.5, 0.3, 0.1]), "size": np.array([0.1, 0.1, 0.2]), "yaw": 0.4}],
         object_motion={"x": 0.1 / 3, "y": -0.2, "yaw": math.pi / 7},
         overhang_m=0.0 if empty else 0.0234,
         joint_names=[f"wam_j{index}" for index in range(1, DOF + 1)],

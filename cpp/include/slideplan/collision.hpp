@@ -1,9 +1,10 @@
 /// \file collision.hpp
 /// Collision world (FCL): the robot's link primitives posed by FK, the table as a solid prism under
-/// Q, box obstacles, and optionally the object as an obstacle (for the transfer to the grasp).
+/// Q, obstacles (boxes, cylinders, prisms), and optionally the object as an obstacle (for the transfer to the grasp).
 #pragma once
 
 #include "slideplan/geometry.hpp"
+#include "slideplan/obstacle.hpp"
 #include "slideplan/robot_model.hpp"
 
 #include <Eigen/Geometry>
@@ -14,13 +15,6 @@
 
 namespace slideplan
 {
-    /// A box obstacle: `size` are the full extents, posed in the world.
-    struct BoxObstacle
-    {
-        Eigen::Isometry3d pose{Eigen::Isometry3d::Identity()};
-        Eigen::Vector3d size{Eigen::Vector3d::Zero()};
-    };
-
     /// Whether the contacting finger may penetrate the table and the object. During sliding it may:
     /// the virtual penetration stands for the finger's passive reconfiguration (DESIGN.md 3).
     enum class ContactMode
@@ -36,7 +30,7 @@ namespace slideplan
         /// \param tableDepth    the table is a solid prism from its top down by this much
         /// \throws std::invalid_argument for an unknown contact link or a bad obstacle.
         CollisionWorld(std::shared_ptr<const RobotModel> robot, const SupportSurface &table,
-                       const std::vector<BoxObstacle> &obstacles, const std::vector<std::string> &contactLinks,
+                       const std::vector<Obstacle> &obstacles, const std::vector<std::string> &contactLinks,
                        double tableDepth = 0.75);
         ~CollisionWorld();
         CollisionWorld(const CollisionWorld &) = delete;

@@ -49,8 +49,9 @@ namespace slideplan
         /// One step of ConstrainedExtend from `from` towards `target`: interpolate, project onto the
         /// relaxed constraint, and refuse the step if projection fails, it jumps (joint or fingertip
         /// bound), progress stalls or the state is invalid.
+        /// In a start tree (`startTip`: its root's contact frame) the object must also stay clear of obstacles.
         bool constrainedStep(const Eigen::VectorXd &from, const Eigen::Isometry3d &fromTip, const Eigen::VectorXd &target,
-                             Eigen::VectorXd &q, Eigen::Isometry3d &tip) const;
+                             const Eigen::Isometry3d *startTip, Eigen::VectorXd &q, Eigen::Isometry3d &tip) const;
         /// T.ConstrainedExtend(target, near): constrained steps until the target is reached or a step is refused.
         Node *constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target, bool &reached);
         /// Beyond the paper: replace stretches of the path by shorter constrained walks between two of
@@ -62,6 +63,13 @@ namespace slideplan
         /// Pi_b.NearestTree(q) for the connection step: with screenPairs, only among trees whose root
         /// forms a promising pair with `root` of the other forest.
         Node *nearestForConnection(const Forest &forest, const Eigen::VectorXd &q, const Forest &other, int root);
+        /// Clutter (beyond the paper): along a connected path the object, moved by Eq. 2 from the start
+        /// root, overlaps no obstacle (goal-tree part; the start trees were checked while growing), and
+        /// the arm meets the object only through the contact links.
+        bool pathClear(Node *startNode, Node *goalNode);
+        /// The arm against the object's convex hull at its pose by Eq. 2 at each waypoint (sliding mode).
+        bool armClearOfObject(const std::vector<Eigen::VectorXd> &path, const std::vector<Eigen::Isometry3d> &tips,
+                              const Eigen::Isometry3d &startTip);
         /// Cheap part of IsPairValid (overhang >= u*, CoM on the table, grasp not on a stretch known to
         /// be unreachable), the geometry cached per root pair.
         bool promisingPair(int startRoot, int goalRoot);
@@ -78,6 +86,7 @@ namespace slideplan
         std::shared_ptr<const SlidingConstraint> constraint_;
         std::shared_ptr<const SlidingValidity> validity_;
         std::unique_ptr<PairValidator> pairValidator_;
+        std::unique_ptr<CollisionWorld> objectWorld_;  ///< holds the sliding object where pathClear puts it
         std::unique_ptr<Forest> startForest_, goalForest_;
         std::map<std::pair<int, int>, PairVerdict> verdicts_;
         std::map<std::pair<int, int>, Overhang> promising_;  ///< the cheap part of IsPairValid per root pair

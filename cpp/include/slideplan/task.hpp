@@ -4,6 +4,7 @@
 
 #include "slideplan/collision.hpp"
 #include "slideplan/geometry.hpp"
+#include "slideplan/object_motion.hpp"
 #include "slideplan/robot_model.hpp"
 
 #include <memory>
@@ -16,7 +17,7 @@ namespace slideplan
     {
         std::shared_ptr<const RobotModel> robot;
         std::shared_ptr<const SupportSurface> table;
-        std::vector<BoxObstacle> obstacles;
+        std::vector<Obstacle> obstacles;
         std::vector<std::string> contactLinks;  ///< excluded from table/object collisions while sliding
         std::string graspLink;   ///< H_g = graspLink * graspOffset: z = approach, y = the fingers' closing axis
         Eigen::Isometry3d graspOffset{Eigen::Isometry3d::Identity()};
@@ -27,14 +28,20 @@ namespace slideplan
         /// Build from the N x 3 top-surface cloud; z_s is the mean z of the cloud.
         /// \throws std::invalid_argument for an unknown grasp link, an empty or non-finite cloud, a cloud below the table top,
         ///         an object not wholly on the table, a centre of mass off the table, or a degenerate
-        ///         footprint (collinear or coincident points).
+        ///         footprint (collinear or coincident points), an obstacle into the table top or off the
+        ///         table, or an obstacle overlapping the object where it lies.
         static SlidingTask make(std::shared_ptr<const RobotModel> robot, std::shared_ptr<const SupportSurface> table,
-                                std::vector<BoxObstacle> obstacles, std::vector<std::string> contactLinks,
+                                std::vector<Obstacle> obstacles, std::vector<std::string> contactLinks,
                                 std::string graspLink, const Eigen::Isometry3d &graspOffset,
                                 const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
                                 const Eigen::Vector2d &objectCom);
 
         double thickness() const { return surfaceZ - table->height(); }
+
+        /// Whether the object, moved by `motion` (Eq. 2) from where it lies, overlaps no obstacle that
+        /// reaches down to it: its fixed-resolution footprint and hull vertices against the obstacles'
+        /// footprints (its outline, not its convex hull, so a crescent may wrap around a can).
+        bool objectClear(const PlanarMotion &motion) const;
         double extent{0.0};      ///< largest distance between two points of P_o (over its convex hull)
         std::vector<Eigen::Vector2d> hullXY;  ///< convex hull of P_o, counter-clockwise
 

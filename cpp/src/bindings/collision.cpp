@@ -15,19 +15,46 @@ namespace slideplan::bindings
             .value("SLIDING", ContactMode::Sliding, "Contact links excluded from table and object checks.")
             .value("FREE", ContactMode::Free, "Every link checked against everything.");
 
-        py::class_<BoxObstacle>(module, "BoxObstacle", "A box obstacle: 4x4 world pose and full extents.")
-            .def(py::init([](const Eigen::Matrix4d &pose, const Eigen::Vector3d &size) {
-                     return BoxObstacle{toIsometry(pose), size};
-                 }),
-                 py::arg("pose"), py::arg("size"))
-            .def_property_readonly("pose", [](const BoxObstacle &box) { return box.pose.matrix(); }, "4x4 world pose.")
-            .def_readonly("size", &BoxObstacle::size, "Full extents (x, y, z).");
+        py::class_<Obstacle> obstacle(module, "Obstacle",
+                                      "A static obstacle: a box, an upright cylinder or a vertical prism (DESIGN.md 5 [[obstacles]]).");
+        py::enum_<Obstacle::Shape>(obstacle, "Shape")
+            .value("BOX", Obstacle::Shape::Box)
+            .value("CYLINDER", Obstacle::Shape::Cylinder)
+            .value("PRISM", Obstacle::Shape::Prism);
+        obstacle.def_readonly("shape", &Obstacle::shape)
+            .def_property_readonly("pose", [](const Obstacle &o) { return o.pose.matrix(); }, "4x4 world pose (centre).")
+            .def_readonly("size", &Obstacle::size, "Box: full extents; cylinder: (radius, height, 0); prism: (0, 0, height).")
+            .def("covers", &Obstacle::covers, py::arg("point"), "Whether (x, y) lies in the obstacle's footprint.");
+        module.def(
+            "BoxObstacle",
+            [](const Eigen::Matrix4d &pose, const Eigen::Vector3d &size) {
+                return Obstacle{Obstacle::Shape::Box, toIsometry(pose), size, {}};
+            },
+            py::arg("pose"), py::arg("size"), "A box: 4x4 world pose of its centre (upright) and full extents.");
+        module.def(
+            "CylinderObstacle",
+            [](const Eigen::Matrix4d &pose, double radius, double height) {
+                return Obstacle{Obstacle::Shape::Cylinder, toIsometry(pose), Eigen::Vector3d(radius, height, 0.0), {}};
+            },
+            py::arg("pose"), py::arg("radius"), py::arg("height"),
+            "An upright cylinder (a can, a mug): 4x4 world pose of its centre, radius and height.");
+        module.def(
+            "PrismObstacle",
+            [](const Eigen::Matrix<double, Eigen::Dynamic, 2> &polygon, double bottom, double height) {
+                Obstacle prism{Obstacle::Shape::Prism, Eigen::Isometry3d::Identity(), Eigen::Vector3d(0.0, 0.0, height), {}};
+                prism.pose.translation().z() = bottom + 0.5 * height;
+                for (int i = 0; i < polygon.rows(); ++i)
+                    prism.polygon.emplace_back(polygon.row(i).transpose());
+                return prism;
+            },
+            py::arg("polygon"), py::arg("bottom"), py::arg("height"),
+            "A vertical prism (another thin object): convex counter-clockwise footprint (n, 2), bottom z, height.");
 
         py::class_<CollisionWorld, std::shared_ptr<CollisionWorld>>(module, "CollisionWorld",
                                                                     "Robot, table prism, obstacles and object (FCL).")
-            .def(py::init<std::shared_ptr<const RobotModel>, const SupportSurface &, const std::vector<BoxObstacle> &,
+            .def(py::init<std::shared_ptr<const RobotModel>, const SupportSurface &, const std::vector<Obstacle> &,
                           const std::vector<std::string> &, double>(),
-                 py::arg("robot"), py::arg("table"), py::arg("obstacles") = std::vector<BoxObstacle>(),
+                 py::arg("robot"), py::arg("table"), py::arg("obstacles") = std::vector<Obstacle>(),
                  py::arg("contact_links") = std::vector<std::string>(), py::arg("table_depth") = 0.75)
             .def("is_valid", &CollisionWorld::isValid, py::arg("q"), py::arg("mode") = ContactMode::Sliding,
                  "True if q is free of collisions.")

@@ -36,7 +36,7 @@ namespace slideplan::bindings
         }
 
         std::shared_ptr<const SlidingTask> makeTask(std::shared_ptr<const RobotModel> robot, const SupportSurface &table,
-                                                    const std::vector<BoxObstacle> &obstacles,
+                                                    const std::vector<Obstacle> &obstacles,
                                                     const std::vector<std::string> &contactLinks,
                                                     const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
                                                     const Eigen::Vector2d &objectCom, const std::string &graspLink,
@@ -50,7 +50,7 @@ namespace slideplan::bindings
         }
 
         PlanResult plan(std::shared_ptr<const RobotModel> robot, const SupportSurface &table,
-                        const std::vector<BoxObstacle> &obstacles, const std::vector<std::string> &contactLinks,
+                        const std::vector<Obstacle> &obstacles, const std::vector<std::string> &contactLinks,
                         const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints, const Eigen::Vector2d &objectCom,
                         const PlannerParams &params, std::uint64_t seed, double timeLimit, const std::string &graspLink,
                         const Eigen::Matrix4d &graspOffset)
@@ -171,7 +171,7 @@ namespace slideplan::bindings
                    "time limit, unknown grasp link).");
         module.def(
             "ompl_projected_connect",
-            [](std::shared_ptr<const RobotModel> robot, const SupportSurface &table, const std::vector<BoxObstacle> &obstacles,
+            [](std::shared_ptr<const RobotModel> robot, const SupportSurface &table, const std::vector<Obstacle> &obstacles,
                const std::vector<std::string> &contactLinks, const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
                const Eigen::Vector2d &objectCom, const PlannerParams &params, double timeLimit, const std::string &graspLink,
                const Eigen::Matrix4d &graspOffset, const Eigen::VectorXd &start, const Eigen::VectorXd &goal) {
