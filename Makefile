@@ -66,6 +66,8 @@ bench: install
 	  --variants "slideplan dz*=2cm" "slideplan dz*=0.5cm" "slideplan dz*=0cm" "cbirrt dz*=2cm" "cbirrt2 dz*=2cm"
 	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --poses 5 --scenes panda_square panda_round ur5_square ur5_round \
 	  --variants "slideplan hand" --out docs/benchmarks/robots.md
+	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --poses 10 --scenes clutter_can clutter_books clutter_boxed \
+	  --variants "slideplan hand" --out docs/benchmarks/clutter.md
 	$(PYTHON) benchmarks/thread_bench.py
 	$(PYTHON) benchmarks/timing_bench.py
 	$(PYTHON) benchmarks/perceive_bench.py

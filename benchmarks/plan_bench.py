@@ -54,8 +54,9 @@ def run_one(job: tuple[str, str, str, float | None, str, int, float]) -> tuple[s
     """Plan one benchmark problem; returns (scene, variant label, solved, planning time in seconds)."""
     scene_name, label, planner, reconfiguration, object_name, pose_index, time_limit = job
     scene = load_scene(scene_name)
-    outline, _, _ = load_outline(object_name)
-    pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([pose_index, OBJECTS.index(object_name)]))
+    outline, thickness, _ = load_outline(object_name)
+    pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([pose_index, OBJECTS.index(object_name)]),
+                                avoid=scene.footprints(scene.table.height + thickness))
     obj = load_object(object_name, table_height=scene.table.height, pose=pose)
     overrides = PUBLISHED if planner == "published" else {"planner": planner}
     config = PlannerConfig.for_scene(scene, seed=pose_index, time_limit_s=time_limit, **overrides)

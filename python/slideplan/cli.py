@@ -138,15 +138,17 @@ def _config_from_options(
 
 
 def _load_object(scene: Scene, object_spec: str, pose, seed: int) -> tuple[ThinObject, tuple | None]:
-    """Load the object; place an outline object at ``pose`` or a seeded random pose on the scene's table.
+    """Load the object; place an outline object at ``pose`` or a seeded random pose on the scene's table
+    (clear of its obstacles).
 
     Returns:
         (object, the random pose drawn or None).
     """
     sampled_pose = None
     if pose is None and Path(object_spec).suffix.lower() not in CLOUD_SUFFIXES:
-        outline, _, _ = load_outline(object_spec)
-        sampled_pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(seed))
+        outline, thickness, _ = load_outline(object_spec)
+        sampled_pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(seed),
+                                            avoid=scene.footprints(scene.table.height + thickness))
         pose = sampled_pose
     obj = load_object(object_spec, table_height=scene.table.height, pose=pose)
     return obj, sampled_pose

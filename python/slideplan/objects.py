@@ -381,7 +381,8 @@ def load_object(
 
 
 def sample_pose_on_table(
-    outline: Polygon, table: SupportSurface, rng: np.random.Generator, *, margin: float = 0.0, max_tries: int = 10000
+    outline: Polygon, table: SupportSurface, rng: np.random.Generator, *, margin: float = 0.0, max_tries: int = 10000,
+    avoid=None,
 ) -> tuple[float, float, float]:
     """Draw a random initial pose with the whole object on the table (paper Sec. V).
 
@@ -396,6 +397,7 @@ def sample_pose_on_table(
         rng: the random generator (seed it for reproducible poses).
         margin: keep the object at least this far (m) from the table edges, >= 0.
         max_tries: give up after this many rejected poses.
+        avoid: a shapely geometry (e.g. obstacles' footprints) the object must not overlap.
 
     Returns:
         (x, y, yaw).
@@ -416,6 +418,7 @@ def sample_pose_on_table(
     min_x, min_y, max_x, max_y = table.polygon.bounds
     for _ in range(max_tries):
         pose = (float(rng.uniform(min_x, max_x)), float(rng.uniform(min_y, max_y)), float(rng.uniform(-math.pi, math.pi)))
-        if usable.contains(place_outline(outline, pose)):
+        placed = place_outline(outline, pose)
+        if usable.contains(placed) and (avoid is None or not placed.intersects(avoid)):
             return pose
     raise InputError(f"no pose with the whole object on the table found in {max_tries} tries", field="outline")

@@ -94,6 +94,26 @@ class ObjectObstacle:
 Obstacle = BoxObstacle | CylinderObstacle | ObjectObstacle
 
 
+def obstacle_footprint(entry: dict[str, Any]):
+    """An obstacle's footprint on the table and its bottom height.
+
+    Args:
+        entry: an obstacle's plan JSON entry (``Obstacle.to_dict()``; no ``shape``: a box).
+
+    Returns:
+        (shapely polygon in world xy, z of the obstacle's bottom).
+    """
+    shape = entry.get("shape", "box")
+    if shape == "box":
+        corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * np.asarray(entry["size"][:2]) / 2
+        cos_yaw, sin_yaw = np.cos(entry["yaw"]), np.sin(entry["yaw"])
+        rotation = np.array([[cos_yaw, -sin_yaw], [sin_yaw, cos_yaw]])
+        return shapely.Polygon(corners @ rotation.T + np.asarray(entry["center"][:2])), entry["center"][2] - entry["size"][2] / 2
+    if shape == "cylinder":
+        return shapely.Point(entry["center"][:2]).buffer(entry["radius"], quad_segs=32), entry["center"][2] - entry["height"] / 2
+    return shapely.Polygon(entry["polygon"]), entry["bottom"]
+
+
 @dataclass(frozen=True, eq=False)
 class Hand:
     """The hand: which frames touch, grasp and may penetrate (DESIGN.md 3 and 5, ``[hand]``).
@@ -150,6 +170,11 @@ class Scene:
     package_dirs: tuple[Path, ...] = ()
     obstacles: tuple[Obstacle, ...] = ()
     source: str = ""
+
+    def footprints(self, object_top: float):
+        """The union of the footprints of the obstacles reaching below ``object_top`` (shapely), or None."""
+        shapes = [shape for shape, bottom in (obstacle_footprint(o.to_dict()) for o in self.obstacles) if bottom < object_top]
+        return shapely.union_all(shapes) if shapes else None
 
     @property
     def tip_link(self) -> str:

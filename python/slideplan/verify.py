@@ -21,6 +21,7 @@ from shapely.geometry import MultiPoint
 
 from .geometry import SupportSurface
 from .planning import build_robot, core_obstacles
+from .scenes import obstacle_footprint
 from .transforms import rotation_angle_between, row_to_pose, wrap_angle
 
 if TYPE_CHECKING:
@@ -292,23 +293,10 @@ def planar_motion(first_pose: np.ndarray, last_pose: np.ndarray) -> tuple[float,
 
 
 def obstacle_footprints(result: PlanResult):
-    """The footprints (shapely, world xy) of the plan's obstacles that reach down to the object's top:
-    the sliding object must not overlap them. None if there are none."""
+    """The union of the footprints (shapely, world xy) of the plan's obstacles that reach down to the
+    object's top: the sliding object must not overlap them. None if there are none."""
     top = float(result.table["height"]) + float(result.object["thickness"])
-    shapes = []
-    for entry in result.obstacles:
-        shape = entry.get("shape", "box")
-        if shape == "box":
-            if entry["center"][2] - entry["size"][2] / 2 >= top:
-                continue
-            corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * np.asarray(entry["size"][:2]) / 2
-            rotation = np.array([[math.cos(entry["yaw"]), -math.sin(entry["yaw"])], [math.sin(entry["yaw"]), math.cos(entry["yaw"])]])
-            shapes.append(shapely.Polygon(corners @ rotation.T + np.asarray(entry["center"][:2])))
-        elif shape == "cylinder":
-            if entry["center"][2] - entry["height"] / 2 < top:
-                shapes.append(shapely.Point(entry["center"][:2]).buffer(entry["radius"], quad_segs=32))
-        elif entry["bottom"] < top:
-            shapes.append(shapely.Polygon(entry["polygon"]))
+    shapes = [footprint for footprint, bottom in map(obstacle_footprint, result.obstacles) if bottom < top]
     return shapely.union_all(shapes) if shapes else None
 
 

@@ -15,6 +15,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Polygon as PolygonPatch
 
 from .geometry import SupportSurface
+from .scenes import obstacle_footprint
 from .transforms import row_to_pose
 from .verify import moved_object_xy, overhang
 
@@ -38,6 +39,14 @@ def _new_axes():
 
 def _draw_table(axes, vertices: np.ndarray) -> None:
     axes.add_patch(PolygonPatch(vertices, closed=True, **_TABLE_STYLE))
+
+
+def _draw_obstacles(axes, entries) -> None:
+    """Obstacles' footprints (plan JSON entries), in brown."""
+    for index, entry in enumerate(entries):
+        footprint, _ = obstacle_footprint(entry)
+        axes.add_patch(PolygonPatch(np.asarray(footprint.exterior.coords), color="tab:brown", alpha=0.6,
+                                    label="obstacles" if index == 0 else None))
 
 
 def _save(figure: Figure, path: str | Path) -> Path:
@@ -71,6 +80,7 @@ def draw_plan(result: PlanResult, path: str | Path) -> Path:
     figure, axes = _new_axes()
     vertices = np.asarray(result.table["polygon"], dtype=float)
     _draw_table(axes, vertices)
+    _draw_obstacles(axes, result.obstacles)
     start_xy = np.asarray(result.object["points"])[:, :2]
     axes.scatter(start_xy[:, 0], start_xy[:, 1], s=2, color="0.65", label="object at start")
     title = f"{result.planner}: {result.status} in {result.planning_time_s:.2f} s"
@@ -124,10 +134,7 @@ def draw_scene(scene: Scene, obj: ThinObject, path: str | Path) -> Path:
 
     figure, axes = _new_axes()
     _draw_table(axes, scene.table.vertices)
-    for box in scene.obstacles:
-        corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * np.asarray(box.size[:2]) / 2
-        rotation = np.array([[math.cos(box.yaw), -math.sin(box.yaw)], [math.sin(box.yaw), math.cos(box.yaw)]])
-        axes.add_patch(PolygonPatch(corners @ rotation.T + box.center[:2], color="tab:brown", alpha=0.6))
+    _draw_obstacles(axes, [obstacle.to_dict() for obstacle in scene.obstacles])
     axes.scatter(obj.points[:, 0], obj.points[:, 1], s=2, color="tab:blue", label=f"object {obj.name}".strip())
     base = base_pose_matrix(scene.base_pose)[:3, 3]
     robot = robot_model(scene)
