@@ -337,6 +337,14 @@ namespace slideplan
             result_.fingertipPoses.push_back(node->tip);
         }
         shortcut(result_.trajectory, result_.fingertipPoses, ptc);
+        for (std::size_t k = 1; k < result_.fingertipPoses.size(); ++k)
+        {
+            const PlanarMotion step = objectMotion(result_.fingertipPoses[k - 1], result_.fingertipPoses[k]);
+            result_.stats.fingertipPath += (result_.fingertipPoses[k].translation() - result_.fingertipPoses[k - 1].translation())
+                                               .head<2>()
+                                               .norm();
+            result_.stats.yawTravel += std::abs(step.yaw);
+        }
         auto path = std::make_shared<ompl::geometric::PathGeometric>(si_);
         for (const Eigen::VectorXd &q : result_.trajectory)
         {

@@ -91,3 +91,17 @@ def test_cli_demo(tmp_path):
     assert result.exit_code == 0, result.output + result.stderr
     assert result.output.startswith("solved in") and result.output.strip().endswith("verified")
     assert (tmp_path / "demo-plan.json").is_file() and (tmp_path / "demo-plan.png").is_file()
+
+
+def test_stats_report_the_fingertip_path_length_and_yaw_travel():
+    from slideplan.transforms import row_to_pose
+    from slideplan.verify import planar_motion
+
+    scene, obj = task("square", "crescent", pose_seed=4)
+    result = plan(scene, obj, PlannerConfig(seed=2, time_limit_s=20.0))
+    assert result.solved
+    tips = result.fingertip_poses
+    length = sum(np.linalg.norm(tips[k, :2] - tips[k - 1, :2]) for k in range(1, len(tips)))
+    yaw = sum(abs(planar_motion(row_to_pose(tips[k - 1]), row_to_pose(tips[k]))[2]) for k in range(1, len(tips)))
+    assert result.stats["fingertip_path_m"] == pytest.approx(length, rel=1e-9)
+    assert result.stats["yaw_travel_rad"] == pytest.approx(yaw, rel=1e-6)

@@ -154,6 +154,8 @@ namespace slideplan::bindings
                     stats["nodes"] = r.stats.nodes;
                     stats["root_samples"] = r.stats.rootSamples;
                     stats["precompute_time"] = r.stats.precomputeTime;
+                    stats["fingertip_path_m"] = r.stats.fingertipPath;
+                    stats["yaw_travel_rad"] = r.stats.yawTravel;
                     stats["rejections"] = r.stats.rejections;
                     return stats;
                 },
