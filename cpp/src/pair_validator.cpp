@@ -242,6 +242,11 @@ namespace slideplan
             verdict.reason = "centre of mass off the table";
             return verdict;
         }
+        if (std::abs(result.motion.yaw) > params_.maxObjectYaw)
+        {
+            verdict.reason = "object turns more than max_object_yaw";
+            return verdict;
+        }
         if (!task_->objectClear(result.motion))
         {
             verdict.reason = "object overlaps an obstacle at its final pose";

@@ -33,6 +33,8 @@ namespace slideplan
         require(projectionIterations > 0, "projection_iterations must be > 0");
         require(rootIkAttempts > 0, "root_ik_attempts must be > 0");
         require(shortcutAttempts >= 0, "shortcut_attempts must be >= 0");
+        require(finite(maxObjectYaw) && maxObjectYaw > 0.0, "max_object_yaw must be > 0");
+        require(finite(shortcutYawWeight) && shortcutYawWeight >= 0.0, "shortcut_yaw_weight must be >= 0");
     }
 
     RootPolicy rootPolicyFromName(const std::string &name)

@@ -152,6 +152,14 @@ namespace slideplan
     void SlidingPlanner::shortcut(std::vector<Eigen::VectorXd> &path, std::vector<Eigen::Isometry3d> &tips,
                                   const ob::PlannerTerminationCondition &ptc)
     {
+        // What execution pays for (issue 9): fingertip travel over the table and the object's turning.
+        const auto cost = [this](const std::vector<Eigen::Isometry3d> &poses, std::size_t from, std::size_t to) {
+            double total = 0.0;
+            for (std::size_t k = from + 1; k <= to; ++k)
+                total += (poses[k].translation() - poses[k - 1].translation()).head<2>().norm() +
+                         params_.shortcutYawWeight * std::abs(objectMotion(poses[k - 1], poses[k]).yaw);
+            return total;
+        };
         // The path is valid after every attempt, so the time limit may stop the shortcut anywhere.
         for (int attempt = 0; attempt < params_.shortcutAttempts && path.size() > 2 && !ptc; ++attempt)
         {
@@ -162,22 +170,24 @@ namespace slideplan
             if (j < i + 2)
                 continue;
             // Walk the constraint manifold from waypoint i to waypoint j; keep the walk if it arrives
-            // in fewer steps. The endpoints stay, so the object motion of Eq. 2 is unchanged.
+            // at a lower cost. The endpoints stay, so the object motion of Eq. 2 is unchanged.
+            const std::size_t maxSteps = 2 * (j - i) + 10;
             std::vector<Eigen::VectorXd> walk{path[i]};
             std::vector<Eigen::Isometry3d> walkTips{tips[i]};
             Eigen::VectorXd q;
             Eigen::Isometry3d tip;
-            while (walk.size() < j - i && (path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9 &&
+            while (walk.size() < maxSteps && (path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9 &&
                    constrainedStep(walk.back(), walkTips.back(), path[j], &tips.front(), q, tip))
             {
                 walk.push_back(q);
                 walkTips.push_back(tip);
             }
-            if (walk.size() >= j - i || (path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9 ||
-                !armClearOfObject(walk, walkTips, tips.front()))
+            if ((path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9)
                 continue;
             walk.back() = path[j];  // arrived: the last step landed on waypoint j itself
             walkTips.back() = tips[j];
+            if (cost(walkTips, 0, walkTips.size() - 1) >= cost(tips, i, j) || !armClearOfObject(walk, walkTips, tips.front()))
+                continue;
             path.erase(path.begin() + i, path.begin() + j + 1);
             path.insert(path.begin() + i, walk.begin(), walk.end());
             tips.erase(tips.begin() + i, tips.begin() + j + 1);
@@ -260,7 +270,8 @@ namespace slideplan
                      .first;
         // The grasp map grows while planning, so it is consulted every time.
         const Overhang &overhang = it->second;
-        return overhang.overhang >= params_.uStar && overhang.comInside && !pairValidator_->knownUnreachable(overhang);
+        return overhang.overhang >= params_.uStar && overhang.comInside && std::abs(overhang.motion.yaw) <= params_.maxObjectYaw &&
+               !pairValidator_->knownUnreachable(overhang);
     }
 
     SlidingPlanner::Node *SlidingPlanner::nearestForConnection(const Forest &forest, const Eigen::VectorXd &q,

@@ -37,7 +37,7 @@ STATUSES = ("solved", "timeout", "invalid")
 # Fields of PlannerConfig that must be > 0 (the others: beta0 and dz_min may be 0 or more).
 _POSITIVE_FIELDS = (
     "delta_beta", "n_star", "d_goal", "u_star", "grasp_lift", "grasp_backoff", "transfer_time",
-    "max_joint_step", "max_tip_step", "projection_tolerance", "time_limit_s",
+    "max_joint_step", "max_tip_step", "projection_tolerance", "time_limit_s", "max_object_yaw",
 )
 _INT_FIELDS = {"projection_iterations": 1, "root_ik_attempts": 1, "shortcut_attempts": 0}  # smallest value
 # PlannerConfig fields that are not PlannerParams attributes (or are named differently there).
@@ -78,6 +78,10 @@ class PlannerConfig:
             reachable, and reject and screen pairs whose grasp falls there without another IK.
         shortcut_attempts: beyond the paper, tries to shorten the solved path by constrained walks
             between two of its waypoints; 0 returns the tree path.
+        shortcut_yaw_weight: beyond the paper, the shortcut keeps a walk that lowers fingertip travel
+            plus this many metres per radian of the object's yaw travel.
+        max_object_yaw: beyond the paper, the largest turn of the object between its start and final
+            pose (rad); ``math.pi`` accepts any, as the paper does.
         planner: ``"slideplan"`` (Algorithm 1), ``"cbirrt"`` or ``"cbirrt2"`` (baselines, paper V-6).
         seed: random seed; the same seed gives the same plan.
         time_limit_s: planning time budget (s).
@@ -107,6 +111,8 @@ class PlannerConfig:
     grasp_flip: bool = _CORE_DEFAULTS.grasp_flip
     grasp_map: bool = _CORE_DEFAULTS.grasp_map
     shortcut_attempts: int = _CORE_DEFAULTS.shortcut_attempts
+    shortcut_yaw_weight: float = _CORE_DEFAULTS.shortcut_yaw_weight
+    max_object_yaw: float = _CORE_DEFAULTS.max_object_yaw
     planner: str = _CORE_DEFAULTS.policy
     seed: int = 0
     time_limit_s: float = 60.0

@@ -4,6 +4,7 @@
 /// 60 s budget); the others are chosen for the WAM + T42 and palm-sized objects (docs/parameters.md).
 #pragma once
 
+#include <cmath>
 #include <string>
 
 namespace slideplan
@@ -59,6 +60,18 @@ namespace slideplan
         /// Beyond the paper: attempts to shorten the solved path by constrained walks between two of
         /// its waypoints (same step bounds and checks as extension); 0 returns the tree path as is.
         int shortcutAttempts{50};
+
+        /// Beyond the paper: a pair is valid only if the object turns by at most this much between its
+        /// start and final pose (rad): large turns are what fails in execution (physics-facts.md; of
+        /// plans turning the object 150 deg or more, 2 in 13 executed). 1 rad cut the median yaw travel
+        /// from 104 to 33 deg at the same planning time (3 tables x 5 objects x 3 poses); pi accepts
+        /// every pair, as the paper does.
+        double maxObjectYaw{1.0};
+
+        /// Beyond the paper: the shortcut keeps a walk when it lowers fingertip travel (m) plus this
+        /// weight times the object's yaw travel (rad): turning the object in place is what fails in
+        /// execution (physics-facts.md), so a radian of yaw costs like this many metres of travel.
+        double shortcutYawWeight{0.05};
 
         /// \throws std::invalid_argument naming the first inconsistent parameter.
         void validate() const;

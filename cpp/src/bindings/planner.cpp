@@ -110,6 +110,10 @@ namespace slideplan::bindings
             .def_readwrite("screen_pairs", &PlannerParams::screenPairs,
                            "Beyond the paper: NearestTree skips trees whose root pair is known to fail; False gives "
                            "Algorithm 1 as published.")
+            .def_readwrite("max_object_yaw", &PlannerParams::maxObjectYaw,
+                           "Beyond the paper: largest turn of the object between start and final pose (rad); pi: any.")
+            .def_readwrite("shortcut_yaw_weight", &PlannerParams::shortcutYawWeight,
+                           "Beyond the paper: metres of fingertip travel one radian of object yaw costs in the shortcut.")
             .def_readwrite("grasp_flip", &PlannerParams::graspFlip,
                            "Beyond the paper: also grasp with the hand rolled by pi about the approach axis (a hand "
                            "whose fingers close symmetrically).")
