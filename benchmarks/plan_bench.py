@@ -27,7 +27,8 @@ from slideplan import PlannerConfig, load_object, load_scene, plan
 from slideplan.objects import load_outline, sample_pose_on_table
 
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")
-PUBLISHED = {"screen_pairs": False, "shortcut_attempts": 0, "grasp_flip": False, "grasp_map": False, "max_object_yaw": math.pi}
+PUBLISHED = {"screen_pairs": False, "shortcut_attempts": 0, "grasp_flip": False, "grasp_map": False, "max_object_yaw": math.pi,
+             "com_margin": 0.0}
 VARIANTS = (  # (label, planner, reconfiguration range dz* in metres, None: the hand's)
     ("slideplan hand", "slideplan", None),
     ("Algorithm 1 as published dz*=2cm", "published", 0.02),

@@ -46,7 +46,8 @@ namespace slideplan
         const Polygon2 &points = exact ? task_->objectXY : task_->footprintXY;
         Overhang result;
         result.motion = motion;
-        result.comInside = table.contains(motion.apply(task_->objectCom));
+        result.comMargin = table.signedDistance(motion.apply(task_->objectCom));
+        result.comInside = result.comMargin > 0.0 && result.comMargin >= params_.comMargin;
         std::vector<Eigen::Vector2d> outside;
         double weight = 0.0;
         for (int i = 0; i < points.rows(); ++i)
@@ -239,7 +240,7 @@ namespace slideplan
         }
         if (!result.comInside)
         {
-            verdict.reason = "centre of mass off the table";
+            verdict.reason = "centre of mass off the table or within com_margin of its edge";
             return verdict;
         }
         if (std::abs(result.motion.yaw) > params_.maxObjectYaw)

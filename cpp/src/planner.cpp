@@ -370,6 +370,7 @@ namespace slideplan
         result_.goalConfig = nodes.back()->q;
         result_.objectMotion = verdict.overhang.motion;
         result_.overhang = verdict.overhang.overhang;
+        result_.stats.comMargin = verdict.overhang.comMargin;
         result_.graspPose = verdict.graspPose;
         result_.graspConfig = verdict.graspConfig;
         result_.approach = verdict.approach;

@@ -80,6 +80,8 @@ class PlannerConfig:
             between two of its waypoints; 0 returns the tree path.
         shortcut_yaw_weight: beyond the paper, the shortcut keeps a walk that lowers fingertip travel
             plus this many metres per radian of the object's yaw travel.
+        com_margin: beyond the paper, the final centre of mass must lie at least this far inside the
+            table (m); 0 is the paper's "inside".
         max_object_yaw: beyond the paper, the largest turn of the object between its start and final
             pose (rad); ``math.pi`` accepts any, as the paper does.
         planner: ``"slideplan"`` (Algorithm 1), ``"cbirrt"`` or ``"cbirrt2"`` (baselines, paper V-6).
@@ -113,6 +115,7 @@ class PlannerConfig:
     shortcut_attempts: int = _CORE_DEFAULTS.shortcut_attempts
     shortcut_yaw_weight: float = _CORE_DEFAULTS.shortcut_yaw_weight
     max_object_yaw: float = _CORE_DEFAULTS.max_object_yaw
+    com_margin: float = _CORE_DEFAULTS.com_margin
     planner: str = _CORE_DEFAULTS.policy
     seed: int = 0
     time_limit_s: float = 60.0

@@ -428,6 +428,11 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
     moved_com = (cos_yaw * com[0] - sin_yaw * com[1] + motion["x"], sin_yaw * com[0] + cos_yaw * com[1] + motion["y"])
     if not table.contains(moved_com):
         violations.append(f"final object pose: centre of mass ({moved_com[0]:.4f}, {moved_com[1]:.4f}) is off the table")
+    else:
+        margin = table.polygon.exterior.distance(shapely.Point(moved_com))
+        if margin < result.params.get("com_margin", 0.0) - MOTION_TOLERANCE:
+            violations.append(f"final object pose: centre of mass {margin:.4f} m inside the table edge, "
+                              f"less than com_margin {result.params['com_margin']}")
     return violations
 
 

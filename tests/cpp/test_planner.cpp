@@ -176,7 +176,14 @@ TEST(PairValidator, RejectsTooLittleOverhangAndACentreOfMassOffTheTable)
     EXPECT_EQ(shortSlide.reason, "overhang below u*");
     const PairVerdict tooFar = validator.check(start, contactConfig(*task, params, 0.315, 0.0), rng, within(5.0));
     EXPECT_FALSE(tooFar.valid);  // plate centre at 0.285: beyond the edge x = 0.30
-    EXPECT_EQ(tooFar.reason, "centre of mass off the table");
+    EXPECT_EQ(tooFar.reason, "centre of mass off the table or within com_margin of its edge");
+    // Plate centre 3 mm inside the edge: too close for the default 5 mm margin, fine for the paper's "inside".
+    const Eigen::VectorXd nearEdge = contactConfig(*task, params, 0.333, 0.0);
+    EXPECT_EQ(validator.check(start, nearEdge, rng, within(5.0)).reason, "centre of mass off the table or within com_margin of its edge");
+    PlannerParams paper = params;
+    paper.comMargin = 0.0;
+    EXPECT_NE(PairValidator(task, paper).check(start, nearEdge, rng, within(5.0)).reason,
+              "centre of mass off the table or within com_margin of its edge");
 }
 
 TEST(PairValidator, FixedResolutionFootprintAgreesWithTheDenseCloudWithinAMillimetre)

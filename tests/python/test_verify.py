@@ -135,3 +135,8 @@ def test_draw_plan_writes_png_and_svg(valid_plan, tmp_path):
 def test_a_slide_that_does_not_start_on_the_object_is_reported(plan):
     plan.object["points"] = plan.object["points"] + np.array([0.0, 0.15, 0.0])  # the object lies 15 cm aside
     assert_reported(plan, "trajectory[0]: the fingertip is", "the slide does not start on the object")
+
+
+def test_a_centre_of_mass_closer_to_the_edge_than_com_margin_is_reported(plan):
+    plan.params["com_margin"] = 0.5  # more than the table's half-width: no final pose can satisfy it
+    assert_reported(plan, "less than com_margin 0.5")

@@ -24,7 +24,8 @@ namespace slideplan
         Eigen::Vector2d outsideCentroid{Eigen::Vector2d::Zero()};  ///< geometric centre of P_out
         EdgeQuery edge;               ///< edge (e_i, e_j) of Q closest to that centroid
         double overhang{0.0};         ///< u: largest distance of P_out beyond that edge
-        bool comInside{false};        ///< CoM of P'_o inside Q
+        bool comInside{false};        ///< CoM of P'_o inside Q, at least params.comMargin from its boundary
+        double comMargin{0.0};        ///< signed distance of that CoM to the boundary of Q (m, > 0 inside)
     };
 
     struct PairVerdict

@@ -61,6 +61,12 @@ namespace slideplan
         /// its waypoints (same step bounds and checks as extension); 0 returns the tree path as is.
         int shortcutAttempts{50};
 
+        /// Beyond the paper: the final centre of mass must lie at least this far inside Q (m), not just
+        /// inside (the paper): an object whose CoM is within a few millimetres of the edge tips over
+        /// when the finger lifts (3 of 39 replayed plans fell with 0.7-1.6 mm margins, issue 9). 5 mm
+        /// leaves room for the object's last millimetres of slip.
+        double comMargin{0.005};
+
         /// Beyond the paper: a pair is valid only if the object turns by at most this much between its
         /// start and final pose (rad): large turns are what fails in execution (physics-facts.md; of
         /// plans turning the object 150 deg or more, 2 in 13 executed). 1 rad cut the median yaw travel

@@ -110,6 +110,8 @@ namespace slideplan::bindings
             .def_readwrite("screen_pairs", &PlannerParams::screenPairs,
                            "Beyond the paper: NearestTree skips trees whose root pair is known to fail; False gives "
                            "Algorithm 1 as published.")
+            .def_readwrite("com_margin", &PlannerParams::comMargin,
+                           "Beyond the paper: the final centre of mass at least this far inside the table (m).")
             .def_readwrite("max_object_yaw", &PlannerParams::maxObjectYaw,
                            "Beyond the paper: largest turn of the object between start and final pose (rad); pi: any.")
             .def_readwrite("shortcut_yaw_weight", &PlannerParams::shortcutYawWeight,
@@ -160,6 +162,7 @@ namespace slideplan::bindings
                     stats["precompute_time"] = r.stats.precomputeTime;
                     stats["fingertip_path_m"] = r.stats.fingertipPath;
                     stats["yaw_travel_rad"] = r.stats.yawTravel;
+                    stats["com_margin_m"] = r.stats.comMargin;
                     stats["rejections"] = r.stats.rejections;
                     return stats;
                 },
