@@ -37,7 +37,7 @@ test-cpp: install
 test-python: install
 	$(PYTHON) -m pytest -q tests/python
 
-test: test-cpp test-python test-sanitize
+test: test-cpp test-python
 
 # The core and the C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (no Python module:
 # the sanitizer runtimes would have to be preloaded into Python).

@@ -155,6 +155,14 @@ def dense_table(poses: int, time_limit: float, workers: int) -> list[str]:
     return rows
 
 
+def write_report(lines: list[str], out: Path) -> None:
+    """Print a Markdown report and write it to `out` (the benchmarks' common ending)."""
+    report = "\n".join(lines) + "\n"
+    print(report)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(report)
+
+
 def summarise(times: np.ndarray, limit: float) -> dict[str, str]:
     """Success rates and quantiles of one variant; `times` holds inf for unsolved runs."""
     row = {}
@@ -207,10 +215,7 @@ def main() -> None:
         lines += peer_table(args.scenes[0], args.poses, args.time_limit, args.workers)
     if args.dense:
         lines += dense_table(10, args.time_limit, args.workers)
-    report = "\n".join(lines) + "\n"
-    print(report)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(report)
+    write_report(lines, args.out)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
-from plan_bench import OBJECTS, cpu_name
+from plan_bench import OBJECTS, cpu_name, write_report
 
 from slideplan import PlannerConfig, load_object, load_scene, plan
 from slideplan.objects import load_outline, sample_pose_on_table
@@ -72,10 +72,7 @@ def main() -> None:
         baseline = baseline or median
         lines.append(f"| {label} | {median:.1f} | {min(rates):.1f} | {max(rates):.1f} | {solved}/{len(jobs)} | "
                      f"{median / baseline:.2f}x |")
-    report = "\n".join(lines) + "\n"
-    print(report)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(report)
+    write_report(lines, args.out)
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from plan_bench import write_report
 from plan_bench import OBJECTS, cpu_name  # same directory: python puts it on sys.path
 
 from slideplan import PlannerConfig, load_object, load_scene, plan
@@ -100,10 +101,7 @@ def main() -> None:
         f"Not included above: the first call in a fresh process also imports toppra (with matplotlib and scipy) "
         f"and parses the URDF: {first_call:.2f} s, once.",
     ]
-    text = "\n".join(lines) + "\n"
-    print(text)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text)
+    write_report(lines, args.out)
 
 
 if __name__ == "__main__":

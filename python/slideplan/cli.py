@@ -184,6 +184,26 @@ def _verify_and_mark(result: PlanResult) -> PlanResult:
     return dataclasses.replace(result, status="invalid")
 
 
+def _plan_verify_write(scene: Scene, obj: ThinObject, config: PlannerConfig, json_path: Path | None,
+                       png_path: Path | None) -> PlanResult:
+    """Plan, verify a solved plan (marking it ``invalid`` if it fails) and write the outputs asked for."""
+    from .planning import plan
+
+    with _warnings_as_lines():
+        result = plan(scene, obj, config)
+    if result.solved:
+        result = _verify_and_mark(result)
+    _write_outputs(result, json_path, png_path)
+    return result
+
+
+def _exit_for(result: PlanResult) -> typer.Exit:
+    """The exit of ``plan``: 0 solved and verified, 1 not solved, 3 fails verification."""
+    if result.status == "invalid":
+        return typer.Exit(EXIT_INVALID_PLAN)
+    return typer.Exit(EXIT_SOLVED if result.solved else EXIT_NOT_SOLVED)
+
+
 def _write_outputs(result: PlanResult, json_path: Path | None, png_path: Path | None) -> None:
     if json_path is not None:
         json_path.parent.mkdir(parents=True, exist_ok=True)
@@ -223,24 +243,16 @@ def plan_command(
     Exit codes: 0 solved and verified, 1 not solved within the time limit, 2 bad input,
     3 solved but the plan fails verification.
     """
-    from .planning import plan
-
     try:
         task_scene = load_scene(scene)
         config = _config_from_options(task_scene, seed, time_limit, reconfiguration_range, planner, param)
         obj, sampled_pose = _load_object(task_scene, object_spec, pose, seed)
-        with _warnings_as_lines():
-            result = plan(task_scene, obj, config)
-        if result.solved:
-            result = _verify_and_mark(result)
-        _write_outputs(result, json_out, png_out)
+        result = _plan_verify_write(task_scene, obj, config, json_out, png_out)
     except (InputError, ValueError, OSError) as error:
         raise _fail(error) from None
     prefix = f"{obj.name} at random pose ({sampled_pose[0]:.3f}, {sampled_pose[1]:.3f}, {sampled_pose[2]:.3f}): " if sampled_pose else ""
     typer.echo(prefix + _summary(result) + (", verified" if result.solved else ""))
-    if result.status == "invalid":
-        raise typer.Exit(EXIT_INVALID_PLAN)
-    raise typer.Exit(EXIT_SOLVED if result.solved else EXIT_NOT_SOLVED)
+    raise _exit_for(result)
 
 
 @app.command("demo")
@@ -249,17 +261,11 @@ def demo_command(
     seed: int = typer.Option(0, "--seed", help="Random seed (object pose and planner)."),
 ) -> None:
     """Slide the crescent on the square table from a seeded random pose; write the plan and a picture."""
-    from .planning import plan
-
     try:
         scene = load_scene("square")
         config = PlannerConfig.for_scene(scene, seed=seed)
         obj, _ = _load_object(scene, "crescent", None, seed)
-        with _warnings_as_lines():
-            result = plan(scene, obj, config)
-        if result.solved:
-            result = _verify_and_mark(result)
-        _write_outputs(result, out / "demo-plan.json", out / "demo-plan.png")
+        result = _plan_verify_write(scene, obj, config, out / "demo-plan.json", out / "demo-plan.png")
     except (InputError, ValueError, OSError) as error:
         raise _fail(error) from None
     if result.solved:
@@ -290,8 +296,6 @@ def perceive_command(
     """
     from .objects import load_point_cloud
     from .perception import perceive, write_perception
-    from .planning import plan
-
     try:
         perception = perceive(load_point_cloud(cloud), seed=seed, source=str(cloud))
         scene_path, cloud_paths = write_perception(perception, out, robot_scene=robot_scene)
@@ -313,17 +317,11 @@ def perceive_command(
         scene = load_scene(str(scene_path))
         config = _config_from_options(scene, seed, time_limit, None, "slideplan", [])
         obj, _ = _load_object(scene, str(cloud_paths[plan_target]), None, seed)
-        with _warnings_as_lines():
-            result = plan(scene, obj, config)
-        if result.solved:
-            result = _verify_and_mark(result)
-        _write_outputs(result, json_out, png_out)
+        result = _plan_verify_write(scene, obj, config, json_out, png_out)
     except (InputError, ValueError, OSError) as error:
         raise _fail(error) from None
     typer.echo(_summary(result) + (", verified" if result.solved else ""))
-    if result.status == "invalid":
-        raise typer.Exit(EXIT_INVALID_PLAN)
-    raise typer.Exit(EXIT_SOLVED if result.solved else EXIT_NOT_SOLVED)
+    raise _exit_for(result)
 
 
 @app.command("export")
