@@ -23,14 +23,7 @@ namespace slideplan
         const RobotModel &robot = *task->robot;
         if (start.size() != static_cast<long>(robot.dof()) || goal.size() != static_cast<long>(robot.dof()))
             throw std::invalid_argument("start and goal need one value per joint");
-        auto ambient = std::make_shared<ob::RealVectorStateSpace>(robot.dof());
-        ob::RealVectorBounds bounds(robot.dof());
-        for (unsigned i = 0; i < robot.dof(); ++i)
-        {
-            bounds.setLow(i, robot.lowerLimits()(i));
-            bounds.setHigh(i, robot.upperLimits()(i));
-        }
-        ambient->setBounds(bounds);
+        auto ambient = jointSpace(robot);
         auto constraint = std::make_shared<SlidingConstraint>(task->robot, task->surfaceZ, params);
         auto space = std::make_shared<ob::ProjectedStateSpace>(ambient, constraint);
         space->setDelta(params.maxJointStep);

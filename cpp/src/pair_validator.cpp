@@ -1,5 +1,7 @@
 #include "slideplan/pair_validator.hpp"
 
+#include "slideplan/validity.hpp"
+
 #include <ompl/base/SpaceInformation.h>
 #include <ompl/base/spaces/RealVectorStateSpace.h>
 #include <ompl/datastructures/NearestNeighborsLinear.h>
@@ -178,14 +180,7 @@ namespace slideplan
             return false;
         const RobotModel &robot = *task_->robot;
         const unsigned dof = robot.dof();
-        auto space = std::make_shared<ob::RealVectorStateSpace>(dof);
-        ob::RealVectorBounds bounds(dof);
-        for (unsigned i = 0; i < dof; ++i)
-        {
-            bounds.setLow(i, robot.lowerLimits()(i));
-            bounds.setHigh(i, robot.upperLimits()(i));
-        }
-        space->setBounds(bounds);
+        auto space = jointSpace(robot);
         space->setStateSamplerAllocator([seed](const ob::StateSpace *s) {
             return std::make_shared<SeededSampler>(s, static_cast<std::uint_fast32_t>(seed));
         });

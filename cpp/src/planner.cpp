@@ -460,14 +460,7 @@ namespace slideplan
         requireReachableObject(*task, params, seed);
 
         const RobotModel &robot = *task->robot;
-        auto space = std::make_shared<ob::RealVectorStateSpace>(robot.dof());
-        ob::RealVectorBounds bounds(robot.dof());
-        for (unsigned i = 0; i < robot.dof(); ++i)
-        {
-            bounds.setLow(i, robot.lowerLimits()(i));
-            bounds.setHigh(i, robot.upperLimits()(i));
-        }
-        space->setBounds(bounds);
+        auto space = jointSpace(robot);
         auto si = std::make_shared<ob::SpaceInformation>(space);
         auto planner = std::make_shared<SlidingPlanner>(si, task, params, seed);
         si->setup();

@@ -5,6 +5,19 @@
 
 namespace slideplan
 {
+    std::shared_ptr<ompl::base::RealVectorStateSpace> jointSpace(const RobotModel &robot)
+    {
+        auto space = std::make_shared<ompl::base::RealVectorStateSpace>(robot.dof());
+        ompl::base::RealVectorBounds bounds(robot.dof());
+        for (unsigned i = 0; i < robot.dof(); ++i)
+        {
+            bounds.setLow(i, robot.lowerLimits()(i));
+            bounds.setHigh(i, robot.upperLimits()(i));
+        }
+        space->setBounds(bounds);
+        return space;
+    }
+
     SlidingValidity::SlidingValidity(const ompl::base::SpaceInformationPtr &si, std::shared_ptr<const SlidingTask> task,
                                      std::shared_ptr<const SlidingConstraint> constraint)
       : ompl::base::StateValidityChecker(si)

@@ -9,9 +9,13 @@
 #include "slideplan/task.hpp"
 
 #include <ompl/base/StateValidityChecker.h>
+#include <ompl/base/spaces/RealVectorStateSpace.h>
 
 namespace slideplan
 {
+    /// The arm's joint space for OMPL: one real dimension per chain joint, bounded by its limits.
+    std::shared_ptr<ompl::base::RealVectorStateSpace> jointSpace(const RobotModel &robot);
+
     class SlidingValidity : public ompl::base::StateValidityChecker
     {
     public:
