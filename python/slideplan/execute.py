@@ -65,6 +65,7 @@ _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height 
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
 _NO_FORCE_N = 0.1  # below this mean normal force the finger does not press at all
+_ARENA_BYTES = 128 << 20  # a 20 cm plate has ~500 contacts with the table; MuJoCo's default arena drops them
 
 
 @dataclass(frozen=True)
@@ -194,6 +195,37 @@ class Execution:
 
 class _Unstable(Exception):
     """The simulation produced NaN or MuJoCo reset it (bad accelerations)."""
+
+
+TIMED_PLAN_SCHEMA = "slideplan.plan/2"
+
+
+def read_plan(path: str | Path) -> tuple[PlanResult, dict[str, Any] | None]:
+    """Read a plan JSON for execution: ``slideplan.plan/1``, or ``/2`` whose ``timing`` block is kept.
+
+    Args:
+        path: the plan file.
+
+    Returns:
+        ``(plan, timing)``; timing is None for ``/1`` plans.
+
+    Raises:
+        InputError: unreadable file, not JSON, another schema, or a malformed plan (naming the file).
+    """
+    try:
+        data = json.loads(Path(path).read_text())
+    except OSError as error:
+        raise InputError(f"cannot read plan ({error.strerror})", source=str(path)) from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise InputError(f"invalid JSON ({error})", source=str(path)) from None
+    timing = None
+    if isinstance(data, dict) and data.get("schema") == TIMED_PLAN_SCHEMA:
+        timing = data.pop("timing", None)
+        data["schema"] = PlanResult.SCHEMA
+    try:
+        return PlanResult.from_dict(data), timing
+    except InputError as error:
+        raise InputError(error.problem, source=str(path), field=error.field) from None
 
 
 # ----------------------------------------------------------------------------- timing
@@ -442,8 +474,9 @@ def _build_model(result: PlanResult, settings: ExecutionSettings) -> _Model:
         body.gravcomp = 1.0  # the arm controller's gravity compensation
         for geom in body.geoms:
             geom.contype, geom.conaffinity = _ROBOT_CONTYPE, _ROBOT_CONAFFINITY
-            geom.friction = [settings.pad_friction, settings.torsional_friction, 0.0001]
-            geom.condim = 4
+            # Soft finger pads: a contact patch resists twisting and tilting (torsional and rolling friction).
+            geom.friction = [settings.pad_friction, settings.torsional_friction, settings.torsional_friction]
+            geom.condim = 6
 
     # Finger compliance: a slide joint on the first contact link, along the world vertical seen from
     # the contact frame at pitch beta0, and a pad whose lowest point is the contact frame.
@@ -523,6 +556,7 @@ def _build_model(result: PlanResult, settings: ExecutionSettings) -> _Model:
         actuator.forcerange = [-100.0, 100.0]  # stiff while sliding; capped to grip_torque when closing
 
     _add_world(spec, result, settings)
+    spec.memory = _ARENA_BYTES
     spec.option.timestep = settings.timestep
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     spec.option.impratio = 10
@@ -681,6 +715,8 @@ class _Runner:
             step += 1
             if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0 or not np.isfinite(data.qacc).all():
                 raise _Unstable(f"simulation unstable (bad accelerations) at t = {data.time:.3f} s")
+            if data.warning[mujoco.mjtWarning.mjWARN_CNSTRFULL].number or data.warning[mujoco.mjtWarning.mjWARN_CONTACTFULL].number:
+                raise _Unstable(f"simulation out of contact memory at t = {data.time:.3f} s (contacts were dropped)")
             if self.on_frame is not None:
                 self.on_frame()
 
@@ -875,7 +911,9 @@ def execute(
             fail("grasp", f"no inverse kinematics for the {100 * settings.lift_height:.0f} cm lift")
         else:
             lift = np.linspace(grasp_config, np.asarray(lift_config), 20)
-            runner.follow(lift, time_parameterize(lift, velocity, settings.joint_acceleration), settings.hold_s)
+            lift_tips = np.array([np.asarray(core_robot.fk(config))[:3, 3] for config in lift])
+            lift_times = time_parameterize(lift, velocity, settings.joint_acceleration, lift_tips, settings.tip_speed)
+            runner.follow(lift, lift_times, settings.hold_s)
             report["lifted"] = runner.object_pose()[2] >= rest_z + _LIFTED_FRACTION * settings.lift_height
             if not report["lifted"]:
                 fail("grasp", "the grasp did not lift the object")
