@@ -27,7 +27,7 @@ $(PYTHON):
 install: deps $(PYTHON)
 	$(PYTHON) -m pip install -q scikit-build-core pybind11
 	$(PYTHON) -m pip install -q --no-build-isolation -C build-dir=$(BUILD_DIR) \
-	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,robots,test]"
+	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,robots,test,execution]"
 
 test-cpp: install
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2

@@ -105,7 +105,7 @@ class ExecutionSettings:
     table_friction: float = 0.4
     object_density: float = 1000.0
     cell_size: float = 0.0125
-    servo_bandwidth_hz: float = 8.0
+    servo_bandwidth_hz: float = 15.0
     grip_torque: float = 0.5
     lift_height: float = 0.05
     hold_s: float = 1.0
