@@ -277,7 +277,9 @@ def _experiment_executor(workers: int | None, scheduler: str | None, threads: bo
 
 @app.command("experiment")
 def experiment_command(
-    figure: str = typer.Argument(..., help="Which experiment: fig10, fig11 or fig12 (paper section V)."),
+    figure: str = typer.Argument(
+        ..., help="Which experiment: fig10, fig11 or fig12 (paper section V), or execution (Fig. 10's plans executed in MuJoCo)."
+    ),
     out: Path = typer.Option(..., "--out", help="Output directory; results go to OUT/results/ (one Parquet file per task)."),
     quick: bool = typer.Option(False, "--quick", help="A small subset: 2 objects x 2 poses per cell, 5 s limit."),
     poses: Optional[int] = typer.Option(
@@ -313,6 +315,13 @@ def experiment_command(
         f"{summary.executed} run ({summary.solved} solved, {summary.errors} raised), "
         f"{summary.skipped} already done, {summary.lost} lost"
     )
+    if figure == "execution":
+        from .experiments.execution import load_execution, plot_execution, summarize_execution
+
+        results = load_execution(out)
+        typer.echo(summarize_execution(results).to_string(index=False))
+        for path in plot_execution(results, out):
+            typer.echo(str(path))
     if summary.lost:
         typer.echo(f"slideplan: {summary.lost} tasks lost, first: {summary.first_loss}; rerun to resume", err=True)
     if summary.errors or summary.lost:
