@@ -518,13 +518,13 @@ def _build_model(result: PlanResult, settings: ExecutionSettings) -> _Model:
         rgba=[0.9, 0.3, 0.2, 1],
     )
 
-    # Fingers: bodies on the grasp link's parent with geometry below them close about grasp x.
+    # Fingers: the other bodies on the grasp link's parent with mass and geometry close about grasp x.
     grasp_frame = pose0(robot["grasp_link"]) @ np.asarray(robot["grasp_offset"])
     palm = spec.body(robot["grasp_link"]).parent
     fingers = []
     for child in palm.bodies:
         tip = _subtree_far_point(model0, data0, child.name, pose0(child.name)[:3, 3])
-        if tip is None:
+        if tip is None or child.name == robot["grasp_link"] or model0.body(child.name).subtreemass[0] <= 1e-6:
             continue
         pivot = pose0(child.name)[:3, 3]
         axis_world = grasp_frame[:3, 0]
