@@ -143,3 +143,41 @@ def test_timed_plan_uses_its_timing_block(tmp_path, slide_plan):
     execution = execute(result, timing=timing)
     # 3.5 cm in 4 s (the own parameterization would take 0.7 s at 5 cm/s): the slide lasts longer.
     assert execution.sim_time_s > execute(result).sim_time_s + 3.0
+
+
+def test_execution_experiment_uses_the_full_size_poses_of_fig10():
+    from slideplan.experiments import build_spec
+
+    execution = build_spec("execution", poses=2)
+    fig10 = build_spec("fig10", poses=2)
+    full_size = {(task.scene, task.object, task.pose_index): (task.x, task.y, task.yaw, task.seed)
+                 for task in fig10.tasks if task.scale == 1.0}
+    assert len(execution.tasks) == len(full_size) == 4 * 5 * 2
+    for task in execution.tasks:
+        assert full_size[(task.scene, task.object, task.pose_index)] == (task.x, task.y, task.yaw, task.seed)
+
+
+def test_execution_summary_counts_each_setting():
+    import pandas as pd
+
+    from slideplan.experiments.execution import EXECUTION_ROW_SCHEMA, summarize_execution
+
+    def row(position_mm, yaw_deg, stage):
+        values = {field.name: None for field in EXECUTION_ROW_SCHEMA}
+        values.update(solved=True)
+        for setting in ("nominal", "stress"):
+            values.update({
+                f"{setting}_position_error_m": None if stage == "simulation" else position_mm / 1000,
+                f"{setting}_yaw_error_deg": None if stage == "simulation" else yaw_deg,
+                f"{setting}_failed_stage": stage, f"{setting}_lifted": stage is None,
+                f"{setting}_success": stage is None, f"{setting}_normal_force_n": 2.0,
+            })
+        return values
+
+    results = pd.DataFrame([row(1.0, 0.5, None), row(4.0, -4.0, "slide"), row(0.0, 0.0, "simulation"),
+                            row(2.0, 1.0, "release")])
+    summary = summarize_execution(results).set_index("setting")
+    assert summary.loc["nominal", "plans"] == 4
+    assert summary.loc["nominal", "within_5mm_3deg"] == 0.5  # 1 mm / 0.5 deg and 2 mm / 1 deg
+    assert summary.loc["nominal", "lifted"] == 0.25
+    assert summary.loc["nominal", "fell"] == 1 and summary.loc["nominal", "unstable"] == 1
