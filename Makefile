@@ -59,6 +59,7 @@ bench: install
 	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --poses 5 --scenes panda_square panda_round ur5_square ur5_round \
 	  --variants "slideplan hand" --out docs/benchmarks/robots.md
 	$(PYTHON) benchmarks/thread_bench.py
+	$(PYTHON) benchmarks/execute_bench.py
 
 clean:
 	rm -rf build out $(VENV)

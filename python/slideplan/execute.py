@@ -829,8 +829,8 @@ def execute(
     if video is not None:
         renderer = mujoco.Renderer(model, *video_size)
         camera = mujoco.MjvCamera()
-        camera.lookat[:] = [*table.polygon.centroid.coords[0], table.height]
-        camera.distance, camera.azimuth, camera.elevation = 1.6, 200.0, -35.0
+        camera.lookat[:] = [*(com0 + np.asarray(table.polygon.centroid.coords[0])) / 2, table.height + 0.1]
+        camera.distance, camera.azimuth, camera.elevation = 1.1, 210.0, -30.0
 
     def capture() -> None:
         if renderer is not None and data.time * video_fps >= len(frames):
