@@ -421,6 +421,7 @@ class _Model:
     object_body: int
     object_qpos: int
     object_geoms: set
+    table_geoms: set
 
 
 def _build_model(result: PlanResult, settings: ExecutionSettings) -> _Model:
@@ -591,6 +592,7 @@ def _build_model(result: PlanResult, settings: ExecutionSettings) -> _Model:
         object_body=object_body,
         object_qpos=int(model.jnt_qposadr[model.body_jntadr[object_body]]),
         object_geoms={index for index in range(model.ngeom) if model.geom_bodyid[index] == object_body},
+        table_geoms={index for index in range(model.ngeom) if model.geom(index).name.startswith("slideplan_table_")},
     )
     for joint, value in robot["fixed_joints"].items():
         data.qpos[model.jnt_qposadr[model.joint(joint).id]] = value
@@ -726,6 +728,17 @@ class _Runner:
         body = self.built.object_body
         rotation = data.xmat[body].reshape(3, 3)
         return data.xpos[body][:2].copy(), math.atan2(rotation[1, 0], rotation[0, 0]), float(data.xpos[body][2])
+
+    def robot_bodies_on_table(self) -> list[str]:
+        """Names of the robot bodies touching the table now (e.g. a closing finger it stopped)."""
+        model, data = self.built.model, self.built.data
+        names = set()
+        for index in range(data.ncon):
+            geoms = (int(data.contact[index].geom1), int(data.contact[index].geom2))
+            for geom, other in (geoms, geoms[::-1]):
+                if other in self.built.table_geoms and model.geom_bodyid[geom] != self.built.object_body:
+                    names.add(model.body(model.geom_bodyid[geom]).name)
+        return sorted(names)
 
     def pad_normal_force(self) -> float:
         """Total normal force between the fingertip pad and the object (N)."""
@@ -907,6 +920,7 @@ def execute(
             model.actuator_forcerange[actuator] = (-settings.grip_torque, settings.grip_torque)
             data.ctrl[actuator] = target
         runner.follow(grasp_config[None, :], np.zeros(1), _CLOSE_S)
+        on_table = runner.robot_bodies_on_table()
         if lift_config is None:
             fail("grasp", f"no inverse kinematics for the {100 * settings.lift_height:.0f} cm lift")
         else:
@@ -916,7 +930,8 @@ def execute(
             runner.follow(lift, lift_times, settings.hold_s)
             report["lifted"] = runner.object_pose()[2] >= rest_z + _LIFTED_FRACTION * settings.lift_height
             if not report["lifted"]:
-                fail("grasp", "the grasp did not lift the object")
+                blocked = f" ({', '.join(on_table)} stopped by the table when closing)" if on_table else ""
+                fail("grasp", f"the grasp did not lift the object{blocked}")
     except _Unstable as error:
         report.update(actual_motion=None, position_error_m=None, yaw_error_deg=None, overhang_m=None,
                       com_margin_m=None, lifted=False, failed_stage="simulation", failure=str(error))
