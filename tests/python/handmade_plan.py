@@ -103,6 +103,7 @@ def build_plan() -> PlanResult:
 GRASP_PLATE = (0.52, 0.58, 0.05, 0.25)  # x0, x1, y0, y1: 5 cm over the table edge y = 0.20
 GRASP_Y = 0.235  # fingertips (2.3 cm ahead of the grasp frame) end 1.2 cm beyond the edge
 GRASP_BACKOFF = 0.045  # the open fingers clear the plate's far end (reach ends near y = 0.28)
+FINGER_REACH = 0.025  # the T42's fingertips end 2.3 cm ahead of its grasp frame, plus 2 mm
 GRASP_TABLE_EDGE_Y = 0.20
 
 
@@ -114,14 +115,18 @@ def _grasp_frame(x: float, y: float, z: float) -> np.ndarray:
     return frame
 
 
-def build_grasp_plan() -> PlanResult:
+def build_grasp_plan(grasp_y: float = GRASP_Y) -> PlanResult:
     """A plan whose object overhangs far enough for a firm side grasp.
 
     A 6 cm x 20 cm plate lies 5 cm over the table edge y = 0.20 (centre of mass 5 cm inside). The
     fingertip slides it 1 cm along +x (as in :func:`build_plan`); the approach lifts the fingertip
     20 cm, swings in joint space to 20 cm above a pre-grasp beyond the plate's far end, comes down to it
-    and moves in along -y to the side grasp 3.5 cm out, whose fingertips then end 1.2 cm beyond the
-    table edge.
+    and moves in along -y to the side grasp (default 3.5 cm out), whose fingertips then end 1.2 cm beyond the
+    table edge. With ``grasp_y`` < 0.223 the fingertips reach over the table instead.
+
+    Args:
+        grasp_y: y of the grasp frame (m); the pre-grasp backs off far enough that the open
+            fingers clear the plate's far end.
     """
     scene = load_scene("square")
     robot = robot_model(scene)
@@ -133,17 +138,17 @@ def build_grasp_plan() -> PlanResult:
     trajectory = follow(robot, [contact_target(x, 0.12, tip_z) for x in slide_xs], np.array([0.0, 1.0, 0.0, 1.5, 0.0, 0.5, 0.0]))
     poses = np.array([robot.fk(q) for q in trajectory])
     lift = follow(robot, [contact_target(slide_xs[-1], 0.12, tip_z + STEP_M * k) for k in range(1, 81)], trajectory[-1])
-    grasp_y = GRASP_Y
+    backoff = max(GRASP_BACKOFF, y1 + FINGER_REACH - grasp_y)
     grasp_x = (x0 + x1) / 2 + slide_xs[-1] - slide_xs[0]
     candidates = [robot.ik(_grasp_frame(grasp_x, grasp_y, THICKNESS / 2), seed=None, rng_seed=seed, link="t42_grasp") for seed in range(8)]
     grasp = min((q for q in candidates if q is not None), key=lambda q: np.abs(q - lift[-1]).max())
     outward = [grasp]  # backing out from the grasp, each IK seeded with the previous one
     for k in range(1, 7):
-        outward.append(robot.ik(_grasp_frame(grasp_x, grasp_y + GRASP_BACKOFF * k / 6, THICKNESS / 2), seed=outward[-1], rng_seed=1, link="t42_grasp"))
+        outward.append(robot.ik(_grasp_frame(grasp_x, grasp_y + backoff * k / 6, THICKNESS / 2), seed=outward[-1], rng_seed=1, link="t42_grasp"))
         assert outward[-1] is not None, f"grasp approach IK failed {k} cm out"
     upward = [outward[-1]]  # above the pre-grasp, so that the swing passes high over the plate
     for k in range(1, 21):
-        upward.append(robot.ik(_grasp_frame(grasp_x, grasp_y + GRASP_BACKOFF, THICKNESS / 2 + 0.01 * k), seed=upward[-1], rng_seed=1, link="t42_grasp"))
+        upward.append(robot.ik(_grasp_frame(grasp_x, grasp_y + backoff, THICKNESS / 2 + 0.01 * k), seed=upward[-1], rng_seed=1, link="t42_grasp"))
         assert upward[-1] is not None, f"pre-grasp IK failed {k} cm up"
     swing_steps = int(np.ceil(np.abs(upward[-1] - lift[-1]).max() / 0.02))
     swing = np.linspace(lift[-1], upward[-1], swing_steps + 1)[1:]

@@ -181,3 +181,10 @@ def test_execution_summary_counts_each_setting():
     assert summary.loc["nominal", "within_5mm_3deg"] == 0.5  # 1 mm / 0.5 deg and 2 mm / 1 deg
     assert summary.loc["nominal", "lifted"] == 0.25
     assert summary.loc["nominal", "fell"] == 1 and summary.loc["nominal", "unstable"] == 1
+
+
+def test_grasp_whose_fingers_reach_over_the_table_fails_and_says_why():
+    execution = execute(build_grasp_plan(grasp_y=0.21), ExecutionSettings(cell_size=0.015))
+    assert not execution.lifted
+    assert execution.failed_stage == "grasp"
+    assert "stopped by the table" in execution.failure
