@@ -18,8 +18,9 @@ The model (docs/execution.md gives the numbers and why):
   geometry of the contact links that touches anything while sliding. The planned contact depth
   ``z_s - z_F`` is thus the spring's compression, and the normal force is ``k * depth``: 1-5 N for the
   default band [0.5, 2.5] cm at 200 N/m.
-- **Object**: boxes on a square grid (:attr:`ExecutionSettings.cell_size`) over the footprint of the
-  point cloud, one rigid body of uniform density, so table friction is spread over the footprint.
+- **Object**: boxes on a square grid (:attr:`ExecutionSettings.cell_size`) whose centres lie in the
+  footprint of the point cloud (:func:`cloud_footprint`), one rigid body of uniform density, so
+  table friction is spread over the footprint.
 - **Table**: the polygon as a 5 cm thick prism, one convex mesh per triangle of a constrained
   Delaunay triangulation when it is not convex.
 - **Grasp**: the hand's fingers (the bodies hanging on the grasp link's parent) get hinge joints about
@@ -374,31 +375,46 @@ def _table_pieces(polygon: Polygon) -> list[np.ndarray]:
     return [np.asarray(piece.exterior.coords)[:-1] for piece in triangles.geoms]
 
 
-def object_cells(points: np.ndarray, cell_size: float) -> np.ndarray:
-    """Centres of the grid cells covering the footprint of a top-surface point cloud.
+def cloud_footprint(points: np.ndarray) -> Polygon | shapely.MultiPolygon:
+    """The outline of a top-surface point cloud: a morphological closing of its points.
 
-    A cell is kept when a cloud point lies within the cloud's own spacing (median nearest-neighbour
-    distance) of its centre, which follows non-convex outlines and holes.
+    Each point is widened by the cloud's spacing (90th percentile of the nearest-neighbour
+    distances of up to 500 of its points; boundary samples are denser than the grid inside), which
+    joins neighbours on a grid, and the union is shrunk back by the same amount, so concavities and
+    holes wider than 2 spacings stay open.
+
+    Args:
+        points: (N, 3) cloud.
+
+    Returns:
+        The footprint polygon(s), world frame.
+    """
+    xy = np.asarray(points, dtype=float)[:, :2]
+    sample = xy[:: max(1, len(xy) // 500)]
+    distances = np.linalg.norm(sample[:, None, :] - xy[None, :, :], axis=2)
+    distances[distances == 0] = np.inf
+    radius = max(float(np.percentile(distances.min(axis=1), 90)), 1e-4)
+    return shapely.unary_union(shapely.buffer(shapely.points(xy), radius, quad_segs=4)).buffer(-radius, quad_segs=4)
+
+
+def object_cells(points: np.ndarray, cell_size: float) -> np.ndarray:
+    """Centres of the grid cells whose centre lies in the footprint of a top-surface point cloud.
 
     Args:
         points: (N, 3) cloud.
         cell_size: grid spacing (m).
 
     Returns:
-        (K, 2) cell centres (at least one: the cloud's centroid for a degenerate cloud).
+        (K, 2) cell centres (at least one: the cloud's centroid for a footprint smaller than a cell).
     """
     xy = np.asarray(points, dtype=float)[:, :2]
-    differences = xy[:, None, :] - xy[None, :, :]
-    distances = np.linalg.norm(differences, axis=2)
-    np.fill_diagonal(distances, np.inf)
-    spacing = float(np.median(distances.min(axis=1)))
+    footprint = cloud_footprint(points)
     low, high = xy.min(axis=0), xy.max(axis=0)
     counts = np.maximum(np.ceil((high - low) / cell_size).astype(int), 1)
     origin = (low + high) / 2 - counts * cell_size / 2 + cell_size / 2
     grid = np.stack(np.meshgrid(*(origin[axis] + cell_size * np.arange(counts[axis]) for axis in (0, 1))), axis=-1)
     centres = grid.reshape(-1, 2)
-    nearest = np.min(np.linalg.norm(centres[:, None, :] - xy[None, :, :], axis=2), axis=1)
-    kept = centres[nearest <= max(spacing, 1e-6) * 1.0001]
+    kept = centres[shapely.contains_xy(footprint, centres[:, 0], centres[:, 1])]
     return kept if len(kept) else xy.mean(axis=0, keepdims=True)
 
 

@@ -188,3 +188,30 @@ def test_grasp_whose_fingers_reach_over_the_table_fails_and_says_why():
     assert not execution.lifted
     assert execution.failed_stage == "grasp"
     assert "stopped by the table" in execution.failure
+
+
+def test_non_convex_table_is_a_union_of_triangles_covering_it():
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    from slideplan.execute import _table_pieces
+
+    ell = Polygon([(0.3, -0.3), (0.9, -0.3), (0.9, 0.0), (0.6, 0.0), (0.6, 0.3), (0.3, 0.3)])
+    pieces = [Polygon(piece) for piece in _table_pieces(ell)]
+    assert len(pieces) > 1 and all(piece.convex_hull.area - piece.area < 1e-12 for piece in pieces)
+    assert abs(unary_union(pieces).area - ell.area) < 1e-9 and unary_union(pieces).symmetric_difference(ell).area < 1e-9
+    square = Polygon([(0.3, -0.2), (0.7, -0.2), (0.7, 0.2), (0.3, 0.2)])
+    assert len(_table_pieces(square)) == 1
+
+
+def test_object_cells_follow_a_non_convex_outline():
+    from shapely.geometry import Point
+
+    from slideplan.execute import object_cells
+    from slideplan.objects import load_object
+
+    crescent = load_object("crescent", table_height=0.0, pose=(0.5, 0.0, 0.3))
+    cells = object_cells(crescent.points, 0.0125)
+    outline = crescent.outline
+    assert all(outline.contains(Point(cell)) for cell in cells)  # none in the crescent's hollow
+    assert abs(len(cells) * 0.0125**2 - outline.area) < 0.1 * outline.area
