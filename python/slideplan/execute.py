@@ -65,6 +65,7 @@ _CLOSE_S = 0.8
 _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
+_CLOSE_TARGET_RAD = 1.5  # beyond any contact (hinge range [-0.2, 1.6]): the capped torque squeezes
 _NO_FORCE_N = 0.1  # below this mean normal force the finger does not press at all
 _ARENA_BYTES = 128 << 20  # a 20 cm plate has ~500 contacts with the table; MuJoCo's default arena drops them
 
@@ -430,12 +431,10 @@ class _Model:
     spring_qpos: int
     spring_joint: int
     finger_actuators: list[int]
-    finger_close: list[float]  # closing targets
     hand_geoms: np.ndarray  # contact-link geoms that only touch things once the finger is lifted
     pad_geom: int
     tip_body: int
     object_body: int
-    object_qpos: int
     object_geoms: set
     table_geoms: set
 
@@ -601,12 +600,10 @@ def _build_model(result: PlanResult, settings: ExecutionSettings) -> _Model:
         spring_qpos=int(model.jnt_qposadr[model.joint(spring.name).id]),
         spring_joint=model.joint(spring.name).id,
         finger_actuators=[model.actuator(f"close_{joint}").id for joint in fingers],
-        finger_close=[1.5 for _ in fingers],
         hand_geoms=hand_geoms,
         pad_geom=model.geom(pad.name).id,
         tip_body=model.body(robot["tip_link"]).id,
         object_body=object_body,
-        object_qpos=int(model.jnt_qposadr[model.body_jntadr[object_body]]),
         object_geoms={index for index in range(model.ngeom) if model.geom_bodyid[index] == object_body},
         table_geoms={index for index in range(model.ngeom) if model.geom(index).name.startswith("slideplan_table_")},
     )
@@ -932,9 +929,9 @@ def execute(
         lift_config = core_robot.ik(lift_target, seed=grasp_config, rng_seed=0)
         # Close: the finger's flexure stiffens (the hand squeezes with the closing servos), torque capped.
         model.jnt_stiffness[built.spring_joint] *= 50.0
-        for actuator, target in zip(built.finger_actuators, built.finger_close):
+        for actuator in built.finger_actuators:
             model.actuator_forcerange[actuator] = (-settings.grip_torque, settings.grip_torque)
-            data.ctrl[actuator] = target
+            data.ctrl[actuator] = _CLOSE_TARGET_RAD
         runner.follow(grasp_config[None, :], np.zeros(1), _CLOSE_S)
         on_table = runner.robot_bodies_on_table()
         if lift_config is None:
