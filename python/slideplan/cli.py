@@ -34,6 +34,7 @@ _OPTION_OF_FIELD = {
     "planner": "--planner",
     "workers": "--workers",
     "scheduler": "--scheduler",
+    "tip_speed": "--tip-speed",
 }
 
 app = typer.Typer(
@@ -253,7 +254,8 @@ def execute_command(
             json_out.parent.mkdir(parents=True, exist_ok=True)
             json_out.write_text(execution.to_json(indent=1))
     except InputError as error:
-        raise _fail(InputError(error.problem, source=error.source or str(plan_file), field=error.field)) from None
+        field = _OPTION_OF_FIELD.get(error.field, error.field)
+        raise _fail(InputError(error.problem, source=error.source or str(plan_file), field=field)) from None
     except (ImportError, OSError, ValueError) as error:
         raise _fail(error) from None
     typer.echo(execution.summary())

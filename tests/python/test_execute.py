@@ -124,6 +124,10 @@ def test_cli_names_a_missing_mesh(tmp_path, slide_plan):
     _assert_one_error_line(*_run(_write(tmp_path, data)), "t42_palm", "meshes/palm.stl", "not found")
 
 
+def test_cli_rejects_a_bad_tip_speed(tmp_path, slide_plan):
+    _assert_one_error_line(*_run(_write(tmp_path, slide_plan.to_dict()), "--tip-speed", "-0.01"), "--tip-speed", "> 0")
+
+
 def test_cli_executes_and_writes_the_report(tmp_path, slide_plan):
     out = tmp_path / "execution.json"
     code, output = _run(_write(tmp_path, slide_plan.to_dict()), "--json", out)
