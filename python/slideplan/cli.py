@@ -1,5 +1,5 @@
-"""Command line: ``slideplan plan``, ``demo``, ``export``, ``view``, ``perceive``, ``experiment`` and ``plot``
-(DESIGN.md 5).
+"""Command line: ``slideplan plan``, ``demo``, ``export``, ``view``, ``perceive``, ``execute``, ``experiment``
+and ``plot`` (DESIGN.md 5).
 
 Exit codes of ``plan``: 0 solved (and verified), 1 not solved within the time limit,
 2 bad input (one line ``slideplan: error: ...`` on stderr), 3 solved but the plan fails
@@ -40,6 +40,7 @@ _OPTION_OF_FIELD = {
     "planner": "--planner",
     "workers": "--workers",
     "scheduler": "--scheduler",
+    "tip_speed": "--tip-speed",
 }
 
 app = typer.Typer(
@@ -388,6 +389,35 @@ def view_command(
         pass
     finally:
         shown.server.stop()
+@app.command("execute")
+def execute_command(
+    plan_file: Path = typer.Argument(..., help="A solved plan JSON (slideplan.plan/1, or /2 with a timing block)."),
+    video: Optional[Path] = typer.Option(
+        None, "--video", help="Render the execution offscreen to this .mp4 or .gif (or .png: a strip of 6 frames)."
+    ),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="Write the execution report JSON here."),
+    tip_speed: float = typer.Option(0.05, "--tip-speed", help="Fingertip speed cap while sliding (m/s)."),
+) -> None:
+    """Execute a plan in MuJoCo physics (arm, compliant finger, object, table), then grasp and lift.
+
+    Exit codes: 0 the object ended within 5 mm / 3 degrees of Eq. 2 and was lifted, 1 the
+    execution failed (the report says where), 2 bad input. Needs the ``execution`` extra.
+    """
+    try:
+        from .execute import ExecutionSettings, execute, read_plan
+
+        result, timing = read_plan(plan_file)
+        execution = execute(result, ExecutionSettings(tip_speed=tip_speed), timing=timing, video=video)
+        if json_out is not None:
+            json_out.parent.mkdir(parents=True, exist_ok=True)
+            json_out.write_text(execution.to_json(indent=1))
+    except InputError as error:
+        field = _OPTION_OF_FIELD.get(error.field, error.field)
+        raise _fail(InputError(error.problem, source=error.source or str(plan_file), field=field)) from None
+    except (ImportError, OSError, ValueError) as error:
+        raise _fail(error) from None
+    typer.echo(execution.summary())
+    raise typer.Exit(EXIT_SOLVED if execution.success else EXIT_NOT_SOLVED)
 
 
 def _experiment_executor(workers: int | None, scheduler: str | None, threads: bool = False):
@@ -407,7 +437,9 @@ def _experiment_executor(workers: int | None, scheduler: str | None, threads: bo
 
 @app.command("experiment")
 def experiment_command(
-    figure: str = typer.Argument(..., help="Which experiment: fig10, fig11 or fig12 (paper section V)."),
+    figure: str = typer.Argument(
+        ..., help="Which experiment: fig10, fig11 or fig12 (paper section V), or execution (Fig. 10's plans executed in MuJoCo)."
+    ),
     out: Path = typer.Option(..., "--out", help="Output directory; results go to OUT/results/ (one Parquet file per task)."),
     quick: bool = typer.Option(False, "--quick", help="A small subset: 2 objects x 2 poses per cell, 5 s limit."),
     poses: Optional[int] = typer.Option(
@@ -443,6 +475,13 @@ def experiment_command(
         f"{summary.executed} run ({summary.solved} solved, {summary.errors} raised), "
         f"{summary.skipped} already done, {summary.lost} lost"
     )
+    if figure == "execution":
+        from .experiments.execution import load_execution, plot_execution, summarize_execution
+
+        results = load_execution(out)
+        typer.echo(summarize_execution(results).to_string(index=False))
+        for path in plot_execution(results, out):
+            typer.echo(str(path))
     if summary.lost:
         typer.echo(f"slideplan: {summary.lost} tasks lost, first: {summary.first_loss}; rerun to resume", err=True)
     if summary.errors or summary.lost:

@@ -98,3 +98,82 @@ def build_plan() -> PlanResult:
         },
         stats={"iterations": 0, "start_roots": 1, "goal_roots": 1, "pairs_checked": 1, "pairs_rejected": 0},
     )
+
+
+GRASP_PLATE = (0.52, 0.58, 0.05, 0.25)  # x0, x1, y0, y1: 5 cm over the table edge y = 0.20
+GRASP_Y = 0.235  # fingertips (2.3 cm ahead of the grasp frame) end 1.2 cm beyond the edge
+GRASP_BACKOFF = 0.045  # the open fingers clear the plate's far end (reach ends near y = 0.28)
+FINGER_REACH = 0.025  # the T42's fingertips end 2.3 cm ahead of its grasp frame, plus 2 mm
+GRASP_TABLE_EDGE_Y = 0.20
+
+
+def _grasp_frame(x: float, y: float, z: float) -> np.ndarray:
+    """Side grasp at (x, y, z) approached along -y (from outside the edge y = 0.20): y_H up, x_H = +x."""
+    frame = np.eye(4)
+    frame[:3, :3] = np.column_stack([(1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.0, -1.0, 0.0)])
+    frame[:3, 3] = (x, y, z)
+    return frame
+
+
+def build_grasp_plan(grasp_y: float = GRASP_Y) -> PlanResult:
+    """A plan whose object overhangs far enough for a firm side grasp.
+
+    A 6 cm x 20 cm plate lies 5 cm over the table edge y = 0.20 (centre of mass 5 cm inside). The
+    fingertip slides it 1 cm along +x (as in :func:`build_plan`); the approach lifts the fingertip
+    20 cm, swings in joint space to 20 cm above a pre-grasp beyond the plate's far end, comes down to it
+    and moves in along -y to the side grasp (default 3.5 cm out), whose fingertips then end 1.2 cm beyond the
+    table edge. With ``grasp_y`` < 0.223 the fingertips reach over the table instead.
+
+    Args:
+        grasp_y: y of the grasp frame (m); the pre-grasp backs off far enough that the open
+            fingers clear the plate's far end.
+    """
+    scene = load_scene("square")
+    robot = robot_model(scene)
+    x0, x1, y0, y1 = GRASP_PLATE
+    xs, ys = np.meshgrid(np.linspace(x0, x1, 13), np.linspace(y0, y1, 41))
+    points = np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, THICKNESS)])
+    tip_z = THICKNESS - DEPTH_M
+    slide_xs = 0.535 + STEP_M * np.arange(5)
+    trajectory = follow(robot, [contact_target(x, 0.12, tip_z) for x in slide_xs], np.array([0.0, 1.0, 0.0, 1.5, 0.0, 0.5, 0.0]))
+    poses = np.array([robot.fk(q) for q in trajectory])
+    lift = follow(robot, [contact_target(slide_xs[-1], 0.12, tip_z + STEP_M * k) for k in range(1, 81)], trajectory[-1])
+    backoff = max(GRASP_BACKOFF, y1 + FINGER_REACH - grasp_y)
+    grasp_x = (x0 + x1) / 2 + slide_xs[-1] - slide_xs[0]
+    candidates = [robot.ik(_grasp_frame(grasp_x, grasp_y, THICKNESS / 2), seed=None, rng_seed=seed, link="t42_grasp") for seed in range(8)]
+    grasp = min((q for q in candidates if q is not None), key=lambda q: np.abs(q - lift[-1]).max())
+    outward = [grasp]  # backing out from the grasp, each IK seeded with the previous one
+    for k in range(1, 7):
+        outward.append(robot.ik(_grasp_frame(grasp_x, grasp_y + backoff * k / 6, THICKNESS / 2), seed=outward[-1], rng_seed=1, link="t42_grasp"))
+        assert outward[-1] is not None, f"grasp approach IK failed {k} cm out"
+    upward = [outward[-1]]  # above the pre-grasp, so that the swing passes high over the plate
+    for k in range(1, 21):
+        upward.append(robot.ik(_grasp_frame(grasp_x, grasp_y + backoff, THICKNESS / 2 + 0.01 * k), seed=upward[-1], rng_seed=1, link="t42_grasp"))
+        assert upward[-1] is not None, f"pre-grasp IK failed {k} cm up"
+    swing_steps = int(np.ceil(np.abs(upward[-1] - lift[-1]).max() / 0.02))
+    swing = np.linspace(lift[-1], upward[-1], swing_steps + 1)[1:]
+    approach = np.vstack([trajectory[-1:], lift, swing, upward[-2::-1], outward[-2::-1]])
+    motion_x = float(slide_xs[-1] - slide_xs[0])
+    moved = points[:, :2] + (motion_x, 0.0)
+    config = PlannerConfig()
+    params = {key: value for key, value in config.to_dict().items() if key not in ("planner", "seed")}
+    return PlanResult(
+        status="solved",
+        planner="handmade",
+        seed=0,
+        planning_time_s=0.0,
+        params=params,
+        table={"polygon": np.array(scene.table.vertices), "height": 0.0},
+        object={"name": "long plate", "thickness": THICKNESS, "points": points, "com_xy": points[:, :2].mean(axis=0)},
+        robot=robot_description(scene),
+        obstacles=[],
+        object_motion={"x": motion_x, "y": 0.0, "yaw": 0.0},
+        overhang_m=float(moved[:, 1].max() - GRASP_TABLE_EDGE_Y),
+        joint_names=list(robot.joint_names),
+        start_config=trajectory[0].copy(),
+        goal_config=trajectory[-1].copy(),
+        trajectory=trajectory,
+        fingertip_poses=np.array([pose_to_row(pose) for pose in poses]),
+        grasp={"pose": pose_to_row(_grasp_frame(grasp_x, grasp_y, THICKNESS / 2)), "config": approach[-1].copy(), "approach": approach},
+        stats={"iterations": 0, "start_roots": 1, "goal_roots": 1, "pairs_checked": 1, "pairs_rejected": 0},
+    )

@@ -131,7 +131,7 @@ def finished_task_ids(out_dir: str | Path) -> set[str]:
     }
 
 
-def write_row(out_dir: str | Path, row: dict) -> Path:
+def write_row(out_dir: str | Path, row: dict, schema: pa.Schema = ROW_SCHEMA) -> Path:
     """Write one results row to its part file atomically (temp file, then rename).
 
     The temp name starts with ``.``, which Parquet dataset readers skip, so a write cut
@@ -139,28 +139,31 @@ def write_row(out_dir: str | Path, row: dict) -> Path:
 
     Args:
         out_dir: the experiment output directory.
-        row: a dict with the keys of :data:`ROW_SCHEMA`.
+        row: a dict with the keys of ``schema``.
+        schema: the row schema (:data:`ROW_SCHEMA` for planning experiments).
 
     Returns:
         The part file.
     """
     final = part_path(out_dir, row["task_id"])
     temporary = final.with_name(f".{final.name}.{os.getpid()}.tmp")
-    pq.write_table(pa.Table.from_pylist([row], schema=ROW_SCHEMA), temporary)
+    pq.write_table(pa.Table.from_pylist([row], schema=schema), temporary)
     os.replace(temporary, final)
     return final
 
 
-def load_results(path: str | Path) -> pd.DataFrame:
+def load_results(path: str | Path, schema: pa.Schema = ROW_SCHEMA) -> pd.DataFrame:
     """Read results into a DataFrame, one row per finished task.
 
     Args:
         path: an experiment output directory (holding ``results/``), a results directory
             of part files, or a single Parquet file (e.g. a committed, compacted one:
             ``load_results(out).to_parquet(file)``).
+        schema: the row schema (the execution experiment has its own,
+            :data:`slideplan.experiments.execution.EXECUTION_ROW_SCHEMA`).
 
     Returns:
-        The rows, with the columns of :data:`ROW_SCHEMA` (empty if there are none).
+        The rows, with the columns of ``schema`` (empty if there are none).
 
     Raises:
         FileNotFoundError: ``path`` does not exist.
@@ -171,7 +174,7 @@ def load_results(path: str | Path) -> pd.DataFrame:
     if path.is_dir() and results_dir(path).is_dir():
         path = results_dir(path)
     files = sorted(path.glob("*.parquet")) if path.is_dir() else [path]  # not temp files, not figures
-    table = pyarrow.dataset.dataset(files, format="parquet", schema=ROW_SCHEMA).to_table()
+    table = pyarrow.dataset.dataset(files, format="parquet", schema=schema).to_table()
     return table.to_pandas()
 
 
@@ -195,7 +198,8 @@ def run_experiment(
 
     Rows are written to ``OUT/results/part-<task_id>.parquet`` as they arrive. Tasks
     already there are skipped (resume), including rows of tasks that raised: delete a
-    part file to run its task again.
+    part file to run its task again. The ``execution`` experiment's tasks plan and then
+    execute in MuJoCo (:func:`slideplan.experiments.execution.run_execution_task`).
 
     Args:
         spec: the experiment (see :func:`slideplan.experiments.build_spec`).
@@ -214,17 +218,22 @@ def run_experiment(
     done = finished_task_ids(out_dir)
     pending = [task for task in spec.tasks if task.task_id not in done]
     executor = executor or LocalPoolExecutor()
+    run, schema = run_task, ROW_SCHEMA
+    if spec.name == "execution":
+        from .execution import EXECUTION_ROW_SCHEMA, run_execution_task
+
+        run, schema = run_execution_task, EXECUTION_ROW_SCHEMA
     executed = solved = errors = lost = 0
     first_loss = ""
     with _progress_bar(progress) as bar:
         bar_task = bar.add_task(spec.name, total=len(spec.tasks), completed=len(spec.tasks) - len(pending),
                                 solved=0, ran=0)
-        for task, outcome in executor.imap_unordered(run_task, pending):
+        for task, outcome in executor.imap_unordered(run, pending):
             if isinstance(outcome, BaseException):
                 lost += 1
                 first_loss = first_loss or f"task {task.task_id}: {type(outcome).__name__}: {outcome}"
             else:
-                write_row(out_dir, outcome)
+                write_row(out_dir, outcome, schema)
                 executed += 1
                 solved += bool(outcome["solved"])
                 errors += outcome["error"] is not None

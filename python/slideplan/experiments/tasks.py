@@ -25,6 +25,7 @@ from ..planning import PlannerConfig
 from ..scenes import Scene, load_scene
 
 FIGURES = ("fig10", "fig11", "fig12")
+EXPERIMENTS = FIGURES + ("execution",)  # execution: plans of the Fig. 10 set executed in MuJoCo (issue 9)
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")  # the paper's 5 test objects (Fig. 7)
 TABLES = ("square", "round", "triangle", "long")  # the paper's 4 support surfaces (Fig. 9)
 SCALES = (1.0, 0.5)  # Fig. 10: full size and half size
@@ -283,7 +284,23 @@ def fig12_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Tas
     )
 
 
-_SPEC_BUILDERS = {"fig10": fig10_spec, "fig11": fig11_spec, "fig12": fig12_spec}
+def execution_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
+    """Execution: the full-size tasks of Fig. 10 (5 objects x 4 tables, same poses and planner seeds
+    for the same experiment seed), each planned and then executed in MuJoCo in a nominal and a
+    stress setting (:mod:`slideplan.experiments.execution`).
+
+    Args:
+        base: supplies the seed, the time limit and ``dz_min``.
+        quick: 2 objects x 2 poses per table instead (16 tasks).
+        poses: poses per cell instead of 10 (None: 10, or the quick count).
+    """
+    return _tasks(
+        "execution", scenes=TABLES, objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
+        poses=_pose_count(poses, quick, 10), settings=(_Setting(),), base=base,
+    )
+
+
+_SPEC_BUILDERS = {"fig10": fig10_spec, "fig11": fig11_spec, "fig12": fig12_spec, "execution": execution_spec}
 
 
 def build_spec(
@@ -292,7 +309,7 @@ def build_spec(
     """Build the tasks of one figure.
 
     Args:
-        figure: ``"fig10"``, ``"fig11"`` or ``"fig12"``.
+        figure: ``"fig10"``, ``"fig11"``, ``"fig12"`` or ``"execution"``.
         quick: the small subset (2 objects x 2 poses per cell, 5 s limit).
         time_limit_s: planning time budget per task (s), > 0; default 60 s (the paper's),
             5 s with ``quick``.
@@ -309,7 +326,7 @@ def build_spec(
             finite number (``time_limit_s``), a bad seed (``seed``) or pose count (``poses``).
     """
     if figure not in _SPEC_BUILDERS:
-        raise InputError(f"unknown figure {figure!r} (expected one of: {', '.join(FIGURES)})", field="figure")
+        raise InputError(f"unknown figure {figure!r} (expected one of: {', '.join(EXPERIMENTS)})", field="figure")
     if time_limit_s is None:
         time_limit_s = QUICK_TIME_LIMIT_S if quick else PAPER_TIME_LIMIT_S
     base = PlannerConfig(seed=seed, time_limit_s=time_limit_s)  # validates both, naming the field

@@ -1,0 +1,69 @@
+"""Execution benchmark: the demo plan (crescent on the square table, seed 0) executed in MuJoCo.
+
+Plans the demo once, then executes it ``--runs`` times in this process (one core) and prints and
+writes (docs/benchmarks/execution.md) the wall time per execution (median, min), the simulated
+time and the real-time factor, with the CPU named. Not a test: ``make bench``.
+
+    python benchmarks/execute_bench.py [--runs 3] [--out docs/benchmarks/execution.md]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import statistics
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from slideplan import PlannerConfig, load_scene, plan
+from slideplan.execute import execute
+from slideplan.objects import load_object, load_outline, sample_pose_on_table
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from plan_bench import cpu_name  # noqa: E402 - the benchmarks share how they name the CPU
+
+
+def demo_plan():
+    """The plan ``slideplan demo`` makes (crescent, square table, seed 0)."""
+    scene = load_scene("square")
+    outline, _, _ = load_outline("crescent")
+    pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(0))
+    obj = load_object("crescent", table_height=scene.table.height, pose=pose)
+    return plan(scene, obj, PlannerConfig.for_scene(scene, seed=0))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=3, help="executions to time")
+    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs/benchmarks/execution.md")
+    args = parser.parse_args()
+    result = demo_plan()
+    assert result.solved, "the demo plan did not solve"
+    executions = [execute(result) for _ in range(args.runs)]
+    walls = [execution.wall_time_s for execution in executions]
+    simulated = executions[0].sim_time_s
+    median = statistics.median(walls)
+    lines = [
+        "# Execution benchmark",
+        "",
+        f"`benchmarks/execute_bench.py --runs {args.runs}` on {cpu_name()}, one process (one core), "
+        f"{datetime.date.today().isoformat()}: the demo plan (crescent on the square table, seed 0, "
+        f"{len(result.trajectory)} sliding waypoints, {len(result.grasp['approach'])} approach waypoints) executed "
+        "in MuJoCo: slide, approach, close, 5 cm lift, 1 s hold (docs/execution.md).",
+        "",
+        "| executions | simulated time | wall time, median | wall time, min | real-time factor (median) |",
+        "|---|---|---|---|---|",
+        f"| {args.runs} | {simulated:.1f} s | {median:.1f} s | {min(walls):.1f} s | {simulated / median:.1f}x |",
+        "",
+        f"Outcome (the same every run): {executions[0].summary()}",
+        "",
+    ]
+    text = "\n".join(lines)
+    print(text)
+    args.out.write_text(text)
+
+
+if __name__ == "__main__":
+    main()

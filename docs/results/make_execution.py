@@ -1,0 +1,105 @@
+"""Tables of docs/results/execution.md from the committed execution results, and the figure.
+
+Every number in ``docs/results/execution.md`` comes from ``execution.parquet`` next to this script.
+To commit the results of a run::
+
+    PYTHONPATH=python python -c "from slideplan.experiments.execution import load_execution; \\
+        load_execution('out/execution').to_parquet('docs/results/execution.parquet')"
+    PYTHONPATH=python python docs/results/make_execution.py > /tmp/tables.md
+
+It prints markdown tables (paste them into execution.md) and writes
+``docs/results/figures/execution.png`` and ``.svg``. The grasp table re-plans each solved task
+(planning is deterministic for a task) to read its grasp pose, which the rows do not hold.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from slideplan.execute import com_margin
+from slideplan.experiments.execution import SETTINGS, load_execution, plot_execution, summarize_execution
+from slideplan.experiments.runner import _object_at
+from slideplan.experiments.tasks import Task, cached_scene
+from slideplan.planning import plan
+
+HERE = Path(__file__).resolve().parent
+
+
+def markdown_table(frame: pd.DataFrame) -> str:
+    """A GitHub markdown table of a DataFrame (index dropped)."""
+    lines = ["| " + " | ".join(map(str, frame.columns)) + " |", "|" + "---|" * len(frame.columns)]
+    lines += ["| " + " | ".join(map(str, row)) + " |" for row in frame.itertuples(index=False)]
+    return "\n".join(lines)
+
+
+def within(frame: pd.DataFrame, setting: str) -> pd.Series:
+    """The slide ended within 5 mm / 3 degrees of Eq. 2."""
+    return (frame[f"{setting}_position_error_m"] <= 0.005) & (frame[f"{setting}_yaw_error_deg"].abs() <= 3)
+
+
+def binned(frame: pd.DataFrame, column: str, edges: list[float], label: str) -> pd.DataFrame:
+    """Plans per bin of ``column`` and the fraction within 5 mm / 3 deg in each setting."""
+    bins = pd.cut(frame[column], edges, right=False)
+    rows = []
+    for interval, group in frame.groupby(bins, observed=True):
+        row = {label: f"[{interval.left:g}, {interval.right:g})", "plans": len(group)}
+        for setting in SETTINGS:
+            row[f"{setting} within 5 mm / 3 deg"] = f"{within(group, setting).sum()}/{len(group)}"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def grasp_outside(row: pd.Series) -> float:
+    """How far outside the table edge the plan's grasp frame lies (m), by re-planning the task."""
+    task = Task(**{field.name: row[field.name] for field in dataclasses.fields(Task)})
+    scene = cached_scene(task.scene)
+    obj = _object_at(task.object, task.scale, scene.table.height, (task.x, task.y, task.yaw))
+    result = plan(scene, obj, task.planner_config())
+    return -com_margin(scene.table, np.asarray(result.grasp["pose"])[:2])
+
+
+def main() -> None:
+    results = load_execution(HERE / "execution.parquet")
+    executed = results[results["solved"].fillna(False) & results["error"].isna()].copy()
+    print(f"{len(results)} tasks, {int(results['solved'].fillna(False).sum())} solved, "
+          f"{int(results['error'].notna().sum())} raised\n")
+    summary = summarize_execution(results).round(3)
+    print(markdown_table(summary) + "\n")
+    executed["yaw_per_cm"] = executed["yaw_travel_deg"] / (100 * executed["tip_path_m"])
+    executed["path_ratio"] = executed["tip_path_m"] / executed["straight_m"]
+    print(markdown_table(binned(executed, "yaw_travel_deg", [0, 100, 150, 1e4], "yaw travel (deg)")) + "\n")
+    print(markdown_table(binned(executed, "yaw_per_cm", [0, 2, 4, 1e4], "yaw per cm of path (deg/cm)")) + "\n")
+    print(markdown_table(binned(executed, "path_ratio", [1, 1.3, 2, 1e4], "path / straight distance")) + "\n")
+    margin = pd.cut(1000 * executed["planned_com_margin_m"], [-1e4, 3, 10, 1e4], right=False)
+    rows = []
+    for interval, group in executed.groupby(margin, observed=True):
+        row = {"planned CoM margin (mm)": f"[{interval.left:g}, {interval.right:g})", "plans": len(group)}
+        for setting in SETTINGS:
+            row[f"{setting} fell"] = int((group[f"{setting}_failed_stage"] == "release").sum())
+        rows.append(row)
+    print(markdown_table(pd.DataFrame(rows)) + "\n")
+    executed["grasp_outside_mm"] = [1000 * grasp_outside(row) for _, row in executed.iterrows()]
+    grasp = pd.cut(executed["grasp_outside_mm"], [-1e4, 15, 25, 1e4], right=False)
+    rows = []
+    for interval, group in executed.groupby(grasp, observed=True):
+        kept = group[group["nominal_failed_stage"].isna() | (group["nominal_failed_stage"] == "grasp")]
+        rows.append({
+            "grasp frame outside the edge (mm)": f"[{interval.left:g}, {interval.right:g})",
+            "plans (slide ok or grasp failed, nominal)": len(kept),
+            "lifted": int(kept["nominal_lifted"].fillna(False).sum()),
+        })
+    print(markdown_table(pd.DataFrame(rows)) + "\n")
+    print("median overall: yaw travel {:.0f} deg, path {:.2f} m, path/straight {:.2f}, wall time per execution "
+          "{:.1f} s (nominal)".format(executed["yaw_travel_deg"].median(), executed["tip_path_m"].median(),
+                                      executed["path_ratio"].median(), executed["nominal_wall_time_s"].median()))
+    for path in plot_execution(results, HERE / "figures"):
+        print(path, file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()

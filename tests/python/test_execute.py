@@ -1,0 +1,221 @@
+"""Execution in MuJoCo (slideplan.execute and ``slideplan execute``): physics against Eq. 2, grasps, bad input."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from handmade_plan import DEPTH_M, build_grasp_plan, build_plan
+from slideplan.cli import app
+from slideplan.execute import ExecutionSettings, execute, read_plan, time_parameterize
+
+
+@pytest.fixture(scope="module")
+def slide_plan():
+    return build_plan()
+
+
+def test_short_slide_ends_where_eq2_says(slide_plan):
+    settings = ExecutionSettings()
+    execution = execute(slide_plan, settings)
+    assert execution.position_error_m <= 0.002
+    assert abs(execution.yaw_error_deg) <= 1.0
+    assert execution.failed_stage != "slide"
+    # The planned 1 cm depth compresses the finger's spring: k * depth of normal force.
+    expected_force = settings.finger_stiffness * DEPTH_M
+    assert 0.6 * expected_force <= execution.normal_force_n["mean"] <= 1.4 * expected_force
+    # The plate was slid 3.5 cm towards the edge, so it now overhangs.
+    assert execution.overhang_m > 0.02
+    assert execution.com_margin_m > 0
+
+
+def test_finger_too_shallow_does_not_move_the_object(slide_plan):
+    execution = execute(slide_plan, ExecutionSettings(contact_depth=0.0))
+    assert not execution.success
+    assert execution.failed_stage == "slide"
+    assert "no normal force" in execution.failure
+    assert execution.normal_force_n["mean"] < 0.1
+    moved = math.hypot(execution.actual_motion["x"], execution.actual_motion["y"])
+    assert moved < 0.001  # the plan moves it 3.5 cm
+    assert execution.position_error_m > 0.03
+
+
+def test_grasp_of_a_far_overhanging_plate_lifts_it():
+    execution = execute(build_grasp_plan(), ExecutionSettings(cell_size=0.015))
+    assert execution.lifted
+    assert execution.success, execution.failure
+    report = json.loads(execution.to_json())
+    assert report["schema"] == "slideplan.execution/1" and report["lifted"] is True
+
+
+def test_unstable_simulation_is_reported_without_nan(slide_plan):
+    execution = execute(slide_plan, ExecutionSettings(timestep=0.03))
+    assert execution.failed_stage == "simulation"
+    assert "unstable" in execution.failure
+    assert execution.actual_motion is None and execution.position_error_m is None
+    json.loads(execution.to_json())  # allow_nan=False: raises on any NaN
+
+
+def test_time_parameterization_respects_the_limits():
+    rng = np.random.default_rng(0)
+    path = np.cumsum(rng.uniform(-0.02, 0.02, size=(50, 3)), axis=0)
+    tips = np.cumsum(rng.uniform(0.0, 0.01, size=(50, 3)), axis=0)
+    limits = np.array([1.0, 0.5, 2.0])
+    times = time_parameterize(path, limits, 2.0, tips, 0.05)
+    durations = np.diff(times)
+    assert times[0] == 0 and np.all(durations > 0)
+    joint_speeds = np.abs(np.diff(path, axis=0)) / durations[:, None]
+    assert np.all(joint_speeds <= limits * (1 + 1e-9))
+    assert np.all(np.linalg.norm(np.diff(tips, axis=0), axis=1) / durations <= 0.05 * (1 + 1e-9))
+    # starts from rest: the first segment is slower than the cap allows
+    assert durations[0] > np.max(np.abs(path[1] - path[0]) / limits)
+
+
+def _write(tmp_path, data, name="plan.json"):
+    path = tmp_path / name
+    path.write_text(json.dumps(data))
+    return path
+
+
+def _run(*args):
+    result = CliRunner().invoke(app, ["execute", *map(str, args)])
+    return result.exit_code, result.output
+
+
+def _assert_one_error_line(code, output, *words):
+    assert code == 2
+    lines = output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("slideplan: error: ")
+    for word in words:
+        assert word in lines[0]
+
+
+def test_cli_rejects_another_schema(tmp_path, slide_plan):
+    data = slide_plan.to_dict()
+    data["schema"] = "slideplan.scene/1"
+    _assert_one_error_line(*_run(_write(tmp_path, data)), "schema", "slideplan.scene/1")
+
+
+def test_cli_rejects_an_unsolved_plan(tmp_path, slide_plan):
+    data = dataclasses.replace(slide_plan, status="timeout").to_dict()
+    _assert_one_error_line(*_run(_write(tmp_path, data)), "status", "timeout")
+
+
+def test_cli_names_the_urdf_element_mujoco_rejects(tmp_path, slide_plan):
+    urdf = tmp_path / "robot.urdf"
+    text = open(slide_plan.robot["urdf"]).read()
+    urdf.write_text(text.replace('<box size="0.06 0.10 0.08"/>', '<box size="0.06 0.10"/>'))
+    data = slide_plan.to_dict()
+    data["robot"]["urdf"] = str(urdf)
+    _assert_one_error_line(*_run(_write(tmp_path, data)), "MuJoCo cannot import", "box", str(urdf))
+
+
+def test_cli_names_a_missing_mesh(tmp_path, slide_plan):
+    urdf = tmp_path / "robot.urdf"
+    text = open(slide_plan.robot["urdf"]).read()
+    urdf.write_text(text.replace('<box size="0.06 0.10 0.08"/>', '<mesh filename="meshes/palm.stl"/>'))
+    data = slide_plan.to_dict()
+    data["robot"]["urdf"] = str(urdf)
+    _assert_one_error_line(*_run(_write(tmp_path, data)), "t42_palm", "meshes/palm.stl", "not found")
+
+
+def test_cli_rejects_a_bad_tip_speed(tmp_path, slide_plan):
+    _assert_one_error_line(*_run(_write(tmp_path, slide_plan.to_dict()), "--tip-speed", "-0.01"), "--tip-speed", "> 0")
+
+
+def test_cli_executes_and_writes_the_report(tmp_path, slide_plan):
+    out = tmp_path / "execution.json"
+    code, output = _run(_write(tmp_path, slide_plan.to_dict()), "--json", out)
+    report = json.loads(out.read_text())
+    # The hand-made plan's "grasp" is only a lift of the finger: nothing to lift, exit 1.
+    assert code == 1 and report["failed_stage"] == "grasp"
+    assert report["position_error_m"] <= 0.002
+    assert "Eq. 2 error" in output
+
+
+def test_timed_plan_uses_its_timing_block(tmp_path, slide_plan):
+    from slideplan.timing import TimingOptions, parameterize
+
+    slow = dataclasses.replace(slide_plan, timing=parameterize(slide_plan, TimingOptions(fingertip_speed=0.005)))
+    result, timing = read_plan(_write(tmp_path, slow.to_dict()))
+    assert timing is not None
+    execution = execute(result, timing=timing)
+    # 3.5 cm at 5 mm/s (the own parameterization slides at 5 cm/s): the slide lasts seconds longer.
+    assert execution.sim_time_s > execute(dataclasses.replace(result, timing=None)).sim_time_s + 3.0
+
+
+def test_execution_experiment_uses_the_full_size_poses_of_fig10():
+    from slideplan.experiments import build_spec
+
+    execution = build_spec("execution", poses=2)
+    fig10 = build_spec("fig10", poses=2)
+    full_size = {(task.scene, task.object, task.pose_index): (task.x, task.y, task.yaw, task.seed)
+                 for task in fig10.tasks if task.scale == 1.0}
+    assert len(execution.tasks) == len(full_size) == 4 * 5 * 2
+    for task in execution.tasks:
+        assert full_size[(task.scene, task.object, task.pose_index)] == (task.x, task.y, task.yaw, task.seed)
+
+
+def test_execution_summary_counts_each_setting():
+    import pandas as pd
+
+    from slideplan.experiments.execution import EXECUTION_ROW_SCHEMA, summarize_execution
+
+    def row(position_mm, yaw_deg, stage):
+        values = {field.name: None for field in EXECUTION_ROW_SCHEMA}
+        values.update(solved=True)
+        for setting in ("nominal", "stress"):
+            values.update({
+                f"{setting}_position_error_m": None if stage == "simulation" else position_mm / 1000,
+                f"{setting}_yaw_error_deg": None if stage == "simulation" else yaw_deg,
+                f"{setting}_failed_stage": stage, f"{setting}_lifted": stage is None,
+                f"{setting}_success": stage is None, f"{setting}_normal_force_n": 2.0,
+            })
+        return values
+
+    results = pd.DataFrame([row(1.0, 0.5, None), row(4.0, -4.0, "slide"), row(0.0, 0.0, "simulation"),
+                            row(2.0, 1.0, "release")])
+    summary = summarize_execution(results).set_index("setting")
+    assert summary.loc["nominal", "plans"] == 4
+    assert summary.loc["nominal", "within_5mm_3deg"] == 0.5  # 1 mm / 0.5 deg and 2 mm / 1 deg
+    assert summary.loc["nominal", "lifted"] == 0.25
+    assert summary.loc["nominal", "fell"] == 1 and summary.loc["nominal", "unstable"] == 1
+
+
+def test_grasp_whose_fingers_reach_over_the_table_fails_and_says_why():
+    execution = execute(build_grasp_plan(grasp_y=0.21), ExecutionSettings(cell_size=0.015))
+    assert not execution.lifted
+    assert execution.failed_stage == "grasp"
+    assert "stopped by the table" in execution.failure
+
+
+def test_non_convex_table_is_a_union_of_triangles_covering_it():
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    from slideplan.execute import _table_pieces
+
+    ell = Polygon([(0.3, -0.3), (0.9, -0.3), (0.9, 0.0), (0.6, 0.0), (0.6, 0.3), (0.3, 0.3)])
+    pieces = [Polygon(piece) for piece in _table_pieces(ell)]
+    assert len(pieces) > 1 and all(piece.convex_hull.area - piece.area < 1e-12 for piece in pieces)
+    assert abs(unary_union(pieces).area - ell.area) < 1e-9 and unary_union(pieces).symmetric_difference(ell).area < 1e-9
+    square = Polygon([(0.3, -0.2), (0.7, -0.2), (0.7, 0.2), (0.3, 0.2)])
+    assert len(_table_pieces(square)) == 1
+
+
+def test_object_cells_follow_a_non_convex_outline():
+    from shapely.geometry import Point
+
+    from slideplan.execute import object_cells
+    from slideplan.objects import load_object
+
+    crescent = load_object("crescent", table_height=0.0, pose=(0.5, 0.0, 0.3))
+    cells = object_cells(crescent.points, 0.0125)
+    outline = crescent.outline
+    assert all(outline.contains(Point(cell)) for cell in cells)  # none in the crescent's hollow
+    assert abs(len(cells) * 0.0125**2 - outline.area) < 0.1 * outline.area
