@@ -18,9 +18,9 @@ The model (docs/execution.md gives the numbers and why):
   geometry of the contact links that touches anything while sliding. The planned contact depth
   ``z_s - z_F`` is thus the spring's compression, and the normal force is ``k * depth``: 1-5 N for the
   default band [0.5, 2.5] cm at 200 N/m.
-- **Object**: boxes on a square grid (:attr:`ExecutionSettings.cell_size`) whose centres lie in the
-  footprint of the point cloud (:func:`cloud_footprint`), one rigid body of uniform density, so
-  table friction is spread over the footprint.
+- **Object**: boxes on a square grid (:attr:`ExecutionSettings.cell_size`), each the bounding box of
+  its cell's part of the point cloud's footprint (:func:`object_boxes`), one rigid body of uniform
+  density, so table friction is spread over the footprint.
 - **Table**: the polygon as a 5 cm thick prism, one convex mesh per triangle of a constrained
   Delaunay triangulation when it is not convex.
 - **Grasp**: the hand's fingers (the bodies hanging on the grasp link's parent) get hinge joints about
@@ -390,25 +390,36 @@ def cloud_footprint(points: np.ndarray) -> Polygon | shapely.MultiPolygon:
     return shapely.unary_union(shapely.buffer(shapely.points(xy), radius, quad_segs=4)).buffer(-radius, quad_segs=4)
 
 
-def object_cells(points: np.ndarray, cell_size: float) -> np.ndarray:
-    """Centres of the grid cells whose centre lies in the footprint of a top-surface point cloud.
+def object_boxes(points: np.ndarray, cell_size: float) -> np.ndarray:
+    """Boxes tiling the footprint of a top-surface point cloud on a square grid.
+
+    Each grid cell that meets the footprint (:func:`cloud_footprint`) becomes the bounding box of
+    its part of the footprint, so the boxes cover the whole outline (the fingertip finds the object
+    wherever the plan touches it) and overfill only where an edge crosses a cell diagonally.
 
     Args:
         points: (N, 3) cloud.
         cell_size: grid spacing (m).
 
     Returns:
-        (K, 2) cell centres (at least one: the cloud's centroid for a footprint smaller than a cell).
+        (K, 4) boxes ``[centre x, centre y, half width x, half width y]``, K >= 1.
     """
     xy = np.asarray(points, dtype=float)[:, :2]
     footprint = cloud_footprint(points)
     low, high = xy.min(axis=0), xy.max(axis=0)
     counts = np.maximum(np.ceil((high - low) / cell_size).astype(int), 1)
-    origin = (low + high) / 2 - counts * cell_size / 2 + cell_size / 2
-    grid = np.stack(np.meshgrid(*(origin[axis] + cell_size * np.arange(counts[axis]) for axis in (0, 1))), axis=-1)
-    centres = grid.reshape(-1, 2)
-    kept = centres[shapely.contains_xy(footprint, centres[:, 0], centres[:, 1])]
-    return kept if len(kept) else xy.mean(axis=0, keepdims=True)
+    corner = (low + high) / 2 - counts * cell_size / 2
+    cells = shapely.box(*np.stack(np.meshgrid(
+        *(corner[axis] + cell_size * np.arange(counts[axis]) for axis in (0, 1))), axis=-1).reshape(-1, 2).T,
+        *(np.stack(np.meshgrid(*(corner[axis] + cell_size * np.arange(1, counts[axis] + 1) for axis in (0, 1))),
+                   axis=-1).reshape(-1, 2).T))
+    parts = shapely.intersection(cells, footprint)
+    parts = parts[shapely.area(parts) > 1e-3 * cell_size**2]
+    bounds = shapely.bounds(parts)  # (K, 4): xmin, ymin, xmax, ymax
+    boxes = np.column_stack([(bounds[:, :2] + bounds[:, 2:]) / 2, (bounds[:, 2:] - bounds[:, :2]) / 2])
+    if len(boxes):
+        return boxes
+    return np.array([[*((low + high) / 2), *np.maximum((high - low) / 2, 1e-3)]])
 
 
 @dataclass
@@ -652,16 +663,15 @@ def _add_world(spec, result: PlanResult, settings: ExecutionSettings) -> None:
         )
     thickness = float(result.object["thickness"])
     com = np.asarray(result.object["com_xy"], dtype=float)
-    cells = object_cells(np.asarray(result.object["points"]), settings.cell_size)
+    boxes = object_boxes(np.asarray(result.object["points"]), settings.cell_size)
     body = spec.worldbody.add_body(name="slideplan_object", pos=[com[0], com[1], height + thickness / 2])
     body.add_freejoint(name="slideplan_object_free")
-    half = settings.cell_size / 2
-    for index, centre in enumerate(cells - com):
+    for index, (x, y, half_x, half_y) in enumerate(boxes):
         body.add_geom(
             name=f"slideplan_object_{index}",
             type=mujoco.mjtGeom.mjGEOM_BOX,
-            size=[half, half, thickness / 2],
-            pos=[centre[0], centre[1], 0.0],
+            size=[half_x, half_y, thickness / 2],
+            pos=[x - com[0], y - com[1], 0.0],
             density=settings.object_density,
             contype=_WORLD_CONTYPE,
             conaffinity=_WORLD_CONAFFINITY,

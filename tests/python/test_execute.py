@@ -208,14 +208,18 @@ def test_non_convex_table_is_a_union_of_triangles_covering_it():
     assert len(_table_pieces(square)) == 1
 
 
-def test_object_cells_follow_a_non_convex_outline():
-    from shapely.geometry import Point
+def test_object_boxes_cover_a_non_convex_outline_and_not_its_hollow():
+    from shapely.geometry import Point, box
+    from shapely.ops import unary_union
 
-    from slideplan.execute import object_cells
+    from slideplan.execute import object_boxes
     from slideplan.objects import load_object
 
     crescent = load_object("crescent", table_height=0.0, pose=(0.5, 0.0, 0.3))
-    cells = object_cells(crescent.points, 0.0125)
+    boxes = object_boxes(crescent.points, 0.0125)
+    covered = unary_union([box(x - hx, y - hy, x + hx, y + hy) for x, y, hx, hy in boxes])
     outline = crescent.outline
-    assert all(outline.contains(Point(cell)) for cell in cells)  # none in the crescent's hollow
-    assert abs(len(cells) * 0.0125**2 - outline.area) < 0.1 * outline.area
+    assert all(covered.buffer(0.001).contains(Point(point[:2])) for point in crescent.points)
+    assert covered.difference(outline).area < 0.2 * outline.area  # overfill only along the edges
+    hollow = outline.convex_hull.difference(outline.buffer(0.01))
+    assert hollow.area > 0 and covered.intersection(hollow).area < 0.05 * hollow.area
