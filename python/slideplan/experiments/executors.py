@@ -31,8 +31,9 @@ class TaskExecutor(Protocol):
 class LocalPoolExecutor:
     """Run tasks in a pool of local worker processes or threads (``concurrent.futures``).
 
-    Plans are independent in threads (DESIGN.md 9) and release the GIL, so threads plan about as
-    many tasks per second as processes (docs/benchmarks/threads.md) and share one parsed robot.
+    Plans are independent in threads (DESIGN.md 9) and the C++ planner releases the GIL, so threads
+    share one parsed robot and plan nearly as many tasks per second as processes (1.6x against 1.9x
+    over one worker on 2 cores, docs/benchmarks/threads.md: the Python timing step holds the GIL).
     Processes are started with ``spawn``, not ``fork``: the parent runs a progress-bar
     thread, and forking a threaded process can deadlock the child. If a worker process dies
     (e.g. a crash in the C++ core) the pool breaks: every unfinished task comes back with
