@@ -76,7 +76,19 @@ namespace slideplan
             for (const Eigen::Vector2d &vertex : task_->hullXY)
                 if (const Eigen::Vector2d moved = motion.apply(vertex); !table.contains(moved))
                     beyond(moved);
+        // The hand's free length s (graspStandoff) must lie beyond the edge: H_g moves outward to d_g >= s,
+        // and what lies within that length towards the table is not in the hand.
+        const double centroidBeyond = (result.outsideCentroid - result.edge.closest).dot(result.edge.outwardNormal);
+        const double graspBeyond = std::max(centroidBeyond, params_.graspStandoff);
+        result.graspPoint = result.outsideCentroid + (graspBeyond - centroidBeyond) * result.edge.outwardNormal;
+        result.held = params_.graspStandoff > 0.0 ? result.overhang - std::max(0.0, graspBeyond - params_.graspStandoff)
+                                                  : result.overhang;
         return result;
+    }
+
+    bool PairValidator::graspable(const Overhang &overhang) const
+    {
+        return overhang.outsideCount > 0 && overhang.held >= params_.uStar;
     }
 
     Eigen::Isometry3d PairValidator::graspPose(const Overhang &overhang) const
@@ -87,7 +99,7 @@ namespace slideplan
         pose.linear().col(0) = up.cross(approach);
         pose.linear().col(1) = up;
         pose.linear().col(2) = approach;
-        pose.translation() << overhang.outsideCentroid, task_->table->height() + 0.5 * task_->thickness();
+        pose.translation() << overhang.graspPoint, task_->table->height() + 0.5 * task_->thickness();
         return pose;
     }
 
@@ -228,7 +240,7 @@ namespace slideplan
         PairVerdict verdict;
         verdict.overhang = overhang(objectMotion(robot.fk(start), robot.fk(goal)));
         const Overhang &result = verdict.overhang;
-        if (result.outsideCount == 0 || result.overhang < params_.uStar)
+        if (!graspable(result))
         {
             verdict.reason = "overhang below u*";
             return verdict;
@@ -307,7 +319,7 @@ namespace slideplan
         // The checks above ran on the fixed-resolution footprint; the accepted pair must also hold on P_o
         // itself (the paper's definition), once, here at the end where it costs one pass over the cloud.
         const Overhang exact = overhang(result.motion, true);
-        if (exact.outsideCount == 0 || exact.overhang < params_.uStar)
+        if (!graspable(exact))
         {
             verdict.reason = "overhang below u* on the full cloud";
             return verdict;

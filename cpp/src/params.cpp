@@ -26,6 +26,7 @@ namespace slideplan
         require(finite(uStar) && uStar > 0.0, "u_star must be > 0");
         require(finite(graspLift) && graspLift > 0.0, "grasp_lift must be > 0");
         require(finite(graspBackoff) && graspBackoff >= 0.0, "grasp_backoff must be >= 0");
+        require(finite(graspStandoff) && graspStandoff >= 0.0, "grasp_standoff must be >= 0");
         require(finite(transferTime) && transferTime >= 0.0, "transfer_time must be >= 0");
         require(finite(maxJointStep) && maxJointStep > 0.0, "max_joint_step must be > 0");
         require(finite(maxTipStep) && maxTipStep > 0.0, "max_tip_step must be > 0");

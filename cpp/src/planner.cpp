@@ -270,7 +270,7 @@ namespace slideplan
                      .first;
         // The grasp map grows while planning, so it is consulted every time.
         const Overhang &overhang = it->second;
-        return overhang.overhang >= params_.uStar && overhang.comInside && std::abs(overhang.motion.yaw) <= params_.maxObjectYaw &&
+        return pairValidator_->graspable(overhang) && overhang.comInside && std::abs(overhang.motion.yaw) <= params_.maxObjectYaw &&
                !pairValidator_->knownUnreachable(overhang);
     }
 

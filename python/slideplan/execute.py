@@ -65,6 +65,7 @@ _CLOSE_S = 0.8
 _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
+_FINGER_RANGE = (-0.2, 1.6)  # closing hinges (rad): open a little, closed well past the grasp plane
 _CLOSE_TARGET_RAD = 1.5  # beyond any contact (hinge range [-0.2, 1.6]): the capped torque squeezes
 _NO_FORCE_N = 0.1  # below this mean normal force the finger does not press at all
 _ARENA_BYTES = 128 << 20  # a 20 cm plate has ~500 contacts with the table; MuJoCo's default arena drops them
@@ -89,6 +90,7 @@ class ExecutionSettings:
         cell_size: side of the object's boxes (m).
         servo_bandwidth_hz: closed-loop bandwidth of the arm's joint servos (Hz).
         grip_torque: closing torque of each finger (N m).
+        close_speed: speed of the fingers' closing target (rad/s).
         lift_height: lift of the hand after closing (m).
         hold_s: hold time after the lift (s).
         timestep: simulation step (s).
@@ -109,6 +111,7 @@ class ExecutionSettings:
     cell_size: float = 0.0125
     servo_bandwidth_hz: float = 15.0
     grip_torque: float = 0.5
+    close_speed: float = 1.5
     lift_height: float = 0.05
     hold_s: float = 1.0
     timestep: float = 0.001
@@ -434,6 +437,7 @@ class _Model:
     spring_qpos: int
     spring_joint: int
     finger_actuators: list[int]
+    finger_meet: np.ndarray  # closing angle at which each finger's far end reaches the grasp plane (rad)
     hand_geoms: np.ndarray  # contact-link geoms that only touch things once the finger is lifted
     pad_geom: int
     tip_body: int
@@ -540,7 +544,7 @@ def _build_model(result: PlanResult, settings: ExecutionSettings) -> _Model:
     # Fingers: the other bodies on the grasp link's parent with mass and geometry close about grasp x.
     grasp_frame = pose0(robot["grasp_link"]) @ np.asarray(robot["grasp_offset"])
     palm = spec.body(robot["grasp_link"]).parent
-    fingers = []
+    fingers, meet = [], []
     for child in palm.bodies:
         tip = _subtree_far_point(model0, data0, child.name, pose0(child.name)[:3, 3])
         if tip is None or child.name == robot["grasp_link"] or model0.body(child.name).subtreemass[0] <= 1e-6:
@@ -557,9 +561,10 @@ def _build_model(result: PlanResult, settings: ExecutionSettings) -> _Model:
             axis=pose0(child.name)[:3, :3].T @ (sign * axis_world),
             armature=0.002,
             limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-            range=[-0.2, 1.6],
+            range=_FINGER_RANGE,
         )
         fingers.append(hinge.name)
+        meet.append(_meeting_angle(pivot, tip, sign * axis_world, grasp_frame))
 
     # Arm servos (gains set after compiling, from the inertia) and the fingers' closing servos.
     for joint in result.joint_names:
@@ -603,6 +608,7 @@ def _build_model(result: PlanResult, settings: ExecutionSettings) -> _Model:
         spring_qpos=int(model.jnt_qposadr[model.joint(spring.name).id]),
         spring_joint=model.joint(spring.name).id,
         finger_actuators=[model.actuator(f"close_{joint}").id for joint in fingers],
+        finger_meet=np.array(meet),
         hand_geoms=hand_geoms,
         pad_geom=model.geom(pad.name).id,
         tip_body=model.body(robot["tip_link"]).id,
@@ -621,6 +627,18 @@ def _wxyz(rotation: np.ndarray) -> np.ndarray:
     """MuJoCo's (w, x, y, z) quaternion of a rotation matrix."""
     x, y, z, w = quaternion_from_matrix(rotation)
     return np.array([w, x, y, z])
+
+
+def _meeting_angle(pivot: np.ndarray, tip: np.ndarray, axis: np.ndarray, grasp_frame: np.ndarray) -> float:
+    """Closing angle about ``axis`` through ``pivot`` at which ``tip`` reaches the grasp frame's y = 0 plane."""
+    axis = axis / np.linalg.norm(axis)
+    arm = tip - pivot
+    angles = np.linspace(0.0, _FINGER_RANGE[1], 321)
+    turned = (np.outer(np.cos(angles), arm) + np.outer(np.sin(angles), np.cross(axis, arm))
+              + np.outer(1.0 - np.cos(angles), axis * (axis @ arm)))  # Rodrigues
+    side = (pivot + turned - grasp_frame[:3, 3]) @ grasp_frame[:3, 1]
+    crossed = np.flatnonzero(np.sign(side) != np.sign(side[0]))
+    return float(angles[crossed[0]] if len(crossed) else angles[-1])
 
 
 def _subtree_far_point(model, data, body_name: str, pivot: np.ndarray) -> np.ndarray | None:
@@ -933,8 +951,16 @@ def execute(
         model.jnt_stiffness[built.spring_joint] *= 50.0
         for actuator in built.finger_actuators:
             model.actuator_forcerange[actuator] = (-settings.grip_torque, settings.grip_torque)
-            data.ctrl[actuator] = _CLOSE_TARGET_RAD
-        runner.follow(grasp_config[None, :], np.zeros(1), _CLOSE_S)
+        # The fingers close at the hand's speed and meet at the grasp plane together: a step lets the light
+        # fingers strike a thin object so hard that it flies out, and a finger arriving first (the
+        # straight one under a splayed one) lifts the object off the table before the other holds it.
+        ramp_s = float(built.finger_meet.max()) / settings.close_speed
+
+        def closing(elapsed: float, step: int) -> None:
+            fraction = elapsed / ramp_s
+            data.ctrl[built.finger_actuators] = fraction * built.finger_meet if fraction < 1.0 else _CLOSE_TARGET_RAD
+
+        runner.follow(grasp_config[None, :], np.zeros(1), ramp_s + _CLOSE_S, closing)
         on_table = runner.robot_bodies_on_table()
         if lift_config is None:
             fail("grasp", f"no inverse kinematics for the {100 * settings.lift_height:.0f} cm lift")

@@ -64,6 +64,10 @@ class PlannerConfig:
         u_star: minimum overhang ``u*`` for a grasp (m).
         grasp_lift: fingertip lift before moving to the grasp (m).
         grasp_backoff: pre-grasp offset along the approach axis (m).
+        grasp_standoff: beyond the paper, the free length the hand needs beyond its grasp frame
+            towards the table (m; fingers that reach past the frame): the grasp frame lies at least
+            this far beyond the edge and the overhang held, ``u - max(0, d_g - grasp_standoff)``,
+            must reach ``u*``; 0 is the paper's grasp at the centroid of ``P_out``.
         transfer_time: time budget of one transfer motion to the grasp (s).
         max_joint_step: largest joint change between waypoints (rad).
         max_tip_step: largest fingertip displacement between waypoints (m).
@@ -103,6 +107,7 @@ class PlannerConfig:
     u_star: float = _CORE_DEFAULTS.u_star
     grasp_lift: float = _CORE_DEFAULTS.grasp_lift
     grasp_backoff: float = _CORE_DEFAULTS.grasp_backoff
+    grasp_standoff: float = _CORE_DEFAULTS.grasp_standoff
     transfer_time: float = _CORE_DEFAULTS.transfer_time
     max_joint_step: float = _CORE_DEFAULTS.max_joint_step
     max_tip_step: float = _CORE_DEFAULTS.max_tip_step

@@ -374,7 +374,17 @@ def moved_object_xy(result: PlanResult) -> np.ndarray:
     return np.asarray(result.object["points"])[:, :2] @ rotation.T + (motion["x"], motion["y"])
 
 
-def overhang(table: SupportSurface, moved_xy: np.ndarray) -> tuple[float, np.ndarray]:
+def _closest_edge(table: SupportSurface, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A point on the table edge closest to ``point`` and that edge's outward unit normal."""
+    starts = table.vertices
+    edges = np.roll(starts, -1, axis=0) - starts
+    along = np.clip(np.einsum("ij,ij->i", point - starts, edges) / np.einsum("ij,ij->i", edges, edges), 0.0, 1.0)
+    closest = int(np.argmin(np.linalg.norm(starts + along[:, None] * edges - point, axis=1)))
+    direction = edges[closest] / np.linalg.norm(edges[closest])
+    return starts[closest], np.array([direction[1], -direction[0]])  # right of the edge: outside for a CCW polygon
+
+
+def overhang(table: SupportSurface, moved_xy: np.ndarray) -> tuple[float, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
     """Overhang ``u`` of paper IV-C.1 for an object at its final pose.
 
     ``u`` is the largest distance, along the outward normal of the table edge closest to
@@ -386,22 +396,15 @@ def overhang(table: SupportSurface, moved_xy: np.ndarray) -> tuple[float, np.nda
         moved_xy: (N, 2) object points at the final pose.
 
     Returns:
-        ``(u, outside)``: u (m; 0 when no point is outside) and the (N,) bool mask of ``P_out``.
+        ``(u, outside, edge)``: u (m; 0 when no point is outside), the (N,) bool mask of ``P_out``,
+        and that edge as (a point on it, its outward unit normal), or None when no point is outside.
     """
     outside = ~table.contains(moved_xy)
     if not outside.any():
-        return 0.0, outside
+        return 0.0, outside, None
     out_points = moved_xy[outside]
-    centroid = out_points.mean(axis=0)
-    starts = table.vertices
-    ends = np.roll(starts, -1, axis=0)
-    edges = ends - starts
-    along = np.clip(np.einsum("ij,ij->i", centroid - starts, edges) / np.einsum("ij,ij->i", edges, edges), 0.0, 1.0)
-    distances = np.linalg.norm(starts + along[:, None] * edges - centroid, axis=1)
-    closest = int(np.argmin(distances))
-    direction = edges[closest] / np.linalg.norm(edges[closest])
-    outward_normal = np.array([direction[1], -direction[0]])  # right of the edge: outside for a CCW polygon
-    return float(np.max((out_points - starts[closest]) @ outward_normal)), outside
+    start, normal = _closest_edge(table, out_points.mean(axis=0))
+    return float(np.max((out_points - start) @ normal)), outside, (start, normal)
 
 
 def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
@@ -415,11 +418,18 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
         Violations with the numbers.
     """
     violations = []
-    u, outside = overhang(table, moved_object_xy(result))
+    u, outside, edge = overhang(table, moved_object_xy(result))
     if not outside.any():
         violations.append("final object pose: no object point overhangs the table")
-    if u < result.params["u_star"] - STEP_SLACK:
-        violations.append(f"final object pose: overhang {u:.6f} m < u_star {result.params['u_star']}")
+    standoff = result.params.get("grasp_standoff", 0.0)
+    held = u
+    if edge is not None and standoff > 0.0:
+        beyond = float((np.asarray(result.grasp["pose"][:2], dtype=float) - edge[0]) @ edge[1])
+        if beyond < standoff - MOTION_TOLERANCE:
+            violations.append(f"grasp.pose: {beyond:.4f} m beyond the table edge, less than grasp_standoff {standoff}")
+        held = u - max(0.0, beyond - standoff)
+    if held < result.params["u_star"] - STEP_SLACK:
+        violations.append(f"final object pose: overhang held by the hand {held:.6f} m < u_star {result.params['u_star']}")
     if abs(u - result.overhang_m) > MOTION_TOLERANCE:
         violations.append(f"overhang_m: recorded {result.overhang_m:.6f} m, recomputed {u:.6f} m")
     motion = result.object_motion

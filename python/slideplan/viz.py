@@ -87,7 +87,7 @@ def draw_plan(result: PlanResult, path: str | Path) -> Path:
     if len(result.trajectory):
         table = SupportSurface.from_vertices(vertices, result.table["height"])
         final_xy = moved_object_xy(result)
-        _, outside = overhang(table, final_xy)
+        _, outside, _ = overhang(table, final_xy)
         axes.scatter(final_xy[~outside, 0], final_xy[~outside, 1], s=2, color="tab:blue", label="object at goal")
         axes.scatter(final_xy[outside, 0], final_xy[outside, 1], s=3, color="tab:red", label="overhang")
         tips = np.asarray(result.fingertip_poses)[:, :2]

@@ -53,6 +53,16 @@ def test_grasp_of_a_far_overhanging_plate_lifts_it():
     assert report["schema"] == "slideplan.execution/1" and report["lifted"] is True
 
 
+def test_the_demo_plan_slides_and_lifts_its_crescent(tmp_path):
+    # The planner's T42 grasp lies grasp_standoff beyond the edge, so the lower finger passes the table.
+    assert CliRunner().invoke(app, ["demo", "--out", str(tmp_path)]).exit_code == 0
+    plan, _ = read_plan(tmp_path / "demo-plan.json")
+    execution = execute(plan)
+    assert execution.position_error_m <= 0.005 and abs(execution.yaw_error_deg) <= 3.0
+    assert execution.lifted, execution.failure
+    assert execution.success
+
+
 def test_unstable_simulation_is_reported_without_nan(slide_plan):
     execution = execute(slide_plan, ExecutionSettings(timestep=0.03))
     assert execution.failed_stage == "simulation"

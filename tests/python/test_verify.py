@@ -100,7 +100,19 @@ def test_wrong_recorded_pose_is_reported(plan):
 
 def test_too_small_overhang_is_reported(plan):
     plan.params["u_star"] = 0.03
-    assert_reported(plan, "final object pose: overhang 0.025")
+    assert_reported(plan, "final object pose: overhang held by the hand 0.025")
+
+
+def test_a_grasp_nearer_the_edge_than_the_standoff_is_reported(plan):
+    plan.params["grasp_standoff"] = 0.2  # beyond where the hand-made plan grasps
+    assert_reported(plan, "less than grasp_standoff 0.2")
+
+
+def test_the_overhang_within_the_standoff_is_not_held(plan):
+    plan.params["grasp_standoff"] = 0.001  # the grasp frame lies further out: what is nearer is not in the hand
+    violations = verify(plan).violations
+    assert any("overhang held by the hand" in violation for violation in violations), violations
+    assert not any("grasp_standoff" in violation for violation in violations), violations
 
 
 def test_approach_must_start_at_goal_and_reach_grasp(plan):
@@ -122,7 +134,7 @@ def test_planar_motion_and_overhang_on_known_numbers():
     x, y, yaw = planar_motion(first, last)
     assert (x, y, yaw) == pytest.approx((0.0, 1.0, np.pi / 2))
     table = SupportSurface.from_vertices([[0, 0], [1, 0], [1, 1], [0, 1]])
-    u, outside = overhang(table, np.array([[0.5, 0.5], [1.02, 0.5], [1.05, 0.4]]))
+    u, outside, _ = overhang(table, np.array([[0.5, 0.5], [1.02, 0.5], [1.05, 0.4]]))
     assert u == pytest.approx(0.05)
     assert outside.tolist() == [False, True, True]
 

@@ -24,6 +24,8 @@ namespace slideplan
         Eigen::Vector2d outsideCentroid{Eigen::Vector2d::Zero()};  ///< geometric centre of P_out
         EdgeQuery edge;               ///< edge (e_i, e_j) of Q closest to that centroid
         double overhang{0.0};         ///< u: largest distance of P_out beyond that edge
+        Eigen::Vector2d graspPoint{Eigen::Vector2d::Zero()};  ///< H_g's position: the centroid, moved out to grasp_standoff
+        double held{0.0};             ///< overhang held by the hand: u, less what lies within the hand's free length
         bool comInside{false};        ///< CoM of P'_o inside Q, at least params.comMargin from its boundary
         double comMargin{0.0};        ///< signed distance of that CoM to the boundary of Q (m, > 0 inside)
     };
@@ -52,7 +54,10 @@ namespace slideplan
         /// hull's vertices (the farthest point of P_o beyond an edge is one of them).
         Overhang overhang(const PlanarMotion &motion, bool exact = false) const;
 
-        /// H_g: the grasp frame at the centroid of P_out, mid-thickness, approaching perpendicular to
+        /// Whether the hand holds at least u* of the object (IV-C.1's u >= u*, with params.graspStandoff).
+        bool graspable(const Overhang &overhang) const;
+
+        /// H_g: the grasp frame at the centroid of P_out (moved out to grasp_standoff), mid-thickness, approaching perpendicular to
         /// the edge in the table plane, the straight (+Y) finger above the object.
         Eigen::Isometry3d graspPose(const Overhang &overhang) const;
 

@@ -33,6 +33,13 @@ namespace slideplan
         double uStar{0.02};       ///< minimum overhang u* (m): the T42's minimum contact size
         double graspLift{0.05};   ///< fingertip lift before the transfer to the grasp (m)
         double graspBackoff{0.06};  ///< pre-grasp offset along the approach axis (m)
+        /// Beyond the paper: the free length the hand needs beyond H_g towards the table along its
+        /// approach (m): fingers that reach past the grasp frame (the T42's by 2.3 cm) meet the table's
+        /// side when H_g lies nearer the edge than that (21 of 23 failed grasps in issue 9's replay). H_g
+        /// moves outward to at least this far beyond the edge, and the overhang held by the hand is
+        /// counted from where this free length ends: u - max(0, d_g - s) >= u*. 0 is the paper: H_g at
+        /// the centroid of P_out and u >= u*. Hand-specific: set in the scene's [hand] params.
+        double graspStandoff{0.0};
         double transferTime{0.2};   ///< RRTConnect budget per transfer when the straight motion fails (s)
 
         // Constrained extension (CBiRRT [16]).

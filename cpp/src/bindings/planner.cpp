@@ -101,6 +101,8 @@ namespace slideplan::bindings
             .def_readwrite("u_star", &PlannerParams::uStar, "Minimum overhang u* (m).")
             .def_readwrite("grasp_lift", &PlannerParams::graspLift, "Fingertip lift before the transfer (m).")
             .def_readwrite("grasp_backoff", &PlannerParams::graspBackoff, "Pre-grasp offset along the approach (m).")
+            .def_readwrite("grasp_standoff", &PlannerParams::graspStandoff,
+                           "Free length the hand needs beyond H_g towards the table (m); 0: the paper's H_g.")
             .def_readwrite("transfer_time", &PlannerParams::transferTime, "RRTConnect budget per transfer (s).")
             .def_readwrite("max_joint_step", &PlannerParams::maxJointStep, "Largest joint change between waypoints (rad).")
             .def_readwrite("max_tip_step", &PlannerParams::maxTipStep, "Largest fingertip step between waypoints (m).")
