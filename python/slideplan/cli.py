@@ -454,6 +454,9 @@ def experiment_command(
     scheduler: Optional[str] = typer.Option(
         None, "--scheduler", help="Run on a Dask cluster at this scheduler address instead (e.g. tcp://host:8786)."
     ),
+    param: list[str] = typer.Option(
+        [], "--param", help="NAME=VALUE for any planner parameter, applied to every task after the figure's; repeatable."
+    ),
 ) -> None:
     """Run the planning tasks of one figure, resuming: tasks with a result in OUT/results/ are skipped.
 
@@ -463,7 +466,7 @@ def experiment_command(
     try:
         from .experiments import build_spec, run_experiment
 
-        spec = build_spec(figure, quick=quick, time_limit_s=time_limit, seed=seed, poses=poses)
+        spec = build_spec(figure, quick=quick, time_limit_s=time_limit, seed=seed, poses=poses, params=_parse_params(param))
         executor = _experiment_executor(workers, scheduler, threads)
         typer.echo(f"{figure}: {len(spec.tasks)} tasks on {executor.description}, results in {out / 'results'}")
         summary = run_experiment(spec, out, executor)

@@ -17,6 +17,7 @@ from scipy.stats import binomtest
 from typer.testing import CliRunner
 
 from slideplan.cli import app
+from slideplan.scenes import load_scene
 from slideplan.experiments import (
     ROW_SCHEMA,
     DaskExecutor,
@@ -242,3 +243,14 @@ def test_experiment_bad_input_exits_2(args, fragment, tmp_path):
 def test_plot_bad_input_exits_2(tmp_path):
     assert_bad_input(runner.invoke(app, ["plot", str(tmp_path / "missing"), "--out", str(tmp_path)]), "no such file")
     assert_bad_input(runner.invoke(app, ["plot", str(tmp_path), "--out", str(tmp_path)]), "no planning results")
+
+
+def test_tasks_plan_with_the_hand_parameters_and_the_given_params():
+    default, paper = build_spec("execution", poses=1), build_spec("execution", poses=1, params={"grasp_standoff": 0.0})
+    scene_standoff = load_scene(default.tasks[0].scene).hand.params["grasp_standoff"]
+    assert default.tasks[0].planner_config().grasp_standoff == scene_standoff > 0
+    assert paper.tasks[0].planner_config().grasp_standoff == 0.0
+    assert {task.task_id for task in default.tasks}.isdisjoint(task.task_id for task in paper.tasks)
+    with pytest.raises(InputError) as error:
+        build_spec("execution", poses=1, params={"no_such_parameter": 1})
+    assert "no_such_parameter" in str(error.value)

@@ -58,6 +58,7 @@ class Task:
         dz_min, dz_max: contact depth band (m); ``dz_max - dz_min`` is ``Delta_Z^*``.
         n_star: ``N*`` of Eq. 5.
         time_limit_s: planning time budget (s).
+        params: other planner parameters as sorted JSON (``--param``), applied last; "" for none.
     """
 
     experiment: str
@@ -74,21 +75,18 @@ class Task:
     dz_max: float
     n_star: float
     time_limit_s: float
+    params: str = ""
 
     def planner_config(self) -> PlannerConfig:
-        """Return the planner configuration of this task.
+        """Return the planner configuration of this task: the scene's hand parameters (e.g. the T42's
+        grasp standoff), then the task's fields, then ``params``.
 
         Raises:
-            InputError: a field out of the planner's range.
+            InputError: a field out of the planner's range, or an unknown parameter.
         """
-        return PlannerConfig(
-            dz_min=self.dz_min,
-            dz_max=self.dz_max,
-            n_star=self.n_star,
-            planner=self.planner,
-            seed=self.seed,
-            time_limit_s=self.time_limit_s,
-        )
+        fields = {"dz_min": self.dz_min, "dz_max": self.dz_max, "n_star": self.n_star, "planner": self.planner,
+                  "seed": self.seed, "time_limit_s": self.time_limit_s}
+        return PlannerConfig.for_scene(cached_scene(self.scene), **{**fields, **json.loads(self.params or "{}")})
 
     @functools.cached_property
     def task_id(self) -> str:
@@ -304,7 +302,8 @@ _SPEC_BUILDERS = {"fig10": fig10_spec, "fig11": fig11_spec, "fig12": fig12_spec,
 
 
 def build_spec(
-    figure: str, *, quick: bool = False, time_limit_s: float | None = None, seed: int = 0, poses: int | None = None
+    figure: str, *, quick: bool = False, time_limit_s: float | None = None, seed: int = 0, poses: int | None = None,
+    params: dict | None = None,
 ) -> ExperimentSpec:
     """Build the tasks of one figure.
 
@@ -317,6 +316,9 @@ def build_spec(
         poses: initial poses per cell instead of the paper's count (fewer poses, same budget,
             when a full run would take too long); pose i is the same whatever the count, so a
             run with more poses resumes on top of one with fewer.
+        params: planner parameters applied to every task after the figure's own (e.g.
+            ``{"max_object_yaw": 3.1416}``); they enter the task ids, so such a run never resumes
+            from one without them.
 
     Returns:
         The spec.
@@ -333,5 +335,9 @@ def build_spec(
     if poses is not None and (isinstance(poses, bool) or not isinstance(poses, int) or poses < 1):
         raise InputError(f"must be a whole number >= 1, got {poses!r}", field="poses")
     tasks = _SPEC_BUILDERS[figure](base, quick, poses)
+    if params:
+        text = json.dumps(params, sort_keys=True)
+        tasks = tuple(dataclasses.replace(task, params=text) for task in tasks)
+        tasks[0].planner_config()  # names a bad parameter now, not in every worker
     assert len({task.task_id for task in tasks}) == len(tasks), "task ids must be distinct"
     return ExperimentSpec(name=figure, tasks=tasks, seed=seed, quick=quick)
