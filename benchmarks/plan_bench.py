@@ -27,16 +27,18 @@ from slideplan import PlannerConfig, load_object, load_scene, plan
 from slideplan.objects import load_outline, sample_pose_on_table
 
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")
-PUBLISHED = {"screen_pairs": False, "shortcut_attempts": 0, "grasp_flip": False, "grasp_map": False, "max_object_yaw": math.pi,
-             "com_margin": 0.0}
+# IsPairValid as the paper states it (no turn bound, CoM merely inside, H_g at the centroid of P_out): the
+# baselines of paper V-6 are compared under it, as in the paper.
+PAPER_PAIR = {"max_object_yaw": math.pi, "com_margin": 0.0, "grasp_standoff": 0.0}
+PUBLISHED = {"screen_pairs": False, "shortcut_attempts": 0, "grasp_flip": False, "grasp_map": False, **PAPER_PAIR}
 VARIANTS = (  # (label, planner, reconfiguration range dz* in metres, None: the hand's)
     ("slideplan hand", "slideplan", None),
     ("Algorithm 1 as published dz*=2cm", "published", 0.02),
     ("slideplan dz*=2cm", "slideplan", 0.02),
     ("slideplan dz*=0.5cm", "slideplan", 0.005),
     ("slideplan dz*=0cm", "slideplan", 0.0),
-    ("cbirrt dz*=2cm", "cbirrt", 0.02),
-    ("cbirrt2 dz*=2cm", "cbirrt2", 0.02),
+    ("cbirrt dz*=2cm, paper's pair conditions", "cbirrt", 0.02),
+    ("cbirrt2 dz*=2cm, paper's pair conditions", "cbirrt2", 0.02),
 )
 THRESHOLDS_S = (1.0, 5.0, 10.0, 60.0)
 
@@ -60,7 +62,7 @@ def run_one(job: tuple[str, str, str, float | None, str, int, float]) -> tuple[s
     pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([pose_index, OBJECTS.index(object_name)]),
                                 avoid=scene.footprints(scene.table.height + thickness))
     obj = load_object(object_name, table_height=scene.table.height, pose=pose)
-    overrides = PUBLISHED if planner == "published" else {"planner": planner}
+    overrides = {"published": PUBLISHED, "slideplan": {}}.get(planner, {"planner": planner, **PAPER_PAIR})
     config = PlannerConfig.for_scene(scene, seed=pose_index, time_limit_s=time_limit, **overrides)
     if reconfiguration is not None:
         config = config.with_reconfiguration_range(reconfiguration)

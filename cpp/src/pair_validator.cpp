@@ -93,26 +93,63 @@ namespace slideplan
 
     Eigen::Isometry3d PairValidator::graspPose(const Overhang &overhang) const
     {
-        const Eigen::Vector3d approach(-overhang.edge.outwardNormal.x(), -overhang.edge.outwardNormal.y(), 0.0);
+        return edgeGraspPose(overhang.graspPoint, overhang.edge);
+    }
+
+    Eigen::Isometry3d PairValidator::edgeGraspPose(const Eigen::Vector2d &point, const EdgeQuery &edge) const
+    {
+        const Eigen::Vector3d approach(-edge.outwardNormal.x(), -edge.outwardNormal.y(), 0.0);
         const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
         Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
         pose.linear().col(0) = up.cross(approach);
         pose.linear().col(1) = up;
         pose.linear().col(2) = approach;
-        pose.translation() << overhang.graspPoint, task_->table->height() + 0.5 * task_->thickness();
+        pose.translation() << point, task_->table->height() + 0.5 * task_->thickness();
         return pose;
     }
 
-    std::pair<int, long> PairValidator::graspCell(const Overhang &overhang) const
+    std::pair<int, long> PairValidator::graspCell(const EdgeQuery &edge) const
     {
         constexpr double kStretch = 0.01;  // m: grasps this close have the same reachability in practice
-        const Eigen::Vector2d start = task_->table->vertices().row(overhang.edge.edge).transpose();
-        return {overhang.edge.edge, static_cast<long>(std::floor((overhang.edge.closest - start).norm() / kStretch))};
+        const Eigen::Vector2d start = task_->table->vertices().row(edge.edge).transpose();
+        return {edge.edge, static_cast<long>(std::floor((edge.closest - start).norm() / kStretch))};
     }
 
     bool PairValidator::knownUnreachable(const Overhang &overhang) const
     {
-        return params_.graspMap && overhang.outsideCount > 0 && unreachable_.count(graspCell(overhang)) > 0;
+        return params_.graspMap && overhang.outsideCount > 0 && unreachable_.count(graspCell(overhang.edge)) > 0;
+    }
+
+    bool PairValidator::graspReachableNear(const Eigen::Vector2d &point, const Eigen::VectorXd &seed, std::mt19937_64 &rng) const
+    {
+        const EdgeQuery edge = task_->table->closestEdge(point);
+        const std::pair<int, long> cell = graspCell(edge);
+        if (unreachable_.count(cell) > 0)
+            return false;
+        if (reachable_.count(cell) > 0)
+            return true;
+        // Where a grasp of an object pushed just far enough over this edge would be.
+        const double beyond = std::max(params_.graspStandoff, 0.5 * params_.uStar);
+        Eigen::Isometry3d pose = edgeGraspPose(edge.closest + beyond * edge.outwardNormal, edge);
+        Eigen::VectorXd solution;
+        const bool reachable = reachGrasp(pose, seed, rng, solution);
+        (reachable ? reachable_ : unreachable_).insert(cell);
+        return reachable;
+    }
+
+    bool PairValidator::reachGrasp(Eigen::Isometry3d &grasp, const Eigen::VectorXd &seed, std::mt19937_64 &rng,
+                                   Eigen::VectorXd &solution) const
+    {
+        if (graspIk(grasp, seed, rng, solution))
+            return true;
+        if (!params_.graspFlip)
+            return false;
+        Eigen::Isometry3d flipped = grasp;
+        flipped.linear() = flipped.linear() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        if (!graspIk(flipped, seed, rng, solution))
+            return false;
+        grasp = flipped;
+        return true;
     }
 
     bool PairValidator::graspIk(const Eigen::Isometry3d &grasp, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
@@ -267,18 +304,12 @@ namespace slideplan
             return verdict;
         }
         verdict.graspPose = graspPose(result);
-        Eigen::Isometry3d flipped = verdict.graspPose;
-        flipped.linear() = flipped.linear() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-        if (!graspIk(verdict.graspPose, goal, rng, verdict.graspConfig))
+        if (!reachGrasp(verdict.graspPose, goal, rng, verdict.graspConfig))
         {
-            if (!params_.graspFlip || !graspIk(flipped, goal, rng, verdict.graspConfig))
-            {
-                if (params_.graspMap)
-                    unreachable_.insert(graspCell(result));
-                verdict.reason = "grasp pose unreachable";
-                return verdict;
-            }
-            verdict.graspPose = flipped;
+            if (params_.graspMap)
+                unreachable_.insert(graspCell(result.edge));
+            verdict.reason = "grasp pose unreachable";
+            return verdict;
         }
         std::vector<Eigen::Vector2d> moved;  // the hull moves rigidly with the object (Eq. 2)
         for (const Eigen::Vector2d &vertex : task_->hullXY)

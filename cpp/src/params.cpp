@@ -35,6 +35,7 @@ namespace slideplan
         require(rootIkAttempts > 0, "root_ik_attempts must be > 0");
         require(shortcutAttempts >= 0, "shortcut_attempts must be >= 0");
         require(finite(maxObjectYaw) && maxObjectYaw > 0.0, "max_object_yaw must be > 0");
+        require(finite(maxYawRate) && maxYawRate >= 0.0, "max_yaw_rate must be >= 0");
         require(finite(comMargin) && comMargin >= 0.0, "com_margin must be >= 0");
         require(finite(shortcutYawWeight) && shortcutYawWeight >= 0.0, "shortcut_yaw_weight must be >= 0");
     }

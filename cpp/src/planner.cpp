@@ -98,7 +98,15 @@ namespace slideplan
         Eigen::VectorXd q;
         if (!forest.region->sample(rng_, seed, q))
             return false;
-        forest.add(q, task_->robot->fk(q), nullptr);
+        const Eigen::Isometry3d tip = task_->robot->fk(q);
+        // Beyond the paper: a goal root by an edge stretch with no reachable side grasp mostly grows trees
+        // whose pairs fail at the grasp (the triangle table's far edges). One in kKeep is kept: the
+        // object may overhang a stretch further along, and one failed IK is not a proof.
+        constexpr int kKeep = 10;
+        if (!forest.isStart && params_.graspMap && !pairValidator_->graspReachableNear(tip.translation().head<2>(), q, rng_) &&
+            std::uniform_int_distribution<int>(1, kKeep)(rng_) != 1)
+            return false;
+        forest.add(q, tip, nullptr);
         return true;
     }
 
@@ -120,6 +128,9 @@ namespace slideplan
         }
         if (!withinStep)
             return false;  // the manifold bends away too fast here: a jump, not a step
+        if (params_.maxYawRate > 0.0 && std::abs(objectMotion(fromTip, tip).yaw) >
+                                            params_.maxYawRate * (tip.translation() - fromTip.translation()).head<2>().norm())
+            return false;  // turns the object too fast for the distance slid
         const double step = (q - from).norm(), before = towards.norm(), after = (target - q).norm();
         if (step < 1e-3 * params_.maxJointStep || after > before - 0.25 * step)
             return false;  // stalled: the projection (or a joint limit) undoes the step

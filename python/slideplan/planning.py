@@ -88,6 +88,8 @@ class PlannerConfig:
             table (m); 0 is the paper's "inside".
         max_object_yaw: beyond the paper, the largest turn of the object between its start and final
             pose (rad); ``math.pi`` accepts any, as the paper does.
+        max_yaw_rate: beyond the paper, the largest turn of the object per metre of fingertip travel
+            in each extension step (rad/m); 0 allows any turn, as the paper does.
         planner: ``"slideplan"`` (Algorithm 1), ``"cbirrt"`` or ``"cbirrt2"`` (baselines, paper V-6).
         seed: random seed; the same seed gives the same plan.
         time_limit_s: planning time budget (s).
@@ -120,6 +122,7 @@ class PlannerConfig:
     shortcut_attempts: int = _CORE_DEFAULTS.shortcut_attempts
     shortcut_yaw_weight: float = _CORE_DEFAULTS.shortcut_yaw_weight
     max_object_yaw: float = _CORE_DEFAULTS.max_object_yaw
+    max_yaw_rate: float = _CORE_DEFAULTS.max_yaw_rate
     com_margin: float = _CORE_DEFAULTS.com_margin
     planner: str = _CORE_DEFAULTS.policy
     seed: int = 0

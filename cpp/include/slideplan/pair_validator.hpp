@@ -65,13 +65,24 @@ namespace slideplan
         /// falls on (params.graspMap): reachability of a side grasp depends only on where it is.
         bool knownUnreachable(const Overhang &overhang) const;
 
+        /// Beyond the paper (params.graspMap): whether a side grasp is reachable on the 1 cm stretch of
+        /// table edge nearest to `point` (a goal root's contact), just far enough beyond it for u*, by
+        /// grasp IK from `seed`; the answer is remembered per stretch (the grasp map).
+        bool graspReachableNear(const Eigen::Vector2d &point, const Eigen::VectorXd &seed, std::mt19937_64 &rng) const;
+
     private:
         /// Grasp IK: from phi_g, then from earlier successful grasps (nearby grasp poses have nearby
         /// solutions), then random restarts.
         bool graspIk(const Eigen::Isometry3d &grasp, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
                      Eigen::VectorXd &solution) const;
+        /// Grasp IK for `grasp`, then (params.graspFlip) for it rolled by pi about its approach axis,
+        /// which then replaces `grasp`.
+        bool reachGrasp(Eigen::Isometry3d &grasp, const Eigen::VectorXd &seed, std::mt19937_64 &rng,
+                        Eigen::VectorXd &solution) const;
+        /// The side grasp at `point` perpendicular to `edge`, mid-thickness.
+        Eigen::Isometry3d edgeGraspPose(const Eigen::Vector2d &point, const EdgeQuery &edge) const;
         /// The edge stretch of a grasp: (edge index, 1 cm cell along the edge).
-        std::pair<int, long> graspCell(const Overhang &overhang) const;
+        std::pair<int, long> graspCell(const EdgeQuery &edge) const;
         bool lift(const Eigen::VectorXd &goal, std::vector<Eigen::VectorXd> &path) const;
         bool straightMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::vector<Eigen::VectorXd> &path) const;
         bool transferMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::uint64_t seed,
@@ -82,6 +93,7 @@ namespace slideplan
         std::unique_ptr<CollisionWorld> world_;  ///< holds the object at its final pose while a pair is checked
         mutable std::vector<Eigen::VectorXd> graspSeeds_;  ///< recent successful grasp configurations
         mutable std::set<std::pair<int, long>> unreachable_;  ///< edge stretches where grasp IK failed
+        mutable std::set<std::pair<int, long>> reachable_;    ///< edge stretches where a goal root's grasp IK succeeded
     };
 
 }  // namespace slideplan
