@@ -396,7 +396,9 @@ def execute_command(
         None, "--video", help="Render the execution offscreen to this .mp4 or .gif (or .png: a strip of 6 frames)."
     ),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Write the execution report JSON here."),
-    tip_speed: float = typer.Option(0.05, "--tip-speed", help="Fingertip speed cap while sliding (m/s)."),
+    tip_speed: float = typer.Option(
+        0.05, "--tip-speed", help="Fingertip speed cap (m/s) while lifting, and while sliding if the plan has no timing block."
+    ),
 ) -> None:
     """Execute a plan in MuJoCo physics (arm, compliant finger, object, table), then grasp and lift.
 

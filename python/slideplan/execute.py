@@ -49,6 +49,7 @@ from shapely.geometry import Point, Polygon
 from .errors import InputError
 from .geometry import SupportSurface
 from .planning import PlanResult, build_robot, merge_urdf
+from .timing import TimingOptions, parameterize, resolve_limits, time_path
 from .transforms import quaternion_from_matrix, row_to_pose, wrap_angle
 from .verify import contact_angles, overhang
 
@@ -75,10 +76,14 @@ _ARENA_BYTES = 128 << 20  # a 20 cm plate has ~500 contacts with the table; MuJo
 class ExecutionSettings:
     """Physical parameters of an execution (defaults: docs/execution.md).
 
+    The three limits time, with :func:`slideplan.timing.parameterize` (TOPP-RA), the slide and the
+    approach of a plan without a ``timing`` block, and the lift of every plan.
+
     Attributes:
-        tip_speed: fingertip speed cap while sliding (m/s).
+        tip_speed: fingertip speed cap (m/s) while sliding, on the approach within
+            :data:`slideplan.timing.NEAR_TABLE_M` of the object's top, and while lifting.
         joint_velocity: joint speed cap (rad/s); the URDF's lower limits win.
-        joint_acceleration: joint acceleration cap (rad/s^2).
+        joint_acceleration: joint acceleration cap (rad/s^2), every joint.
         finger_stiffness: stiffness of the finger's vertical compliance (N/m).
         finger_damping: damping of that compliance (N s/m).
         contact_depth: None follows the plan's depths; a number presses this deep (m) at every
@@ -228,48 +233,20 @@ def read_plan(path: str | Path) -> tuple[PlanResult, dict[str, Any] | None]:
 # ----------------------------------------------------------------------------- timing
 
 
-def time_parameterize(
-    path: np.ndarray,
-    velocity_limits: np.ndarray,
-    acceleration_limit: float,
-    tip_positions: np.ndarray | None = None,
-    tip_speed: float | None = None,
-) -> np.ndarray:
-    """Times of the waypoints of a piecewise-linear joint path under speed and acceleration caps.
-
-    The path parameter ``s`` runs through the waypoint indices. Each segment caps ``ds/dt`` so
-    that no joint exceeds its speed limit and the fingertip stays under ``tip_speed``; a forward
-    and a backward pass then cap ``d2s/dt2`` by the acceleration limit of the joint moving most in
-    each segment (``v_k+1^2 <= v_k^2 + 2 a``), starting and ending at rest.
+def _timing_options(settings: ExecutionSettings, urdf_velocity) -> TimingOptions:
+    """The limits under which :mod:`slideplan.timing` times what an execution times itself.
 
     Args:
-        path: (M, dof) waypoints.
-        velocity_limits: (dof,) joint speed limits (rad/s), > 0.
-        acceleration_limit: joint acceleration limit (rad/s^2), > 0.
-        tip_positions: (M, 3) fingertip positions, or None for no fingertip cap.
-        tip_speed: fingertip speed cap (m/s), used with ``tip_positions``.
+        settings: its ``tip_speed``, ``joint_velocity`` and ``joint_acceleration`` are the limits.
+        urdf_velocity: (dof,) the URDF's ``<limit velocity>``; 0 or less (missing) sets no limit.
 
     Returns:
-        (M,) times from 0, non-decreasing (equal for repeated waypoints).
+        The options, joint velocity ``min(URDF, settings.joint_velocity)`` per joint.
     """
-    steps = np.abs(np.diff(path, axis=0))
-    if len(steps) == 0:
-        return np.zeros(len(path))
-    largest = np.maximum(steps, 1e-12)
-    segment_speed = np.min(velocity_limits / largest, axis=1)  # ds/dt cap per segment
-    if tip_positions is not None and tip_speed is not None:
-        tip_steps = np.maximum(np.linalg.norm(np.diff(tip_positions, axis=0), axis=1), 1e-12)
-        segment_speed = np.minimum(segment_speed, tip_speed / tip_steps)
-    segment_accel = acceleration_limit / largest.max(axis=1)
-    speed = np.zeros(len(path))
-    speed[1:-1] = np.minimum(segment_speed[:-1], segment_speed[1:])
-    for index in range(1, len(path)):
-        speed[index] = min(speed[index], math.sqrt(speed[index - 1] ** 2 + 2 * segment_accel[index - 1]))
-    for index in range(len(path) - 2, -1, -1):
-        speed[index] = min(speed[index], math.sqrt(speed[index + 1] ** 2 + 2 * segment_accel[index]))
-    mean_speed = np.maximum((speed[:-1] + speed[1:]) / 2, 1e-9)
-    durations = np.where(steps.max(axis=1) > 1e-12, 1.0 / mean_speed, 0.0)
-    return np.concatenate([[0.0], np.cumsum(durations)])
+    urdf_velocity = np.asarray(urdf_velocity, dtype=float)
+    velocity = np.minimum(np.where(urdf_velocity > 0, urdf_velocity, np.inf), settings.joint_velocity)
+    return TimingOptions(joint_acceleration=settings.joint_acceleration, fingertip_speed=settings.tip_speed,
+                         joint_velocity=velocity)
 
 
 def _reference(path: np.ndarray, times: np.ndarray, t: float) -> np.ndarray:
@@ -822,8 +799,9 @@ def execute(
         result: a solved plan.
         settings: physical parameters (default :class:`ExecutionSettings`).
         timing: a ``slideplan.plan/2`` ``timing`` block; its ``trajectory`` and ``approach``
-            ``time_from_start`` replace this module's parameterization (default: the plan's own
-            ``timing`` attribute if it has one, else :func:`time_parameterize`).
+            ``time_from_start`` are followed (default: the plan's own ``timing`` attribute). A
+            segment it lacks is timed by :func:`slideplan.timing.parameterize` under the limits
+            of ``settings`` (:class:`ExecutionSettings`).
         video: write a rendering here: ``.mp4`` or ``.gif``, or ``.png`` for a strip of 6 frames.
         video_fps: frames per simulated second of the video.
         video_size: (height, width) of a frame in pixels.
@@ -833,7 +811,8 @@ def execute(
 
     Raises:
         InputError: the plan is not solved, or its robot cannot be imported (naming the element),
-            or a mesh is missing, or the timing block does not fit the plan.
+            or a mesh is missing, or the timing block does not fit the plan, or toppra finds no
+            timing of a segment this function times itself.
     """
     if result.status != "solved":
         raise InputError(f"plan status is {result.status!r}: only solved plans can be executed", field="status")
@@ -852,14 +831,12 @@ def execute(
     slide_times = _timing_of(timing, "trajectory", len(trajectory))
     approach_times = _timing_of(timing, "approach", len(approach))
     core_robot = build_robot(result.robot)
-    velocity = np.minimum(
-        np.where(np.asarray(core_robot.velocity_limits) > 0, core_robot.velocity_limits, np.inf), settings.joint_velocity
-    )
+    options = _timing_options(settings, core_robot.velocity_limits)
+    if slide_times is None or approach_times is None:
+        own = parameterize(result, options)
+        slide_times = own["trajectory"]["time_from_start"] if slide_times is None else slide_times
+        approach_times = own["approach"]["time_from_start"] if approach_times is None else approach_times
     tips = np.asarray(result.fingertip_poses)[:, :3]
-    if slide_times is None:
-        slide_times = time_parameterize(trajectory, velocity, settings.joint_acceleration, tips, settings.tip_speed)
-    if len(approach) and approach_times is None:
-        approach_times = time_parameterize(approach, velocity, settings.joint_acceleration)
 
     top = float(result.table["height"]) + float(result.object["thickness"])
     depths = top - tips[:, 2]
@@ -967,7 +944,9 @@ def execute(
         else:
             lift = np.linspace(grasp_config, np.asarray(lift_config), 20)
             lift_tips = np.array([np.asarray(core_robot.fk(config))[:3, 3] for config in lift])
-            lift_times = time_parameterize(lift, velocity, settings.joint_acceleration, lift_tips, settings.tip_speed)
+            # The lift is not in the plan: timed here, the fingertip capped all the way (it holds the object).
+            capped = np.ones(len(lift), dtype=bool)
+            lift_times = time_path(lift, lift_tips, capped, resolve_limits(result, options), "lift")["time_from_start"]
             runner.follow(lift, lift_times, settings.hold_s)
             report["lifted"] = runner.object_pose()[2] >= rest_z + _LIFTED_FRACTION * settings.lift_height
             if not report["lifted"]:
