@@ -93,7 +93,7 @@ namespace slideplan
         double tableTop{0.0};
         mutable std::vector<Eigen::Isometry3d> poses;
 
-        void pose(const RobotModel &robot, const Eigen::VectorXd &q)
+        void pose(const RobotModel &robot, const JointsRef &q)
         {
             robot.linkPoses(q, poses);
             for (RobotShape &shape : shapes)
@@ -228,19 +228,19 @@ namespace slideplan
         impl_->environment.resize(impl_->firstObjectPiece);
     }
 
-    bool CollisionWorld::isValid(const Eigen::VectorXd &q, ContactMode mode) const
+    bool CollisionWorld::isValid(const JointsRef &q, ContactMode mode) const
     {
         return check(q, mode, nullptr);
     }
 
-    std::vector<std::pair<std::string, std::string>> CollisionWorld::collisions(const Eigen::VectorXd &q, ContactMode mode) const
+    std::vector<std::pair<std::string, std::string>> CollisionWorld::collisions(const JointsRef &q, ContactMode mode) const
     {
         std::vector<std::pair<std::string, std::string>> report;
         check(q, mode, &report);
         return report;
     }
 
-    bool CollisionWorld::check(const Eigen::VectorXd &q, ContactMode mode,
+    bool CollisionWorld::check(const JointsRef &q, ContactMode mode,
                                std::vector<std::pair<std::string, std::string>> *report) const
     {
         if (q.size() != static_cast<long>(robot_->dof()) || !q.allFinite())

@@ -40,14 +40,14 @@ namespace slideplan
         return residual(tip).cwiseAbs().maxCoeff() <= tolerance_;
     }
 
-    Eigen::Matrix<double, 3, Eigen::Dynamic> SlidingConstraint::taskJacobian(const Eigen::VectorXd &q,
+    SlidingConstraint::TaskJacobian SlidingConstraint::taskJacobian(const JointsRef &q,
                                                                              const Eigen::Isometry3d &tip,
                                                                              const Eigen::Vector3d &residual) const
     {
-        const Eigen::Matrix<double, 6, Eigen::Dynamic> jacobian = robot_->jacobian(q);
+        const Jacobian jacobian = robot_->jacobian(q);
         const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
         const Eigen::Vector3d xAxis = tip.linear().col(0), zAxis = tip.linear().col(2);
-        Eigen::Matrix<double, 3, Eigen::Dynamic> rows(3, q.size());
+        TaskJacobian rows(3, q.size());
         // Inside a dead zone the row is flat: a zero row keeps the solve from pulling towards the band edge.
         if (residual(0) != 0.0)
             rows.row(0) = jacobian.row(2);
@@ -68,9 +68,8 @@ namespace slideplan
 
     void SlidingConstraint::jacobian(const Eigen::Ref<const Eigen::VectorXd> &q, Eigen::Ref<Eigen::MatrixXd> out) const
     {
-        const Eigen::VectorXd joints = q;
-        const Eigen::Isometry3d tip = robot_->fk(joints);
-        out = taskJacobian(joints, tip, residual(tip));
+        const Eigen::Isometry3d tip = robot_->fk(q);
+        out = taskJacobian(q, tip, residual(tip));
     }
 
     bool SlidingConstraint::project(Eigen::Ref<Eigen::VectorXd> q) const
@@ -81,7 +80,7 @@ namespace slideplan
 
     bool SlidingConstraint::projectWithTip(Eigen::Ref<Eigen::VectorXd> q, Eigen::Isometry3d &tip) const
     {
-        Eigen::VectorXd joints = q;
+        JointVector joints = q;
         constexpr double damping = 1e-6;
         for (int iteration = 0; iteration <= iterations_; ++iteration)
         {
@@ -94,7 +93,7 @@ namespace slideplan
             if (iteration == iterations_)
                 break;
             const Eigen::Vector3d error = residual(tip, margin_);
-            const Eigen::Matrix<double, 3, Eigen::Dynamic> rows = taskJacobian(joints, tip, error);
+            const TaskJacobian rows = taskJacobian(joints, tip, error);
             const Eigen::Matrix3d gram = rows * rows.transpose() + damping * Eigen::Matrix3d::Identity();
             joints -= rows.transpose() * gram.ldlt().solve(error);
             joints = joints.cwiseMax(robot_->lowerLimits()).cwiseMin(robot_->upperLimits());

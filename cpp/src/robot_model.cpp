@@ -264,6 +264,10 @@ namespace slideplan
         }
         if (dof() == 0)
             throw std::invalid_argument(source + ": no movable joint between the base link and '" + spec.tipLink + "'");
+        if (dof() > static_cast<unsigned int>(kMaxJoints))
+            throw std::invalid_argument(source + ": " + std::to_string(dof()) + " movable joints between the base link and '" +
+                                        spec.tipLink + "'; at most " + std::to_string(kMaxJoints) +
+                                        " are supported (hold the others with [robot] fixed_joints)");
 
         // Every other movable joint: a mimic follows its master; the rest are held (fixed_joints, else 0
         // clamped into the limits, e.g. a closed gripper).
@@ -342,7 +346,7 @@ namespace slideplan
         return {pathTo(index), offset};
     }
 
-    bool RobotModel::withinLimits(const Eigen::VectorXd &q, double tolerance) const
+    bool RobotModel::withinLimits(const JointsRef &q, double tolerance) const
     {
         return q.size() == lower_.size() && (q.array() >= lower_.array() - tolerance).all() &&
                (q.array() <= upper_.array() + tolerance).all();
@@ -358,7 +362,7 @@ namespace slideplan
         return motion;
     }
 
-    Eigen::Isometry3d RobotModel::pathPose(const FramePath &path, const Eigen::VectorXd &q) const
+    Eigen::Isometry3d RobotModel::pathPose(const FramePath &path, const JointsRef &q) const
     {
         Eigen::Isometry3d pose = basePose_;
         for (const int i : path.links)
@@ -371,11 +375,11 @@ namespace slideplan
         return pose * path.offset;
     }
 
-    Eigen::Matrix<double, 6, Eigen::Dynamic> RobotModel::pathJacobian(const FramePath &path, const Eigen::VectorXd &q) const
+    Jacobian RobotModel::pathJacobian(const FramePath &path, const JointsRef &q) const
     {
         // Column of a revolute joint: (a x (p_tip - p), a) = (-a x p, a) + (a x p_tip, 0); the second
         // term is added once p_tip is known, so one pass over the path suffices.
-        Eigen::Matrix<double, 6, Eigen::Dynamic> jacobian = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, dof());
+        Jacobian jacobian = Jacobian::Zero(6, dof());
         Eigen::Isometry3d pose = basePose_;
         for (const int i : path.links)
         {
@@ -403,23 +407,23 @@ namespace slideplan
         return jacobian;
     }
 
-    Eigen::Isometry3d RobotModel::fk(const Eigen::VectorXd &q) const
+    Eigen::Isometry3d RobotModel::fk(const JointsRef &q) const
     {
         return pathPose(tip_, q);
     }
 
-    Eigen::Matrix<double, 6, Eigen::Dynamic> RobotModel::jacobian(const Eigen::VectorXd &q) const
+    Jacobian RobotModel::jacobian(const JointsRef &q) const
     {
         return pathJacobian(tip_, q);
     }
 
-    Eigen::Isometry3d RobotModel::framePose(const Eigen::VectorXd &q, const std::string &link,
+    Eigen::Isometry3d RobotModel::framePose(const JointsRef &q, const std::string &link,
                                             const Eigen::Isometry3d &offset) const
     {
         return pathPose(framePath(link, offset), q);
     }
 
-    void RobotModel::linkPoses(const Eigen::VectorXd &q, std::vector<Eigen::Isometry3d> &poses) const
+    void RobotModel::linkPoses(const JointsRef &q, std::vector<Eigen::Isometry3d> &poses) const
     {
         poses.resize(links_.size());
         poses[0] = basePose_;
@@ -432,7 +436,7 @@ namespace slideplan
         }
     }
 
-    Eigen::Isometry3d RobotModel::referenceFramePose(const Eigen::VectorXd &q, const std::string &link,
+    Eigen::Isometry3d RobotModel::referenceFramePose(const JointsRef &q, const std::string &link,
                                                      const Eigen::Isometry3d &offset) const
     {
         // A local KDL chain from the root: KDL caches joint poses in mutable members (not thread-safe).
@@ -453,7 +457,7 @@ namespace slideplan
         return basePose_ * toEigen(frame) * offset;
     }
 
-    Eigen::Matrix<double, 6, Eigen::Dynamic> RobotModel::referenceJacobian(const Eigen::VectorXd &q) const
+    Eigen::Matrix<double, 6, Eigen::Dynamic> RobotModel::referenceJacobian(const JointsRef &q) const
     {
         KDL::Chain chain;
         std::vector<int> column;  // chain joint index of each KDL joint, -1 if held or a mimic
@@ -532,7 +536,7 @@ namespace slideplan
         };
         for (int attempt = 0; attempt < options.maxAttempts; ++attempt)
         {
-            Eigen::VectorXd q = attempt == 0 && seed.size() == static_cast<long>(dof()) ? seed : randomConfiguration(rng);
+            JointVector q = attempt == 0 && seed.size() == static_cast<long>(dof()) ? seed : randomConfiguration(rng);
             q = q.cwiseMax(lower_).cwiseMin(upper_);
             Eigen::Matrix<double, 6, 1> error = poseError(pathPose(path, q), target);
             double cost = error.squaredNorm();
@@ -540,10 +544,10 @@ namespace slideplan
             double lambda = 1e-2;
             for (int iteration = 0; iteration < options.maxIterations && !converged(error); ++iteration)
             {
-                const Eigen::Matrix<double, 6, Eigen::Dynamic> jac = pathJacobian(path, q);
+                const Jacobian jac = pathJacobian(path, q);
                 const Eigen::Matrix<double, 6, 6> jjt = jac * jac.transpose() + lambda * Eigen::Matrix<double, 6, 6>::Identity();
-                const Eigen::VectorXd step = jac.transpose() * jjt.ldlt().solve(error);
-                const Eigen::VectorXd candidate = (q + step).cwiseMax(lower_).cwiseMin(upper_);
+                const JointVector step = jac.transpose() * jjt.ldlt().solve(error);
+                const JointVector candidate = (q + step).cwiseMax(lower_).cwiseMin(upper_);
                 const Eigen::Matrix<double, 6, 1> candidateError = poseError(pathPose(path, candidate), target);
                 const double candidateCost = candidateError.squaredNorm();
                 if (candidateCost < cost)

@@ -30,11 +30,11 @@ namespace slideplan
     bool SlidingValidity::isValid(const ompl::base::State *state) const
     {
         const auto *values = state->as<ompl::base::RealVectorStateSpace::StateType>()->values;
-        const Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(values, task_->robot->dof());
+        const Eigen::Map<const Eigen::VectorXd> q(values, task_->robot->dof());
         return isValid(q, task_->robot->fk(q));
     }
 
-    bool SlidingValidity::isValid(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip) const
+    bool SlidingValidity::isValid(const JointsRef &q, const Eigen::Isometry3d &tip) const
     {
         return task_->robot->withinLimits(q) && constraint_->satisfied(tip) &&
                task_->table->contains(tip.translation().head<2>()) && world_->isValid(q, ContactMode::Sliding);

@@ -9,7 +9,7 @@ from handmade_plan import DEPTH_M, PITCH, THICKNESS, build_plan, contact_target
 from slideplan.planning import robot_model
 from slideplan.scenes import load_scene
 from slideplan.transforms import pose_to_row
-from slideplan.verify import overhang, planar_motion, verify
+from slideplan.verify import moved_object_xy, overhang, planar_motion, verify
 from slideplan.geometry import SupportSurface
 from slideplan.viz import draw_plan
 
@@ -109,7 +109,11 @@ def test_a_grasp_nearer_the_edge_than_the_standoff_is_reported(plan):
 
 
 def test_the_overhang_within_the_standoff_is_not_held(plan):
-    plan.params["grasp_standoff"] = 0.001  # the grasp frame lies further out: what is nearer is not in the hand
+    table = SupportSurface.from_vertices(plan.table["polygon"], plan.table["height"])
+    _, _, (start, normal) = overhang(table, moved_object_xy(plan))
+    grasp = np.asarray(plan.grasp["pose"][:2], dtype=float)
+    plan.grasp["pose"][:2] = grasp + (0.04 - (grasp - start) @ normal) * normal  # 4 cm beyond the edge
+    plan.params["grasp_standoff"] = 0.001  # so 3.9 cm of the 2.5 cm overhang lie within the hand's free length
     violations = verify(plan).violations
     assert any("overhang held by the hand" in violation for violation in violations), violations
     assert not any("grasp_standoff" in violation for violation in violations), violations

@@ -38,10 +38,10 @@ namespace slideplan
 
         /// True if configuration q is free of collisions (self, table, obstacles, object if set).
         /// Not thread-safe: one world per planning thread.
-        bool isValid(const Eigen::VectorXd &q, ContactMode mode = ContactMode::Sliding) const;
+        bool isValid(const JointsRef &q, ContactMode mode = ContactMode::Sliding) const;
 
         /// The colliding pairs at q, by link or obstacle name: for diagnostics and the verifier.
-        std::vector<std::pair<std::string, std::string>> collisions(const Eigen::VectorXd &q,
+        std::vector<std::pair<std::string, std::string>> collisions(const JointsRef &q,
                                                                     ContactMode mode = ContactMode::Sliding) const;
 
         /// Put the object in the world as a prism over the convex hull of `outlineXY` between the table
@@ -55,7 +55,7 @@ namespace slideplan
 
     private:
         struct Impl;
-        bool check(const Eigen::VectorXd &q, ContactMode mode,
+        bool check(const JointsRef &q, ContactMode mode,
                    std::vector<std::pair<std::string, std::string>> *report) const;
         std::shared_ptr<const RobotModel> robot_;
         std::unique_ptr<Impl> impl_;

@@ -36,7 +36,8 @@ namespace slideplan
 
 
     private:
-        Eigen::Matrix<double, 3, Eigen::Dynamic> taskJacobian(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip,
+        using TaskJacobian = Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::ColMajor, 3, kMaxJoints>;
+        TaskJacobian taskJacobian(const JointsRef &q, const Eigen::Isometry3d &tip,
                                                               const Eigen::Vector3d &residual) const;
         std::shared_ptr<const RobotModel> robot_;
         double zLow_, zHigh_;          ///< z_F band: [z_s - dz_max, z_s - dz_min]

@@ -83,11 +83,13 @@ namespace slideplan
 
         /// Beyond the paper: every extension step may turn the contact frame (and the object) by at most
         /// this much per metre of fingertip travel over the table (rad/m); 0 allows any turn (the paper).
+        /// Hand-specific (how fast its pad can turn an object: torsional friction), set in [hand] params.
+        /// A hard bound can cut trees apart (they cannot turn on the spot): measured for the T42 only.
         /// Turning on the spot is what fails in execution: in issue 9's replay plans turning more than
         /// 4 deg per cm of fingertip path ended off Eq. 2's pose 3 times in 5, under it 2 in 25. 7 rad/m
         /// (4 deg/cm) cut the p90 of the plans' yaw per cm from 5.8 to 2.3 deg/cm and of their yaw travel
         /// from 373 to 55 deg (square table, 20 plans) at the same planning time.
-        double maxYawRate{7.0};
+        double maxYawRate{0.0};
 
         /// Beyond the paper: the shortcut keeps a walk when it lowers fingertip travel (m) plus this
         /// weight times the object's yaw travel (rad): turning the object in place is what fails in

@@ -20,6 +20,14 @@
 
 namespace slideplan
 {
+    /// Most movable joints a chain may have: per-call Jacobians and joint vectors of the hot path live
+    /// on the stack with this capacity instead of on the heap.
+    constexpr int kMaxJoints = 32;
+    using Jacobian = Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, kMaxJoints>;
+    using JointVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxJoints, 1>;
+    /// Joint values from any contiguous vector (VectorXd, JointVector, an OMPL state's Map), not copied.
+    using JointsRef = Eigen::Ref<const Eigen::VectorXd>;
+
     /// A triangle mesh in its link's collision frame (already scaled).
     struct TriangleMesh
     {
@@ -119,30 +127,30 @@ namespace slideplan
         const Eigen::Isometry3d &tipOffset() const { return tip_.offset; }
         const Eigen::Isometry3d &basePose() const { return basePose_; }
         const std::string &source() const { return source_; }
-        bool withinLimits(const Eigen::VectorXd &q, double tolerance = 1e-9) const;
+        bool withinLimits(const JointsRef &q, double tolerance = 1e-9) const;
 
         /// Gamma(phi): world pose of the contact frame.
-        Eigen::Isometry3d fk(const Eigen::VectorXd &q) const;
+        Eigen::Isometry3d fk(const JointsRef &q) const;
 
         /// World pose of `link` * `offset` (e.g. the grasp frame).
         /// \throws std::invalid_argument for an unknown link.
-        Eigen::Isometry3d framePose(const Eigen::VectorXd &q, const std::string &link,
+        Eigen::Isometry3d framePose(const JointsRef &q, const std::string &link,
                                     const Eigen::Isometry3d &offset = Eigen::Isometry3d::Identity()) const;
-        Eigen::Isometry3d linkPose(const Eigen::VectorXd &q, const std::string &link) const
+        Eigen::Isometry3d linkPose(const JointsRef &q, const std::string &link) const
         {
             return framePose(q, link);
         }
 
         /// Geometric Jacobian of the contact frame in the world frame (rows: linear, angular velocity).
-        Eigen::Matrix<double, 6, Eigen::Dynamic> jacobian(const Eigen::VectorXd &q) const;
+        Jacobian jacobian(const JointsRef &q) const;
 
         /// World poses of all links, indexed like links().
-        void linkPoses(const Eigen::VectorXd &q, std::vector<Eigen::Isometry3d> &poses) const;
+        void linkPoses(const JointsRef &q, std::vector<Eigen::Isometry3d> &poses) const;
 
         /// KDL's answers for the same frame and Jacobian: the reference the kernel is tested against.
-        Eigen::Isometry3d referenceFramePose(const Eigen::VectorXd &q, const std::string &link,
+        Eigen::Isometry3d referenceFramePose(const JointsRef &q, const std::string &link,
                                              const Eigen::Isometry3d &offset = Eigen::Isometry3d::Identity()) const;
-        Eigen::Matrix<double, 6, Eigen::Dynamic> referenceJacobian(const Eigen::VectorXd &q) const;
+        Eigen::Matrix<double, 6, Eigen::Dynamic> referenceJacobian(const JointsRef &q) const;
 
         /// Gamma~(omega): a configuration within the joint limits whose contact frame pose equals target.
         /// Damped least squares (Levenberg-Marquardt damping), starting from `seed`, then from random
@@ -172,11 +180,11 @@ namespace slideplan
             Eigen::Isometry3d offset{Eigen::Isometry3d::Identity()};
         };
         FramePath framePath(const std::string &link, const Eigen::Isometry3d &offset) const;
-        Eigen::Isometry3d pathPose(const FramePath &path, const Eigen::VectorXd &q) const;
-        Eigen::Matrix<double, 6, Eigen::Dynamic> pathJacobian(const FramePath &path, const Eigen::VectorXd &q) const;
+        Eigen::Isometry3d pathPose(const FramePath &path, const JointsRef &q) const;
+        Jacobian pathJacobian(const FramePath &path, const JointsRef &q) const;
         bool solveIk(const FramePath &path, const Eigen::Isometry3d &target, const Eigen::VectorXd &seed,
                      std::mt19937_64 &rng, Eigen::VectorXd &solution, const IkOptions &options) const;
-        double jointValue(const RobotLink &link, const Eigen::VectorXd &q) const
+        double jointValue(const RobotLink &link, const JointsRef &q) const
         {
             return link.jointIndex >= 0 ? link.multiplier * q(link.jointIndex) + link.offset : link.offset;
         }

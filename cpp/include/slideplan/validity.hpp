@@ -25,7 +25,7 @@ namespace slideplan
         bool isValid(const ompl::base::State *state) const override;
 
         /// The same check with the fingertip pose `tip = Gamma(q)` already known.
-        bool isValid(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip) const;
+        bool isValid(const JointsRef &q, const Eigen::Isometry3d &tip) const;
 
         const SlidingTask &task() const { return *task_; }
         const SlidingConstraint &constraint() const { return *constraint_; }
