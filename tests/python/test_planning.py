@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 from slideplan import PlannerConfig, PlanResult, load_object, load_scene, plan, verify
 from slideplan.cli import app
 from slideplan.objects import load_outline, sample_pose_on_table
+from slideplan.planning import robot_model
 
 TABLES = ["square", "round", "triangle", "long"]
 OBJECTS = ["crescent", "square", "L"]
@@ -105,3 +106,21 @@ def test_stats_report_the_fingertip_path_length_and_yaw_travel():
     yaw = sum(abs(planar_motion(row_to_pose(tips[k - 1]), row_to_pose(tips[k]))[2]) for k in range(1, len(tips)))
     assert result.stats["fingertip_path_m"] == pytest.approx(length, rel=1e-9)
     assert result.stats["yaw_travel_rad"] == pytest.approx(yaw, rel=1e-6)
+
+
+def test_the_planned_grasp_can_lift_the_object():
+    # At the triangle table's far corner this task's grasp once had the shoulder at its joint limit, so
+    # the hand could not rise (issue 9's replay): IsPairValid now requires the lift.
+    from slideplan.experiments.execution import _object_at
+    from slideplan.experiments.tasks import build_spec
+
+    task = next(t for t in build_spec("execution", poses=1).tasks if (t.scene, t.object) == ("triangle", "crescent"))
+    scene = load_scene(task.scene)
+    result = plan(scene, _object_at(task.object, task.scale, scene.table.height, (task.x, task.y, task.yaw)),
+                  task.planner_config())
+    assert result.solved
+    robot = robot_model(scene)
+    grasp = np.asarray(result.grasp["config"])
+    raised = np.asarray(robot.frame_pose(grasp, result.robot["tip_link"], result.robot["tip_offset"]))
+    raised[2, 3] += result.params["grasp_lift"]
+    assert robot.ik(raised, seed=grasp, rng_seed=0) is not None
