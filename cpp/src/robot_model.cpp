@@ -536,7 +536,11 @@ namespace slideplan
         };
         for (int attempt = 0; attempt < options.maxAttempts; ++attempt)
         {
-            JointVector q = attempt == 0 && seed.size() == static_cast<long>(dof()) ? seed : randomConfiguration(rng);
+            JointVector q;
+            if (attempt == 0 && seed.size() == static_cast<long>(dof()))
+                q = seed;
+            else
+                q = randomConfiguration(rng);
             q = q.cwiseMax(lower_).cwiseMin(upper_);
             Eigen::Matrix<double, 6, 1> error = poseError(pathPose(path, q), target);
             double cost = error.squaredNorm();
