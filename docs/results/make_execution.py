@@ -21,8 +21,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import shapely
 
-from slideplan.execute import com_margin
+from slideplan.execute import cloud_footprint, com_margin
 from slideplan.experiments.execution import SETTINGS, load_execution, plot_execution, summarize_execution
 from slideplan.experiments.runner import _object_at
 from slideplan.experiments.tasks import Task, cached_scene
@@ -55,13 +56,23 @@ def binned(frame: pd.DataFrame, column: str, edges: list[float], label: str) -> 
     return pd.DataFrame(rows)
 
 
-def grasp_outside(row: pd.Series) -> float:
-    """How far outside the table edge the plan's grasp frame lies (m), by re-planning the task."""
+def replanned(row: pd.Series) -> dict[str, float]:
+    """Features of a plan that its row does not hold, by re-planning its task (deterministic): how far
+    outside the table edge the grasp frame lies, how far the first contact is from the object's centre
+    of mass and from its outline, and the shallowest contact depth (mm)."""
     task = Task(**{field.name: row[field.name] for field in dataclasses.fields(Task)})
     scene = cached_scene(task.scene)
     obj = _object_at(task.object, task.scale, scene.table.height, (task.x, task.y, task.yaw))
     result = plan(scene, obj, task.planner_config())
-    return -com_margin(scene.table, np.asarray(result.grasp["pose"])[:2])
+    tips = np.asarray(result.fingertip_poses)
+    outline = cloud_footprint(np.asarray(result.object["points"])[:, :2])
+    depths = scene.table.height + result.object["thickness"] - tips[:, 2]
+    return {
+        "grasp_outside_mm": -1000 * com_margin(scene.table, np.asarray(result.grasp["pose"])[:2]),
+        "contact_com_mm": 1000 * float(np.linalg.norm(tips[0, :2] - np.asarray(result.object["com_xy"]))),
+        "contact_outline_mm": 1000 * outline.boundary.distance(shapely.Point(tips[0, :2])),
+        "depth_min_mm": 1000 * float(depths.min()),
+    }
 
 
 def comparison(runs: dict[str, pd.DataFrame]) -> pd.DataFrame:
@@ -103,7 +114,7 @@ def report(results: pd.DataFrame, name: str, grasps: bool) -> None:
     failures = executed["nominal_failure"].fillna("").str.replace(r"[-\d.]+", "N", regex=True)
     print(markdown_table(failures[failures != ""].value_counts().rename_axis("nominal failure").reset_index()) + "\n")
     if grasps:
-        executed["grasp_outside_mm"] = [1000 * grasp_outside(row) for _, row in executed.iterrows()]
+        executed = executed.join(pd.DataFrame([replanned(row) for _, row in executed.iterrows()], index=executed.index))
         grasp = pd.cut(executed["grasp_outside_mm"], [-1e4, 15, 25, 1e4], right=False)
         rows = []
         for interval, group in executed.groupby(grasp, observed=True):
@@ -114,17 +125,25 @@ def report(results: pd.DataFrame, name: str, grasps: bool) -> None:
                 "lifted": int(kept["nominal_lifted"].fillna(False).sum()),
             })
         print(markdown_table(pd.DataFrame(rows)) + "\n")
+        for column, edges, label in (("contact_com_mm", [0, 30, 45, 1e4], "first contact from the CoM (mm)"),
+                                     ("contact_outline_mm", [0, 2, 6, 1e4], "first contact inside the outline (mm)"),
+                                     ("depth_min_mm", [0, 6, 10, 1e4], "shallowest contact depth (mm)")):
+            print(markdown_table(binned(executed, column, edges, label)) + "\n")
     print("median: path {:.2f} m, wall time per execution {:.1f} s (nominal)\n".format(
         executed["tip_path_m"].median(), executed["nominal_wall_time_s"].median()))
 
 
 def main() -> None:
-    runs = {"default": load_execution(HERE / "execution.parquet"),
-            "paper's pair conditions": load_execution(HERE / "execution_paper.parquet")}
-    print(markdown_table(comparison(runs)) + "\n")
-    for name, results in runs.items():
-        report(results, name, grasps=True)
-    for path in plot_execution(runs["default"], HERE / "figures"):
+    default, paper = load_execution(HERE / "execution.parquet"), load_execution(HERE / "execution_paper.parquet")
+    same_tasks = default[default["pose_index"].isin(paper["pose_index"].unique())]
+    print(markdown_table(comparison({
+        f"default, all {len(default)} tasks": default,
+        f"default, the {len(same_tasks)} tasks below": same_tasks,
+        "paper's pair conditions": paper,
+    })) + "\n")
+    report(default, "default planner", grasps=True)
+    report(paper, "paper's pair conditions", grasps=True)
+    for path in plot_execution(default, HERE / "figures"):
         print(path, file=sys.stderr)
 
 
