@@ -25,7 +25,10 @@ print("not interrupted", flush=True)
 
 
 def test_ctrl_c_stops_planning_within_half_a_second():
-    process = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # A background job inherits SIGINT ignored, and Python then installs no KeyboardInterrupt handler:
+    # give the child the default disposition, as a terminal's foreground process has.
+    process = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         assert process.stdout.readline().strip() == "planning"
         time.sleep(1.5)  # well inside the solve
