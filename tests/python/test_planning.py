@@ -33,7 +33,7 @@ def assert_verified(result: PlanResult):
 @pytest.mark.parametrize("object_name", OBJECTS)
 def test_builtin_tables_and_objects_are_solved_and_verified(table, object_name):
     scene, obj = task(table, object_name, pose_seed=11)
-    result = plan(scene, obj, PlannerConfig(seed=5, time_limit_s=20.0))
+    result = plan(scene, obj, PlannerConfig(seed=5, time_limit_s=60.0))  # the paper's budget: this asserts solvability
     assert result.status == "solved", result.stats
     assert result.overhang_m >= result.params["u_star"]
     assert_verified(result)
