@@ -37,6 +37,8 @@ namespace slideplan
         require(finite(maxObjectYaw) && maxObjectYaw > 0.0, "max_object_yaw must be > 0");
         require(finite(maxYawRate) && maxYawRate >= 0.0, "max_yaw_rate must be >= 0");
         require(finite(comMargin) && comMargin >= 0.0, "com_margin must be >= 0");
+        require(finite(contactRadius) && contactRadius >= 0.0, "contact_radius must be >= 0");
+        require(finite(pairedGoals) && pairedGoals >= 0.0 && pairedGoals <= 1.0, "paired_goals must be in [0, 1]");
         require(finite(shortcutYawWeight) && shortcutYawWeight >= 0.0, "shortcut_yaw_weight must be >= 0");
     }
 

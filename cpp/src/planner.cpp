@@ -1,6 +1,7 @@
 #include "slideplan/planner.hpp"
 
 #include "slideplan/contact_frame.hpp"
+#include "slideplan/paired_goal.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -85,7 +86,7 @@ namespace slideplan
         result_ = PlanResult();
     }
 
-    bool SlidingPlanner::addRoot(Forest &forest)
+    bool SlidingPlanner::addRoot(Forest &forest, const ob::PlannerTerminationCondition &ptc)
     {
         ++result_.stats.rootSamples;
         // Warm start from the forest's latest root (neighbouring contact poses have nearby IK solutions),
@@ -96,14 +97,28 @@ namespace slideplan
                                      : !other.roots.empty() ? other.roots.back()->q
                                                             : Eigen::VectorXd();
         Eigen::VectorXd q;
-        if (!forest.region->sample(rng_, seed, q))
+        // Beyond the paper: some goal roots are drawn for a start root (paired_goal.hpp), the others as
+        // Algorithm 1 draws them. The baselines draw theirs as published.
+        const bool paired = !forest.isStart && params_.policy == RootPolicy::Sampled && !startForest_->roots.empty() &&
+                            std::uniform_real_distribution<double>(0.0, 1.0)(rng_) < params_.pairedGoals;
+        if (paired)
+        {
+            const Node *start = startForest_->roots[std::uniform_int_distribution<std::size_t>(0, startForest_->roots.size() - 1)(rng_)];
+            Eigen::Isometry3d target;
+            if (!pairedGoalTarget(*task_, params_, *pairValidator_, start->tip, start->q, rng_, target) ||
+                !forest.region->reach(target, rng_, seed, q, ptc))
+                return false;
+        }
+        else if (!forest.region->sample(rng_, seed, q, ptc))
             return false;
         const Eigen::Isometry3d tip = task_->robot->fk(q);
         // Beyond the paper: a goal root by an edge stretch with no reachable side grasp mostly grows trees
         // whose pairs fail at the grasp (the triangle table's far edges). One in kKeep is kept: the
-        // object may overhang a stretch further along, and one failed IK is not a proof.
+        // object may overhang a stretch further along, and one failed IK is not a proof. A paired root's
+        // own grasp is screened by the grasp map already.
         constexpr int kKeep = 10;
-        if (!forest.isStart && params_.graspMap && !pairValidator_->graspReachableNear(tip.translation().head<2>(), q, rng_) &&
+        if (!forest.isStart && !paired && params_.graspMap &&
+            !pairValidator_->graspReachableNear(tip.translation().head<2>(), q, rng_) &&
             std::uniform_int_distribution<int>(1, kKeep)(rng_) != 1)
             return false;
         forest.add(q, tip, nullptr);
@@ -319,7 +334,7 @@ namespace slideplan
             while (!ptc)
             {
                 result_.stats.rootSamples += 2;
-                if (!startForest_->region->sample(rng_, start, start) || !goalForest_->region->sample(rng_, goal, goal))
+                if (!startForest_->region->sample(rng_, start, start, ptc) || !goalForest_->region->sample(rng_, goal, goal, ptc))
                     continue;
                 ++result_.stats.pairsChecked;
                 PairVerdict verdict = pairValidator_->check(start, goal, rng_, ptc);
@@ -338,9 +353,9 @@ namespace slideplan
         }
         // Algorithm 1 line 1 (Init) for both forests; CBiRRT2's single start is drawn the same way.
         while (!ptc && startForest_->roots.empty())
-            addRoot(*startForest_);
+            addRoot(*startForest_, ptc);
         while (!ptc && goalForest_->roots.empty())
-            addRoot(*goalForest_);
+            addRoot(*goalForest_, ptc);
         return !startForest_->roots.empty() && !goalForest_->roots.empty();
     }
 
@@ -406,7 +421,7 @@ namespace slideplan
             const bool mayAddRoot = params_.policy == RootPolicy::Sampled || (params_.policy == RootPolicy::FixedStart && !a->isStart);
             if (mayAddRoot && canAddRoot(static_cast<int>(startForest_->roots.size()), static_cast<int>(goalForest_->roots.size()),
                                          params_.nStar, rng_))
-                addRoot(*a);
+                addRoot(*a, ptc);
             Eigen::VectorXd random(robot.dof());
             for (unsigned i = 0; i < robot.dof(); ++i)
                 random(i) = robot.lowerLimits()(i) + unit(rng_) * (robot.upperLimits()(i) - robot.lowerLimits()(i));

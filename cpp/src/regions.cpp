@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace slideplan
@@ -28,7 +29,8 @@ namespace slideplan
         reach_ += robot.tipOffset().translation().norm();
     }
 
-    bool ContactRegion::sample(std::mt19937_64 &rng, const Eigen::VectorXd &seed, Eigen::VectorXd &q) const
+    bool ContactRegion::sample(std::mt19937_64 &rng, const Eigen::VectorXd &seed, Eigen::VectorXd &q,
+                               const ompl::base::PlannerTerminationCondition &ptc) const
     {
         const SlidingTask &task = validity_->task();
         std::uniform_real_distribution<double> yaw(-M_PI, M_PI), depth(params_.dzMin, params_.dzMax);
@@ -38,19 +40,40 @@ namespace slideplan
         Eigen::Isometry3d target = Eigen::Isometry3d::Identity();
         target.linear() = contactRotation(yaw(rng), params_.beta0);
         target.translation() << point, task.surfaceZ - depth(rng);
+        return reach(target, rng, seed, q, ptc);
+    }
+
+    bool ContactRegion::reach(const Eigen::Isometry3d &target, std::mt19937_64 &rng, const Eigen::VectorXd &seed,
+                              Eigen::VectorXd &q, const ompl::base::PlannerTerminationCondition &ptc) const
+    {
+        const SlidingTask &task = validity_->task();
         if ((target.translation() - task.robot->basePose().translation()).norm() > reach_)
             return false;
         IkOptions options;
         options.maxAttempts = params_.rootIkAttempts;
         options.positionTolerance = options.orientationTolerance = 0.1 * params_.projectionTolerance;
+        options.stop = [&ptc] { return ptc(); };
         return task.robot->ik(target, seed, rng, q, options) && validity_->isValid(q, task.robot->fk(q));
+    }
+
+    StartRegion::StartRegion(std::shared_ptr<const SlidingValidity> validity, const PlannerParams &params)
+      : ContactRegion(std::move(validity), params)
+    {
+        const SlidingTask &task = validity_->task();
+        const Eigen::VectorXd distance = (task.objectXY.rowwise() - task.objectCom.transpose()).rowwise().norm();
+        // Measured from the closest point, so that an object whose centre of mass lies off its material
+        // (a crescent, a ring) keeps the contacts nearest to it.
+        const double limit = params_.contactRadius > 0.0 ? distance.minCoeff() + params_.contactRadius
+                                                         : std::numeric_limits<double>::infinity();
+        for (Eigen::Index i = 0; i < distance.size(); ++i)
+            if (distance(i) <= limit)
+                candidates_.push_back(i);
     }
 
     bool StartRegion::samplePoint(std::mt19937_64 &rng, Eigen::Vector2d &point) const
     {
-        const Polygon2 &cloud = validity_->task().objectXY;
-        std::uniform_int_distribution<long> index(0, cloud.rows() - 1);
-        point = cloud.row(index(rng)).transpose();
+        std::uniform_int_distribution<std::size_t> index(0, candidates_.size() - 1);
+        point = validity_->task().objectXY.row(candidates_[index(rng)]).transpose();
         return true;
     }
 

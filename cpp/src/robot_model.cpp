@@ -536,6 +536,8 @@ namespace slideplan
         };
         for (int attempt = 0; attempt < options.maxAttempts; ++attempt)
         {
+            if (attempt > 0 && options.stop && options.stop())
+                return false;
             JointVector q;
             if (attempt == 0 && seed.size() == static_cast<long>(dof()))
                 q = seed;

@@ -80,6 +80,12 @@ class PlannerConfig:
             (the same grasp for a hand whose fingers close symmetrically).
         grasp_map: beyond the paper, remember the 1 cm table-edge stretches where no side grasp was
             reachable, and reject and screen pairs whose grasp falls there without another IK.
+        paired_goals: beyond the paper, the share of goal-root draws made for a randomly chosen start
+            root so that Eq. 2 leaves the object overhanging an edge with its centre of mass on the
+            table (docs/paper-to-code.md); 0 draws every goal root as Algorithm 1 does.
+        contact_radius: beyond the paper, start contacts are drawn from the cloud points at most this
+            much farther from the centre of mass than the closest one (m): pushes far from the centre
+            of mass left Eq. 2 in the physics replay; 0 draws from the whole cloud, as Eq. 3 does.
         shortcut_attempts: beyond the paper, tries to shorten the solved path by constrained walks
             between two of its waypoints; 0 returns the tree path.
         shortcut_yaw_weight: beyond the paper, the shortcut keeps a walk that lowers fingertip travel
@@ -119,6 +125,8 @@ class PlannerConfig:
     screen_pairs: bool = _CORE_DEFAULTS.screen_pairs
     grasp_flip: bool = _CORE_DEFAULTS.grasp_flip
     grasp_map: bool = _CORE_DEFAULTS.grasp_map
+    paired_goals: float = _CORE_DEFAULTS.paired_goals
+    contact_radius: float = _CORE_DEFAULTS.contact_radius
     shortcut_attempts: int = _CORE_DEFAULTS.shortcut_attempts
     shortcut_yaw_weight: float = _CORE_DEFAULTS.shortcut_yaw_weight
     max_object_yaw: float = _CORE_DEFAULTS.max_object_yaw
@@ -150,6 +158,8 @@ class PlannerConfig:
                     raise InputError(f"must be > 0, got {value!r}", field=name)
                 if value < 0:
                     raise InputError(f"must be >= 0, got {value!r}", field=name)
+                if name == "paired_goals" and value > 1:
+                    raise InputError(f"must be in [0, 1], got {value!r}", field=name)
         if self.dz_min > self.dz_max:
             raise InputError(
                 f"must be >= dz_min ({self.dz_min!r}), got {self.dz_max!r} (negative reconfiguration range)",

@@ -1,5 +1,7 @@
 #include "slideplan/contact_frame.hpp"
+#include "slideplan/paired_goal.hpp"
 #include "slideplan/planner.hpp"
+#include "slideplan/regions.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -162,6 +164,77 @@ TEST(PairValidator, AcceptsASlideThatLeavesAGraspableOverhang)
     EXPECT_NEAR(verdict.graspPose.translation().z(), 0.5 * kThickness, 1e-12);
     ASSERT_FALSE(verdict.approach.empty());
     EXPECT_TRUE(task->robot->linkPose(verdict.approach.back(), "t42_grasp").isApprox(verdict.graspPose, 1e-6));
+}
+
+TEST(PairedGoal, CarriesTheObjectToAGraspableOverhangWithTheContactInTheGoalBand)
+{
+    const auto task = plateTask({0.45, 0.0});
+    PlannerParams params;
+    params.comMargin = 0.005;
+    params.maxObjectYaw = 0.5;
+    const PairValidator validator(task, params);
+    const Eigen::VectorXd start = contactConfig(*task, params, 0.46, 0.01);
+    const Eigen::Isometry3d startTip = task->robot->fk(start);
+    std::mt19937_64 rng(4);
+    int drawn = 0;
+    for (int k = 0; k < 40; ++k)
+    {
+        Eigen::Isometry3d target;
+        if (!pairedGoalTarget(*task, params, validator, startTip, start, rng, target))
+            continue;
+        ++drawn;
+        // The drawn goal frame is a contact frame of C_g: pitch beta0, roll 0, depth in the band, in P_g.
+        const ContactAngles angles = contactAngles(target.linear());
+        EXPECT_NEAR(angles.pitch, params.beta0, 1e-9);
+        EXPECT_NEAR(angles.roll, 0.0, 1e-9);
+        const double depth = task->surfaceZ - target.translation().z();
+        EXPECT_GE(depth, params.dzMin);
+        EXPECT_LE(depth, params.dzMax);
+        const double inside = task->table->signedDistance(target.translation().head<2>());
+        EXPECT_GT(inside, 0.0);
+        EXPECT_LE(inside, params.dGoal);
+        // Eq. 2 from the start frame to it leaves the object graspable, its CoM inside by com_margin.
+        const Overhang overhang = validator.overhang(objectMotion(startTip, target));
+        EXPECT_TRUE(validator.graspable(overhang)) << "held " << overhang.held;
+        EXPECT_TRUE(overhang.comInside) << "CoM margin " << overhang.comMargin;
+        EXPECT_LE(std::abs(overhang.motion.yaw), params.maxObjectYaw + 1e-12);
+    }
+    EXPECT_GE(drawn, 20);
+}
+
+TEST(StartRegion, DrawsContactsWithinTheContactRadiusOfTheCentreOfMass)
+{
+    const Eigen::Vector2d centre(0.45, 0.0);
+    const auto task = plateTask(centre);
+    const auto si = std::make_shared<ompl::base::SpaceInformation>(jointSpace(*task->robot));
+    PlannerParams params;
+    const auto validity = std::make_shared<SlidingValidity>(
+        si, task, std::make_shared<SlidingConstraint>(task->robot, task->surfaceZ, params));
+    std::mt19937_64 rng(5);
+    double farthest = 0.0;
+    for (const double radius : {0.02, 0.0})
+    {
+        params.contactRadius = radius;
+        const StartRegion region(validity, params);
+        farthest = 0.0;
+        for (int i = 0; i < 500; ++i)
+        {
+            Eigen::Vector2d point;
+            ASSERT_TRUE(region.samplePoint(rng, point));
+            farthest = std::max(farthest, (point - centre).norm());
+        }
+        if (radius > 0.0)
+            EXPECT_LE(farthest, radius + 1e-12);  // the plate's centre point is its centre of mass
+    }
+    EXPECT_GT(farthest, 0.05);  // 0: the whole plate, corners 7 cm out
+}
+
+TEST(SlidingPlanner, SolvesWithOnlyPairedGoalRoots)
+{
+    const auto task = plateTask({0.6, 0.0});
+    PlannerParams params;
+    params.pairedGoals = 1.0;
+    expectValidPlan(*task, params, planSliding(task, params, 5, within(30.0)));
 }
 
 TEST(PairValidator, RejectsTooLittleOverhangAndACentreOfMassOffTheTable)

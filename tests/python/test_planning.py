@@ -66,6 +66,9 @@ def test_config_maps_onto_core_params():
     params = PlannerConfig(planner="cbirrt2", n_star=50.0).with_reconfiguration_range(0.01).to_params()
     assert (params.policy, params.n_star, params.dz_max) == ("cbirrt2", 50.0, pytest.approx(0.015))
     params.validate()
+    for bad in (-0.1, 1.5):
+        with pytest.raises(ValueError, match="paired_goals"):
+            PlannerConfig(paired_goals=bad)
 
 
 def test_object_off_the_table_is_an_input_error():

@@ -64,6 +64,18 @@ namespace slideplan
         /// reachable, and reject (and screen) pairs whose grasp falls there without another IK.
         bool graspMap{true};
 
+        /// Beyond the paper: the share of goal-root draws made for a randomly chosen start root, so that
+        /// Eq. 2 leaves the object overhanging an edge with its centre of mass on the table
+        /// (paired_goal.hpp); the rest are drawn from C_g as Algorithm 1 does. 0 is the paper; the
+        /// baselines (cbirrt, cbirrt2) always draw as published.
+        double pairedGoals{0.9};
+
+        /// Beyond the paper: start contacts are drawn from the cloud points at most this much farther
+        /// from the centre of mass than the closest point (Eq. 3 restricted): a push far from the
+        /// centre of mass turns the object against the finger's torsional friction, and such slides
+        /// left Eq. 2 in the physics replay (issue 9). 0: the whole cloud, as the paper does.
+        double contactRadius{0.03};
+
         /// Beyond the paper: attempts to shorten the solved path by constrained walks between two of
         /// its waypoints (same step bounds and checks as extension); 0 returns the tree path as is.
         int shortcutAttempts{50};

@@ -45,7 +45,7 @@ namespace slideplan
         struct Forest;
 
         /// Pi.AddFromRegion(): one draw from the forest's region; a valid configuration becomes a root.
-        bool addRoot(Forest &forest);
+        bool addRoot(Forest &forest, const ompl::base::PlannerTerminationCondition &ptc);
         /// One step of ConstrainedExtend from `from` towards `target`: interpolate, project onto the
         /// relaxed constraint, and refuse the step if projection fails, it jumps (joint or fingertip
         /// bound), progress stalls or the state is invalid.

@@ -7,7 +7,9 @@
 #include "slideplan/params.hpp"
 #include "slideplan/validity.hpp"
 
+#include <ompl/base/PlannerTerminationCondition.h>
 #include <random>
+#include <vector>
 
 namespace slideplan
 {
@@ -19,7 +21,14 @@ namespace slideplan
 
         /// Draw omega, solve Gamma~(omega) from `seed` (then random restarts) and keep the result if it
         /// is a valid sliding state. Returns false if this draw gave no valid configuration.
-        bool sample(std::mt19937_64 &rng, const Eigen::VectorXd &seed, Eigen::VectorXd &q) const;
+        /// The IK restarts stop when `ptc` does.
+        bool sample(std::mt19937_64 &rng, const Eigen::VectorXd &seed, Eigen::VectorXd &q,
+                    const ompl::base::PlannerTerminationCondition &ptc) const;
+
+        /// Solve Gamma~(omega) for a drawn contact frame `target` (IK from `seed`, then restarts until
+        /// `ptc`) and keep the result if it is a valid sliding state.
+        bool reach(const Eigen::Isometry3d &target, std::mt19937_64 &rng, const Eigen::VectorXd &seed, Eigen::VectorXd &q,
+                   const ompl::base::PlannerTerminationCondition &ptc) const;
 
         /// The contact point (x, y) of a draw; false if this draw found none.
         virtual bool samplePoint(std::mt19937_64 &rng, Eigen::Vector2d &point) const = 0;
@@ -30,12 +39,16 @@ namespace slideplan
         double reach_;  ///< upper bound of the distance from the base to the tip: cheap rejection before IK
     };
 
-    /// Eq. 3: contact points from the object's cloud P_o.
+    /// Eq. 3: contact points from the object's cloud P_o; beyond the paper, only those within
+    /// params.contactRadius of the closest distance to the centre of mass.
     class StartRegion final : public ContactRegion
     {
     public:
-        using ContactRegion::ContactRegion;
+        StartRegion(std::shared_ptr<const SlidingValidity> validity, const PlannerParams &params);
         bool samplePoint(std::mt19937_64 &rng, Eigen::Vector2d &point) const override;
+
+    private:
+        std::vector<Eigen::Index> candidates_;  ///< rows of P_o that may be drawn
     };
 
     /// Eq. 4: contact points P_g from the band between Q and Q contracted inward by d_goal, lifted to z_s.

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <kdl/segment.hpp>
+#include <functional>
 #include <map>
 #include <memory>
 #include <random>
@@ -97,6 +98,9 @@ namespace slideplan
         int maxAttempts{50};             ///< the seed, then random restarts
         double positionTolerance{1e-8};  ///< metres
         double orientationTolerance{1e-8};  ///< radians
+        /// Asked before every restart: true ends the search unsolved (a planner's time limit, so that
+        /// many attempts per call cannot overrun it). Empty: never.
+        std::function<bool()> stop;
     };
 
     /// A serial arm (the chain from the base link to the tip link) inside a robot tree; every link is

@@ -126,6 +126,12 @@ namespace slideplan::bindings
             .def_readwrite("grasp_map", &PlannerParams::graspMap,
                            "Beyond the paper: remember the 1 cm edge stretches where no side grasp was reachable and "
                            "reject and screen pairs whose grasp falls there.")
+            .def_readwrite("paired_goals", &PlannerParams::pairedGoals,
+                           "Beyond the paper: share of goal-root draws made for a start root so that Eq. 2 leaves the "
+                           "object overhanging an edge (0: Algorithm 1's draws only).")
+            .def_readwrite("contact_radius", &PlannerParams::contactRadius,
+                           "Beyond the paper: start contacts lie at most this much farther from the centre of mass "
+                           "than the closest cloud point (m; 0: the whole cloud, Eq. 3).")
             .def_readwrite("shortcut_attempts", &PlannerParams::shortcutAttempts,
                            "Beyond the paper: tries to shorten the solved path by constrained walks (0: off).")
             .def_property(
