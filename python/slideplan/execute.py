@@ -16,8 +16,8 @@ The model (docs/execution.md gives the numbers and why):
   :attr:`ExecutionSettings.finger_stiffness`) along the world vertical as seen from the finger at the
   planned pitch ``beta0``; a spherical pad whose lowest point is the contact frame ``F`` is the only
   geometry of the contact links that touches anything while sliding. The planned contact depth
-  ``z_s - z_F`` is thus the spring's compression, and the normal force is ``k * depth``: 1-5 N for the
-  default band [0.5, 2.5] cm at 200 N/m.
+  ``z_s - z_F`` is thus the spring's compression, and the normal force is ``k * depth``: 2-6 N for the
+  T42's band [1, 3] cm at 200 N/m.
 - **Object**: boxes on a square grid (:attr:`ExecutionSettings.cell_size`), each the bounding box of
   its cell's part of the point cloud's footprint (:func:`object_boxes`), one rigid body of uniform
   density, so table friction is spread over the footprint.

@@ -250,6 +250,10 @@ def test_tasks_plan_with_the_hand_parameters_and_the_given_params():
     scene_standoff = load_scene(default.tasks[0].scene).hand.params["grasp_standoff"]
     assert default.tasks[0].planner_config().grasp_standoff == scene_standoff > 0
     assert paper.tasks[0].planner_config().grasp_standoff == 0.0
+    # Execution presses with the hand's depth band (a force there); the paper's figures keep the paper's.
+    hand = load_scene(default.tasks[0].scene).hand.params
+    assert (default.tasks[0].dz_min, default.tasks[0].dz_max) == (hand["dz_min"], hand["dz_max"]) != (0.005, 0.025)
+    assert {t.dz_min for t in build_spec("fig10", poses=1).tasks} == {0.005}
     assert {task.task_id for task in default.tasks}.isdisjoint(task.task_id for task in paper.tasks)
     with pytest.raises(InputError) as error:
         build_spec("execution", poses=1, params={"no_such_parameter": 1})

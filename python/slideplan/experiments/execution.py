@@ -58,7 +58,7 @@ def stress_settings(dz_min: float) -> ExecutionSettings:
     """The stress setting: torsional friction halved, the finger pressing ``dz_min`` deep throughout.
 
     Args:
-        dz_min: the plan's shallowest contact depth (m).
+        dz_min: the plan's `dz_min`, the shallowest depth of its band (m).
     """
     nominal = ExecutionSettings()
     return dataclasses.replace(
@@ -92,7 +92,8 @@ def run_execution_task(task: Task) -> dict:
             solved=True, overhang_m=result.overhang_m, tip_path_m=tip_path, yaw_travel_deg=math.degrees(yaw_travel),
             straight_m=float(np.linalg.norm(ends[1] - ends[0])),
         )
-        for name, settings in (("nominal", ExecutionSettings()), ("stress", stress_settings(task.dz_min))):
+        stress = stress_settings(float(result.params["dz_min"]))
+        for name, settings in (("nominal", ExecutionSettings()), ("stress", stress)):
             execution = execute(result, settings)
             row["planned_com_margin_m"] = execution.planned_com_margin_m
             outcome = dataclasses.asdict(execution)

@@ -202,25 +202,31 @@ def _tasks(
     poses: int,
     settings: tuple[_Setting, ...],
     base: PlannerConfig,
+    hand_band: bool = False,
 ) -> tuple[Task, ...]:
-    """Every combination of scene x object x scale x pose x setting, in that order."""
+    """Every combination of scene x object x scale x pose x setting, in that order; the contact depth
+    band is ``base``'s (the paper's protocol), or with ``hand_band`` the scene's hand's."""
     tasks = []
     for scene in scenes:
+        scene_base = base
+        if hand_band:
+            hand = PlannerConfig.for_scene(cached_scene(scene))
+            scene_base = dataclasses.replace(base, dz_min=hand.dz_min, dz_max=hand.dz_max)
         for object_name in objects:
             for scale in scales:
                 for pose_index in range(poses):
-                    (x, y, yaw), planner_seed = initial_pose_and_seed(scene, object_name, scale, pose_index, base.seed)
+                    (x, y, yaw), planner_seed = initial_pose_and_seed(scene, object_name, scale, pose_index, scene_base.seed)
                     for setting in settings:
-                        config = base.with_reconfiguration_range(
-                            base.reconfiguration_range if setting.reconfiguration_range_m is None
+                        config = scene_base.with_reconfiguration_range(
+                            scene_base.reconfiguration_range if setting.reconfiguration_range_m is None
                             else setting.reconfiguration_range_m
                         )
                         tasks.append(Task(
                             experiment=experiment, scene=scene, object=object_name, scale=scale,
                             pose_index=pose_index, x=x, y=y, yaw=yaw, seed=planner_seed,
                             planner=setting.planner, dz_min=config.dz_min, dz_max=config.dz_max,
-                            n_star=base.n_star if setting.n_star is None else setting.n_star,
-                            time_limit_s=base.time_limit_s,
+                            n_star=scene_base.n_star if setting.n_star is None else setting.n_star,
+                            time_limit_s=scene_base.time_limit_s,
                         ))
     return tuple(tasks)
 
@@ -285,7 +291,8 @@ def fig12_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Tas
 def execution_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
     """Execution: the full-size tasks of Fig. 10 (5 objects x 4 tables, same poses and planner seeds
     for the same experiment seed), each planned and then executed in MuJoCo in a nominal and a
-    stress setting (:mod:`slideplan.experiments.execution`).
+    stress setting (:mod:`slideplan.experiments.execution`). The contact depth band is the hand's
+    (a physical quantity here: the finger's normal force), not the paper's.
 
     Args:
         base: supplies the seed, the time limit and ``dz_min``.
@@ -294,7 +301,7 @@ def execution_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple
     """
     return _tasks(
         "execution", scenes=TABLES, objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
-        poses=_pose_count(poses, quick, 10), settings=(_Setting(),), base=base,
+        poses=_pose_count(poses, quick, 10), settings=(_Setting(),), base=base, hand_band=True,
     )
 
 
