@@ -30,11 +30,13 @@ OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")
 # IsPairValid as the paper states it (no turn bound, CoM merely inside, H_g at the centroid of P_out): the
 # baselines of paper V-6 are compared under it, as in the paper.
 PAPER_PAIR = {"max_object_yaw": math.pi, "com_margin": 0.0, "grasp_standoff": 0.0}
-PUBLISHED = {"screen_pairs": False, "shortcut_attempts": 0, "grasp_flip": False, "grasp_map": False, **PAPER_PAIR}
+PUBLISHED = {"screen_pairs": False, "shortcut_attempts": 0, "grasp_flip": False, "grasp_map": False, "paired_goals": 0.0,
+             **PAPER_PAIR}
 VARIANTS = (  # (label, planner, reconfiguration range dz* in metres, None: the hand's)
     ("slideplan hand", "slideplan", None),
     ("Algorithm 1 as published dz*=2cm", "published", 0.02),
     ("slideplan dz*=2cm", "slideplan", 0.02),
+    ("slideplan dz*=2cm, paired goals off", "unpaired", 0.02),
     ("slideplan dz*=0.5cm", "slideplan", 0.005),
     ("slideplan dz*=0cm", "slideplan", 0.0),
     ("cbirrt dz*=2cm, paper's pair conditions", "cbirrt", 0.02),
@@ -62,7 +64,7 @@ def run_one(job: tuple[str, str, str, float | None, str, int, float]) -> tuple[s
     pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([pose_index, OBJECTS.index(object_name)]),
                                 avoid=scene.footprints(scene.table.height + thickness))
     obj = load_object(object_name, table_height=scene.table.height, pose=pose)
-    overrides = {"published": PUBLISHED, "slideplan": {}}.get(planner, {"planner": planner, **PAPER_PAIR})
+    overrides = {"published": PUBLISHED, "slideplan": {}, "unpaired": {"paired_goals": 0.0}}.get(planner, {"planner": planner, **PAPER_PAIR})
     config = PlannerConfig.for_scene(scene, seed=pose_index, time_limit_s=time_limit, **overrides)
     if reconfiguration is not None:
         config = config.with_reconfiguration_range(reconfiguration)
