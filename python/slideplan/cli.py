@@ -317,6 +317,11 @@ def perceive_command(
     try:
         scene = load_scene(str(scene_path))
         config = _config_from_options(scene, seed, time_limit, None, "slideplan", [])
+        # The plan must hold on the true geometry: the margins measured from the perceived edges grow
+        # by how far those edges may be off.
+        margin = perception.edge_uncertainty
+        config = dataclasses.replace(config, u_star=config.u_star + margin, grasp_standoff=config.grasp_standoff + margin)
+        typer.echo(f"planning with u* and grasp_standoff raised by the perception's edge uncertainty, {1000 * margin:.1f} mm")
         obj, _ = _load_object(scene, str(cloud_paths[plan_target]), None, seed)
         result = _plan_verify_write(scene, obj, config, json_out, png_out)
     except (InputError, ValueError, OSError) as error:

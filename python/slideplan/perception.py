@@ -88,6 +88,14 @@ class Perception:
     warnings: list[str] = field(default_factory=list)
     cell_size: float = 0.0
 
+    @property
+    def edge_uncertainty(self) -> float:
+        """How far the true edges may lie from the perceived ones (m): the table outline is the hull
+        of sampled points (up to half a cell inside the edge) simplified by _OUTLINE_TOLERANCE, and an
+        object's edge is placed to within half a cell; an overhang measured between the two may
+        be off by their sum."""
+        return self.cell_size + _OUTLINE_TOLERANCE
+
     def scene(self, robot_scene: str | Path = "square") -> Scene:
         """The perceived scene: this table and these obstacles, with another scene's robot.
 
