@@ -196,7 +196,8 @@ class PlanView:
 
     def _set_camera(self) -> None:
         """Look at the object from beyond it, seen from the robot, a little to the side and above:
-        the object, the table edge it overhangs and the arm behind it are all in view."""
+        the object, the table edge it overhangs and the arm behind it are all in view; steep enough
+        that the wrist above the object does not hide it."""
         polygon = np.asarray(self.result.table["polygon"], dtype=float)
         height = float(self.result.table["height"])
         target = np.asarray(self.result.object["com_xy"], dtype=float)
@@ -208,7 +209,7 @@ class PlanView:
         distance = max(float(np.ptp(polygon, axis=0).max()), 0.5) * 1.05
         camera = self.server.initial_camera
         camera.look_at = np.append((target + base) / 2, height + 0.15)
-        camera.position = np.append(target + distance * np.array([math.cos(heading), math.sin(heading)]), height + 0.8 * distance)
+        camera.position = np.append(target + 0.7 * distance * np.array([math.cos(heading), math.sin(heading)]), height + 1.2 * distance)
 
     # -- scene --------------------------------------------------------------------------------
 
