@@ -13,7 +13,7 @@ from slideplan import InputError, load_scene, perceive
 from slideplan.cli import app
 from slideplan.objects import ThinObject, load_object, load_outline
 from slideplan.perception import register_outline, write_perception
-from slideplan.planning import PlanResult
+from slideplan.planning import PlannerConfig, PlanResult
 from slideplan.rendering import Box, place_objects, render_scene
 from slideplan.verify import moved_object_xy, overhang, verify
 
@@ -100,7 +100,11 @@ def true_geometry_plan(result, truth, placed):
     table = {"polygon": truth.table.vertices, "height": truth.table.height}
     obj = {**result.object, "thickness": placed.thickness, "points": true_object.points,
            "com_xy": np.array(placed.outline.centroid.coords[0])}
-    swapped = dataclasses.replace(result, table=table, object=obj)
+    # The plan's u* and grasp standoff were raised by the perception's edge uncertainty; on the true
+    # geometry it owes the hand's own.
+    hand = PlannerConfig.for_scene(load_scene("square"))
+    params = {**result.params, "u_star": hand.u_star, "grasp_standoff": hand.grasp_standoff}
+    swapped = dataclasses.replace(result, table=table, object=obj, params=params)
     return dataclasses.replace(swapped, overhang_m=overhang(truth.table, moved_object_xy(swapped))[0])
 
 
@@ -112,6 +116,10 @@ def test_perceive_and_plan_passes_verification_against_the_truth(tmp_path, squar
                                  "--time-limit", "30", "--json", str(plan_json)])
     assert result.exit_code == 0, (result.output, result.stderr)
     plan = PlanResult.from_json(plan_json.read_text())
+    hand = PlannerConfig.for_scene(load_scene("square"))
+    margin = perceive(square_scene.points).edge_uncertainty
+    assert plan.params["grasp_standoff"] == pytest.approx(hand.grasp_standoff + margin)
+    assert plan.params["u_star"] == pytest.approx(hand.u_star + margin)
     target = perceive(square_scene.points).objects[0]
     placed = min(square_scene.objects, key=lambda item: np.linalg.norm(np.array(item.outline.centroid.coords[0]) - target.centroid_xy))
     verification = verify(true_geometry_plan(plan, square_scene, placed))
