@@ -9,6 +9,7 @@
 #include <ompl/geometric/planners/rrt/RRTConnect.h>
 
 #include <cmath>
+#include <stdexcept>
 
 namespace ob = ompl::base;
 namespace og = ompl::geometric;
@@ -35,11 +36,16 @@ namespace slideplan
         };
     }  // namespace
 
-    PairValidator::PairValidator(std::shared_ptr<const SlidingTask> task, const PlannerParams &params)
+    PairValidator::PairValidator(std::shared_ptr<const SlidingTask> task, const PlannerParams &params,
+                                 std::shared_ptr<const GraspMap> graspMap)
       : task_(std::move(task))
       , params_(params)
       , world_(std::make_unique<CollisionWorld>(task_->robot, *task_->table, task_->obstacles, task_->contactLinks))
+      , graspMap_(graspMap ? std::move(graspMap) : std::make_shared<const GraspMap>(*task_, params_))
     {
+        if (!graspMap_->fits(*task_, params_))
+            throw std::invalid_argument("grasp map made for another robot, table, grasp frame, object thickness or "
+                                        "grasp parameters");
     }
 
     Overhang PairValidator::overhang(const PlanarMotion &motion, bool exact) const
@@ -93,48 +99,22 @@ namespace slideplan
 
     Eigen::Isometry3d PairValidator::graspPose(const Overhang &overhang) const
     {
-        return edgeGraspPose(overhang.graspPoint, overhang.edge);
+        return sideGraspPose(overhang.graspPoint, overhang.edge, task_->table->height() + 0.5 * task_->thickness());
     }
 
-    Eigen::Isometry3d PairValidator::edgeGraspPose(const Eigen::Vector2d &point, const EdgeQuery &edge) const
+    bool PairValidator::graspUnreachable(const EdgeQuery &edge) const
     {
-        const Eigen::Vector3d approach(-edge.outwardNormal.x(), -edge.outwardNormal.y(), 0.0);
-        const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
-        Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-        pose.linear().col(0) = up.cross(approach);
-        pose.linear().col(1) = up;
-        pose.linear().col(2) = approach;
-        pose.translation() << point, task_->table->height() + 0.5 * task_->thickness();
-        return pose;
-    }
-
-    std::pair<int, long> PairValidator::graspCell(const EdgeQuery &edge) const
-    {
-        constexpr double kStretch = 0.01;  // m: grasps this close have the same reachability in practice
-        const Eigen::Vector2d start = task_->table->vertices().row(edge.edge).transpose();
-        return {edge.edge, static_cast<long>(std::floor((edge.closest - start).norm() / kStretch))};
+        return params_.graspMap && (unreachable_.count(graspMap_->stretch(edge)) > 0 || !graspMap_->reachable(edge));
     }
 
     bool PairValidator::knownUnreachable(const Overhang &overhang) const
     {
-        return params_.graspMap && overhang.outsideCount > 0 && unreachable_.count(graspCell(overhang.edge)) > 0;
+        return overhang.outsideCount > 0 && graspUnreachable(overhang.edge);
     }
 
-    bool PairValidator::graspReachableNear(const Eigen::Vector2d &point, const Eigen::VectorXd &seed, std::mt19937_64 &rng) const
+    bool PairValidator::graspReachableNear(const Eigen::Vector2d &point) const
     {
-        const EdgeQuery edge = task_->table->closestEdge(point);
-        const std::pair<int, long> cell = graspCell(edge);
-        if (unreachable_.count(cell) > 0)
-            return false;
-        if (reachable_.count(cell) > 0)
-            return true;
-        // Where a grasp of an object pushed just far enough over this edge would be.
-        const double beyond = std::max(params_.graspStandoff, 0.5 * params_.uStar);
-        Eigen::Isometry3d pose = edgeGraspPose(edge.closest + beyond * edge.outwardNormal, edge);
-        Eigen::VectorXd solution;
-        const bool reachable = reachGrasp(pose, seed, rng, solution);
-        (reachable ? reachable_ : unreachable_).insert(cell);
-        return reachable;
+        return !graspUnreachable(task_->table->closestEdge(point));
     }
 
     bool PairValidator::reachGrasp(Eigen::Isometry3d &grasp, const Eigen::VectorXd &seed, std::mt19937_64 &rng,
@@ -155,20 +135,15 @@ namespace slideplan
     bool PairValidator::graspIk(const Eigen::Isometry3d &grasp, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
                                 Eigen::VectorXd &solution) const
     {
-        const RobotModel &robot = *task_->robot;
-        IkOptions single;
-        single.maxAttempts = 1;
-        if (robot.ikForLink(task_->graspLink, grasp, goal, rng, solution, single, task_->graspOffset))
+        if (liftableGraspIk(*task_, params_, grasp, goal, 1, rng, solution))
             return true;
         for (auto seed = graspSeeds_.rbegin(); seed != graspSeeds_.rend(); ++seed)
-            if (robot.ikForLink(task_->graspLink, grasp, *seed, rng, solution, single, task_->graspOffset))
+            if (liftableGraspIk(*task_, params_, grasp, *seed, 1, rng, solution))
                 return true;
         // Side grasps at table height are a thin part of the workspace: one restart in ~5 succeeds. Ten
-        // restarts miss about 1 reachable grasp in 10, which the grasp map then shuns; 25 cost the
-        // triangle table 50% more planning time (median 0.58 s against 0.38 s), 5 lose too many stretches.
-        IkOptions restarts;
-        restarts.maxAttempts = 10;
-        if (!robot.ikForLink(task_->graspLink, grasp, Eigen::VectorXd(), rng, solution, restarts, task_->graspOffset))
+        // restarts miss about 1 reachable grasp in 10; 25 cost the triangle table 50% more planning time
+        // (median 0.58 s against 0.38 s), 5 lose too many pairs.
+        if (!liftableGraspIk(*task_, params_, grasp, Eigen::VectorXd(), 10, rng, solution))
             return false;
         constexpr std::size_t kRemembered = 8;
         if (graspSeeds_.size() == kRemembered)
@@ -307,7 +282,7 @@ namespace slideplan
         if (!reachGrasp(verdict.graspPose, goal, rng, verdict.graspConfig))
         {
             if (params_.graspMap)
-                unreachable_.insert(graspCell(result.edge));
+                unreachable_.insert(graspMap_->stretch(result.edge));
             verdict.reason = "grasp pose unreachable";
             return verdict;
         }
@@ -321,19 +296,8 @@ namespace slideplan
             verdict.reason = "grasp configuration in collision";
             return verdict;
         }
-        // Beyond the paper: a grasp is of use only if the hand can then lift the object (grasp_lift, the
-        // distance the fingertip rises before the transfer): at the edge of the workspace a joint may sit
-        // at its limit (5 of 100 replayed grasps in issue 9 could not rise 5 cm).
-        Eigen::Isometry3d liftedPose = verdict.graspPose;
-        liftedPose.translation().z() += params_.graspLift;
-        Eigen::VectorXd lifted;
         IkOptions nearOptions;
         nearOptions.maxAttempts = 1;
-        if (!robot.ikForLink(task_->graspLink, liftedPose, verdict.graspConfig, rng, lifted, nearOptions, task_->graspOffset))
-        {
-            verdict.reason = "no lift after the grasp";
-            return verdict;
-        }
         Eigen::Isometry3d preGraspPose = verdict.graspPose;
         preGraspPose.translation() -= params_.graspBackoff * verdict.graspPose.linear().col(2);
         Eigen::VectorXd preGrasp;

@@ -8,7 +8,7 @@
 namespace slideplan
 {
     bool pairedGoalTarget(const SlidingTask &task, const PlannerParams &params, const PairValidator &validator,
-                          const Eigen::Isometry3d &startTip, const Eigen::VectorXd &seed, std::mt19937_64 &rng,
+                          const Eigen::Isometry3d &startTip, std::mt19937_64 &rng,
                           Eigen::Isometry3d &target)
     {
         const Polygon2 &vertices = task.table->vertices();  // counter-clockwise: the outward normal is on the right
@@ -49,7 +49,7 @@ namespace slideplan
             if (inside <= 0.0 || inside > params.dGoal)
                 continue;
             // Last, as it may cost a grasp IK: a side grasp reachable where this pose would be grasped.
-            if (params.graspMap && !validator.graspReachableNear(result.graspPoint, seed, rng))
+            if (!validator.graspReachableNear(result.graspPoint))
                 continue;
             const double yaw = contactAngles(startTip.linear()).yaw + motion.yaw;
             target = Eigen::Isometry3d::Identity();

@@ -54,7 +54,7 @@ namespace slideplan
     };
 
     SlidingPlanner::SlidingPlanner(const ob::SpaceInformationPtr &si, std::shared_ptr<const SlidingTask> task,
-                                   const PlannerParams &params, std::uint64_t seed)
+                                   const PlannerParams &params, std::uint64_t seed, std::shared_ptr<const GraspMap> graspMap)
       : ob::Planner(si, "SlidingPlanner"), task_(std::move(task)), params_(params), seed_(seed), rng_(seed)
     {
         specs_.approximateSolutions = false;
@@ -68,7 +68,7 @@ namespace slideplan
         si_->setStateValidityChecker(validity);
         constraint_ = constraint;
         validity_ = validity;
-        pairValidator_ = std::make_unique<PairValidator>(task_, params_);
+        pairValidator_ = std::make_unique<PairValidator>(task_, params_, std::move(graspMap));
         objectWorld_ = std::make_unique<CollisionWorld>(task_->robot, *task_->table, task_->obstacles, task_->contactLinks);
         clear();
     }
@@ -105,7 +105,7 @@ namespace slideplan
         {
             const Node *start = startForest_->roots[std::uniform_int_distribution<std::size_t>(0, startForest_->roots.size() - 1)(rng_)];
             Eigen::Isometry3d target;
-            if (!pairedGoalTarget(*task_, params_, *pairValidator_, start->tip, start->q, rng_, target) ||
+            if (!pairedGoalTarget(*task_, params_, *pairValidator_, start->tip, rng_, target) ||
                 !forest.region->reach(target, rng_, seed, q, ptc))
                 return false;
         }
@@ -114,11 +114,10 @@ namespace slideplan
         const Eigen::Isometry3d tip = task_->robot->fk(q);
         // Beyond the paper: a goal root by an edge stretch with no reachable side grasp mostly grows trees
         // whose pairs fail at the grasp (the triangle table's far edges). One in kKeep is kept: the
-        // object may overhang a stretch further along, and one failed IK is not a proof. A paired root's
+        // object may overhang a stretch further along, and the map's IK is not a proof. A paired root's
         // own grasp is screened by the grasp map already.
         constexpr int kKeep = 10;
-        if (!forest.isStart && !paired && params_.graspMap &&
-            !pairValidator_->graspReachableNear(tip.translation().head<2>(), q, rng_) &&
+        if (!forest.isStart && !paired && !pairValidator_->graspReachableNear(tip.translation().head<2>()) &&
             std::uniform_int_distribution<int>(1, kKeep)(rng_) != 1)
             return false;
         forest.add(q, tip, nullptr);
@@ -472,7 +471,7 @@ namespace slideplan
     }  // namespace
 
     PlanResult planSliding(std::shared_ptr<const SlidingTask> task, const PlannerParams &params, std::uint64_t seed,
-                           const ob::PlannerTerminationCondition &ptc)
+                           const ob::PlannerTerminationCondition &ptc, std::shared_ptr<const GraspMap> graspMap)
     {
         const auto started = std::chrono::steady_clock::now();
         params.validate();
@@ -488,7 +487,7 @@ namespace slideplan
         const RobotModel &robot = *task->robot;
         auto space = jointSpace(robot);
         auto si = std::make_shared<ob::SpaceInformation>(space);
-        auto planner = std::make_shared<SlidingPlanner>(si, task, params, seed);
+        auto planner = std::make_shared<SlidingPlanner>(si, task, params, seed, std::move(graspMap));
         si->setup();
         planner->setProblemDefinition(std::make_shared<ob::ProblemDefinition>(si));
         planner->solve(ptc);

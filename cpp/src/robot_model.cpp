@@ -584,6 +584,8 @@ namespace slideplan
                     if (nearest >= lower_(j) && nearest <= upper_(j))
                         q(j) = nearest;
                 }
+                if (options.accept && !options.accept(q))
+                    continue;
                 solution = q;
                 return true;
             }

@@ -580,6 +580,38 @@ def core_obstacles(entries: list[dict[str, Any]]) -> list:
     return obstacles
 
 
+@functools.lru_cache(maxsize=32)
+def _cached_grasp_map(robot, vertices: tuple, height: float, grasp_link: str, grasp_offset: tuple, thickness: float,
+                      params_key: tuple):
+    from . import _core
+
+    params = _core.PlannerParams()
+    params.grasp_standoff, params.u_star, params.grasp_lift, params.grasp_flip = params_key
+    table = _core.SupportSurface(np.array(vertices, dtype=float), height)
+    return _core.GraspMap(robot, table, grasp_link, np.array(grasp_offset, dtype=float).reshape(4, 4), thickness, params)
+
+
+def grasp_map(scene: Scene, obj: ThinObject, config: PlannerConfig):
+    """The grasp map (``_core.GraspMap``) of the scene's robot and table for this object's thickness and
+    the config's grasp parameters, cached: plans of many objects on one table probe each edge stretch
+    once. Its answers depend only on that geometry, so a plan is the same with a fresh map or a shared one.
+
+    Raises:
+        InputError: the robot cannot be loaded.
+    """
+    points = np.asarray(obj.points, dtype=float)
+    height = float(scene.table.height)
+    return _cached_grasp_map(
+        robot_model(scene),
+        tuple(map(tuple, np.asarray(scene.table.vertices, dtype=float))),
+        height,
+        scene.hand.grasp_link,
+        tuple(base_pose_matrix(scene.hand.grasp_offset).ravel()),
+        float(points[:, 2].mean()) - height,  # as the core measures it: z_s is the cloud's mean height
+        (config.grasp_standoff, config.u_star, config.grasp_lift, config.grasp_flip),
+    )
+
+
 def core_task(scene: Scene, obj: ThinObject, config: PlannerConfig) -> dict[str, Any]:
     """The C++ core's description of one planning problem: keyword arguments of ``_core.plan_sliding``
     (and of the benchmark peer ``_core.ompl_projected_connect``) but the seed.
@@ -628,7 +660,8 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
     config = config or PlannerConfig.for_scene(scene)
     robot = robot_model(scene)
     try:
-        core_result = _core.plan_sliding(**core_task(scene, obj, config), seed=config.seed)
+        core_result = _core.plan_sliding(**core_task(scene, obj, config), seed=config.seed,
+                                         grasp_map=grasp_map(scene, obj, config))
     except ValueError as error:
         raise InputError(f"planner rejected the input: {error}", source=scene.source) from None
     result = _wrap_core_result(core_result, scene, obj, config, robot)

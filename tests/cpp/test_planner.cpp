@@ -180,7 +180,7 @@ TEST(PairedGoal, CarriesTheObjectToAGraspableOverhangWithTheContactInTheGoalBand
     for (int k = 0; k < 40; ++k)
     {
         Eigen::Isometry3d target;
-        if (!pairedGoalTarget(*task, params, validator, startTip, start, rng, target))
+        if (!pairedGoalTarget(*task, params, validator, startTip, rng, target))
             continue;
         ++drawn;
         // The drawn goal frame is a contact frame of C_g: pitch beta0, roll 0, depth in the band, in P_g.
@@ -344,7 +344,8 @@ TEST(SlidingPlanner, SameSeedSameTrajectory)
 
 TEST(SlidingPlanner, PlansInThreadsEqualTheirSequentialTwins)
 {
-    // One robot model shared by every task, as the Python API shares it (DESIGN.md 9).
+    // One robot model and, in the threads, one grasp map shared by every task, as the Python API shares
+    // them (DESIGN.md 9); the sequential twins each probe a map of their own.
     const auto robot = wamT42();
     const std::vector<Eigen::Vector2d> centres{{0.6, -0.05}, {0.55, 0.08}, {0.62, 0.02}, {0.5, -0.1}};
     std::vector<std::shared_ptr<const SlidingTask>> tasks;
@@ -357,11 +358,12 @@ TEST(SlidingPlanner, PlansInThreadsEqualTheirSequentialTwins)
     for (std::size_t t = 0; t < tasks.size(); ++t)
         for (int run = 0; run < kRuns; ++run)
             sequential[t].push_back(planSliding(tasks[t], params, 20 + run, within(30.0)));
+    const auto shared = std::make_shared<const GraspMap>(*tasks.front(), params);
     std::vector<std::thread> threads;
     for (std::size_t t = 0; t < tasks.size(); ++t)
         threads.emplace_back([&, t] {
             for (int run = 0; run < kRuns; ++run)
-                threaded[t].push_back(planSliding(tasks[t], params, 20 + run, within(30.0)));
+                threaded[t].push_back(planSliding(tasks[t], params, 20 + run, within(30.0), shared));
         });
     for (auto &thread : threads)
         thread.join();
@@ -375,6 +377,32 @@ TEST(SlidingPlanner, PlansInThreadsEqualTheirSequentialTwins)
             EXPECT_EQ(beside.approach, alone.approach) << "task " << t << " run " << run;
             expectValidPlan(*tasks[t], params, beside);
         }
+}
+
+TEST(GraspMap, FitsOnlyItsOwnGeometryAndParameters)
+{
+    const auto robot = wamT42();
+    const auto make = [&](double thickness, const SupportSurface &table) {
+        Eigen::Matrix<double, Eigen::Dynamic, 3> points = squarePlate({0.6, 0.0});
+        points.col(2).setConstant(table.height() + thickness);
+        return std::make_shared<SlidingTask>(SlidingTask::make(robot, std::make_shared<SupportSurface>(table), {}, kContactLinks,
+                                                               kGraspLink, Eigen::Isometry3d::Identity(), points, {0.6, 0.0}));
+    };
+    const auto task = make(kThickness, squareTable());
+    PlannerParams params;
+    const auto map = std::make_shared<const GraspMap>(*task, params);
+    EXPECT_TRUE(map->fits(*make(kThickness, squareTable()), params));  // equal values, other objects
+    EXPECT_FALSE(map->fits(*make(kThickness + 0.001, squareTable()), params));
+    Polygon2 wider = squareTable().vertices();
+    wider *= 1.1;
+    EXPECT_FALSE(map->fits(*make(kThickness, SupportSurface(wider, squareTable().height())), params));
+    PlannerParams standoff = params;
+    standoff.graspStandoff += 0.01;
+    EXPECT_FALSE(map->fits(*task, standoff));
+    PlannerParams other = params;
+    other.nStar *= 2;  // not a grasp parameter
+    EXPECT_TRUE(map->fits(*task, other));
+    EXPECT_THROW(planSliding(make(kThickness + 0.001, squareTable()), params, 1, within(1.0), map), std::invalid_argument);
 }
 
 TEST(SlidingPlanner, AsPublishedWithoutPairScreening)

@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 from slideplan import PlannerConfig, PlanResult, load_object, load_scene, plan, verify
 from slideplan.cli import app
 from slideplan.objects import load_outline, sample_pose_on_table
-from slideplan.planning import robot_model
+from slideplan.planning import _cached_grasp_map, grasp_map, robot_model
 
 TABLES = ["square", "round", "triangle", "long"]
 OBJECTS = ["crescent", "square", "L"]
@@ -48,6 +48,21 @@ def test_same_seed_gives_the_same_plan():
     np.testing.assert_array_equal(first.trajectory, second.trajectory)
     np.testing.assert_array_equal(first.grasp["approach"], second.grasp["approach"])
     assert first.object_motion == second.object_motion
+
+
+def test_a_warm_grasp_map_gives_the_plan_a_fresh_one_gives():
+    # The triangle table: its far edges are where the map rules grasps out.
+    scene, obj = task("triangle", "crescent", pose_seed=3)
+    config = PlannerConfig.for_scene(scene, seed=2, time_limit_s=30.0)
+    _cached_grasp_map.cache_clear()
+    fresh = plan(scene, obj, config)
+    for pose_seed in (4, 5):  # other objects of the same thickness probe more of the same map
+        plan(scene, task("triangle", "square", pose_seed)[1], PlannerConfig.for_scene(scene, seed=pose_seed, time_limit_s=30.0))
+    probed = grasp_map(scene, obj, config).probed
+    warm = plan(scene, obj, config)
+    assert fresh.solved and grasp_map(scene, obj, config).probed >= probed > 0
+    np.testing.assert_array_equal(warm.trajectory, fresh.trajectory)
+    np.testing.assert_array_equal(warm.grasp["approach"], fresh.grasp["approach"])
 
 
 @pytest.mark.parametrize("planner", ["cbirrt", "cbirrt2"])

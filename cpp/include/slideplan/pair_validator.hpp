@@ -4,6 +4,7 @@
 #pragma once
 
 #include "slideplan/collision.hpp"
+#include "slideplan/grasp_map.hpp"
 #include "slideplan/object_motion.hpp"
 #include "slideplan/params.hpp"
 #include "slideplan/task.hpp"
@@ -43,7 +44,10 @@ namespace slideplan
     class PairValidator
     {
     public:
-        PairValidator(std::shared_ptr<const SlidingTask> task, const PlannerParams &params);
+        /// `graspMap`: a map shared with other plans of the same geometry (GraspMap::fits), or null for
+        /// one of its own. \throws std::invalid_argument for a map that does not fit.
+        PairValidator(std::shared_ptr<const SlidingTask> task, const PlannerParams &params,
+                      std::shared_ptr<const GraspMap> graspMap = nullptr);
 
         /// IsPairValid(phi_s, phi_g): cheap geometry first, then grasp IK, then the transfer motion.
         PairVerdict check(const Eigen::VectorXd &start, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
@@ -61,14 +65,13 @@ namespace slideplan
         /// the edge in the table plane, the straight (+Y) finger above the object.
         Eigen::Isometry3d graspPose(const Overhang &overhang) const;
 
-        /// Whether an earlier grasp IK failed on the 1 cm stretch of table edge this overhang's grasp
-        /// falls on (params.graspMap): reachability of a side grasp depends only on where it is.
+        /// Beyond the paper (params.graspMap): whether the grasp map, or an earlier grasp IK of this plan,
+        /// rules out a side grasp on the stretch of table edge this overhang's grasp falls on.
         bool knownUnreachable(const Overhang &overhang) const;
 
-        /// Beyond the paper (params.graspMap): whether a side grasp is reachable on the 1 cm stretch of
-        /// table edge nearest to `point` (a goal root's contact), just far enough beyond it for u*, by
-        /// grasp IK from `seed`; the answer is remembered per stretch (the grasp map).
-        bool graspReachableNear(const Eigen::Vector2d &point, const Eigen::VectorXd &seed, std::mt19937_64 &rng) const;
+        /// Beyond the paper (params.graspMap): the same for the stretch of table edge nearest to `point`
+        /// (a goal root's contact).
+        bool graspReachableNear(const Eigen::Vector2d &point) const;
 
     private:
         /// Grasp IK: from phi_g, then from earlier successful grasps (nearby grasp poses have nearby
@@ -79,10 +82,7 @@ namespace slideplan
         /// which then replaces `grasp`.
         bool reachGrasp(Eigen::Isometry3d &grasp, const Eigen::VectorXd &seed, std::mt19937_64 &rng,
                         Eigen::VectorXd &solution) const;
-        /// The side grasp at `point` perpendicular to `edge`, mid-thickness.
-        Eigen::Isometry3d edgeGraspPose(const Eigen::Vector2d &point, const EdgeQuery &edge) const;
-        /// The edge stretch of a grasp: (edge index, 1 cm cell along the edge).
-        std::pair<int, long> graspCell(const EdgeQuery &edge) const;
+        bool graspUnreachable(const EdgeQuery &edge) const;
         bool lift(const Eigen::VectorXd &goal, std::vector<Eigen::VectorXd> &path) const;
         bool straightMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::vector<Eigen::VectorXd> &path) const;
         bool transferMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::uint64_t seed,
@@ -92,8 +92,8 @@ namespace slideplan
         PlannerParams params_;
         std::unique_ptr<CollisionWorld> world_;  ///< holds the object at its final pose while a pair is checked
         mutable std::vector<Eigen::VectorXd> graspSeeds_;  ///< recent successful grasp configurations
-        mutable std::set<std::pair<int, long>> unreachable_;  ///< edge stretches where grasp IK failed
-        mutable std::set<std::pair<int, long>> reachable_;    ///< edge stretches where a goal root's grasp IK succeeded
+        std::shared_ptr<const GraspMap> graspMap_;
+        mutable std::set<std::pair<int, long>> unreachable_;  ///< stretches where this plan's grasp IK failed
     };
 
 }  // namespace slideplan

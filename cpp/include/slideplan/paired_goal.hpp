@@ -19,11 +19,11 @@ namespace slideplan
     /// params.maxObjectYaw, its overhang between u* and what keeps the centre of mass comMargin
     /// inside), keep it if the cheap part of IsPairValid accepts it, the start contact lands in the
     /// goal band P_g (Eq. 4) and (params.graspMap) a side grasp is reachable on that stretch of edge
-    /// (grasp IK from `seed` unless the grasp map knows), and return the contact frame there:
+    /// (the grasp map), and return the contact frame there:
     /// `startTip` moved by that pose, at a depth from [dz_min, dz_max]. False if no draw of a few was
     /// accepted.
     bool pairedGoalTarget(const SlidingTask &task, const PlannerParams &params, const PairValidator &validator,
-                          const Eigen::Isometry3d &startTip, const Eigen::VectorXd &seed, std::mt19937_64 &rng,
+                          const Eigen::Isometry3d &startTip, std::mt19937_64 &rng,
                           Eigen::Isometry3d &target);
 
 }  // namespace slideplan

@@ -5,6 +5,7 @@
 /// root policies of the same planner.
 #pragma once
 
+#include "slideplan/grasp_map.hpp"
 #include "slideplan/pair_validator.hpp"
 #include "slideplan/params.hpp"
 #include "slideplan/regions.hpp"
@@ -24,8 +25,10 @@ namespace slideplan
     class SlidingPlanner : public ompl::base::Planner
     {
     public:
+        /// `graspMap`: shared with other plans of the same geometry (GraspMap::fits), or null for one of
+        /// its own; either gives the same plan.
         SlidingPlanner(const ompl::base::SpaceInformationPtr &si, std::shared_ptr<const SlidingTask> task,
-                       const PlannerParams &params, std::uint64_t seed);
+                       const PlannerParams &params, std::uint64_t seed, std::shared_ptr<const GraspMap> graspMap = nullptr);
         ~SlidingPlanner() override;
 
         ompl::base::PlannerStatus solve(const ompl::base::PlannerTerminationCondition &ptc) override;
@@ -95,8 +98,10 @@ namespace slideplan
 
     /// Plan one sliding task: sets up the OMPL space, runs SlidingPlanner::solve(ptc) and returns the
     /// result; planning time counts everything from here, including the baselines' precomputation.
-    /// \throws std::invalid_argument for invalid parameters, an unreachable object or u* beyond the object.
+    /// `graspMap` as for SlidingPlanner.
+    /// \throws std::invalid_argument for invalid parameters, an unreachable object, u* beyond the object
+    ///         or a grasp map that does not fit.
     PlanResult planSliding(std::shared_ptr<const SlidingTask> task, const PlannerParams &params, std::uint64_t seed,
-                           const ompl::base::PlannerTerminationCondition &ptc);
+                           const ompl::base::PlannerTerminationCondition &ptc, std::shared_ptr<const GraspMap> graspMap = nullptr);
 
 }  // namespace slideplan

@@ -101,6 +101,9 @@ namespace slideplan
         /// Asked before every restart: true ends the search unsolved (a planner's time limit, so that
         /// many attempts per call cannot overrun it). Empty: never.
         std::function<bool()> stop;
+        /// Asked of every converged solution: false goes on with the next restart (a solution must
+        /// also do what the caller needs, e.g. a grasp that can then lift). Empty: any.
+        std::function<bool(const Eigen::VectorXd &)> accept;
     };
 
     /// A serial arm (the chain from the base link to the tip link) inside a robot tree; every link is

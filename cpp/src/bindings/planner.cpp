@@ -53,7 +53,7 @@ namespace slideplan::bindings
                         const std::vector<Obstacle> &obstacles, const std::vector<std::string> &contactLinks,
                         const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints, const Eigen::Vector2d &objectCom,
                         const PlannerParams &params, std::uint64_t seed, double timeLimit, const std::string &graspLink,
-                        const Eigen::Matrix4d &graspOffset)
+                        const Eigen::Matrix4d &graspOffset, std::shared_ptr<const GraspMap> graspMap)
         {
             const auto task = makeTask(robot, table, obstacles, contactLinks, objectPoints, objectCom, graspLink, graspOffset,
                                        timeLimit);
@@ -80,7 +80,7 @@ namespace slideplan::bindings
             PlanResult result;
             {
                 py::gil_scoped_release release;
-                result = planSliding(task, params, seed, ptc);
+                result = planSliding(task, params, seed, ptc, std::move(graspMap));
             }
             if (interrupted)
                 throw py::error_already_set();  // the KeyboardInterrupt raised by the signal handler
@@ -178,16 +178,35 @@ namespace slideplan::bindings
                 },
                 "Planner statistics.");
 
+        py::class_<GraspMap, std::shared_ptr<GraspMap>>(
+            module, "GraspMap",
+            "Which 1 cm stretches of the table's edges admit a reachable, liftable side grasp (grasp_map.hpp): each "
+            "probed once when a plan first asks, with an answer that depends only on the geometry, so plans in any "
+            "threads may share one map and get the plans they would get alone.")
+            .def(py::init([](std::shared_ptr<const RobotModel> robot, const SupportSurface &table, const std::string &graspLink,
+                             const Eigen::Matrix4d &graspOffset, double thickness, const PlannerParams &params) {
+                     return std::make_shared<GraspMap>(robot, std::make_shared<SupportSurface>(table), graspLink,
+                                                       toIsometry(graspOffset), thickness, params);
+                 }),
+                 py::arg("robot"), py::arg("table"), py::arg("grasp_link"), py::arg("grasp_offset"), py::arg("thickness"),
+                 py::arg("params"),
+                 "robot: the shared RobotModel; table: SupportSurface Q; grasp_link, grasp_offset (4x4): H_g; thickness: "
+                 "the object's (m); params: PlannerParams (grasp_standoff, u_star, grasp_lift, grasp_flip are used). "
+                 "Raises ValueError for an unknown grasp link or a negative thickness.")
+            .def_property_readonly("probed", &GraspMap::probed, "Stretches probed so far.");
         module.def("plan_sliding", &plan, py::arg("robot"), py::arg("table"), py::arg("obstacles"), py::arg("contact_links"),
                    py::arg("object_points"), py::arg("object_com_xy"), py::arg("params"), py::arg("seed"),
                    py::arg("time_limit"), py::arg("grasp_link"), py::arg("grasp_offset") = Eigen::Matrix4d::Identity(),
+                   py::arg("grasp_map") = nullptr,
                    "Plan a pre-grasp sliding motion (Algorithm 1). Releases the GIL; Ctrl-C raises KeyboardInterrupt.\n\n"
                    "robot: the shared, immutable RobotModel; table: SupportSurface Q; obstacles: BoxObstacle list; "
                    "contact_links: links that may touch table and object while sliding; object_points: (N, 3) top-surface "
                    "cloud P_o, world frame; object_com_xy: centre of mass; params: PlannerParams; seed: RNG seed; "
-                   "time_limit: seconds; grasp_link, grasp_offset (4x4): the grasp frame H_g = link * offset.\n"
+                   "time_limit: seconds; grasp_link, grasp_offset (4x4): the grasp frame H_g = link * offset; grasp_map: "
+                   "a GraspMap shared with other plans of the same robot, table, grasp frame, thickness and grasp "
+                   "parameters (None: one of its own; the plan is the same either way).\n"
                    "Raises ValueError for bad input (object off the table or degenerate, bad parameters, non-positive "
-                   "time limit, unknown grasp link).");
+                   "time limit, unknown grasp link, a grasp map made for other geometry).");
         module.def(
             "ompl_projected_connect",
             [](std::shared_ptr<const RobotModel> robot, const SupportSurface &table, const std::vector<Obstacle> &obstacles,

@@ -1,0 +1,70 @@
+/// \file grasp_map.hpp
+/// Beyond the paper (params.graspMap): which stretches of the table's edges admit a side grasp H_g
+/// (at table height, approaching perpendicular to the edge) that the arm reaches and can then lift.
+#pragma once
+
+#include "slideplan/params.hpp"
+#include "slideplan/task.hpp"
+
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <random>
+#include <utility>
+
+namespace slideplan
+{
+    /// H_g at `point` approaching perpendicular to `edge` (into the table), mid-thickness at `z`; y up,
+    /// so the straight (+Y) finger is above the object.
+    Eigen::Isometry3d sideGraspPose(const Eigen::Vector2d &point, const EdgeQuery &edge, double z);
+
+    /// IK for the grasp frame `grasp` (task.graspLink x task.graspOffset) from `seed`, then random
+    /// restarts up to `attempts`, keeping only a solution from which H_g raised by params.graspLift is
+    /// reachable too: at the edge of the workspace a joint may sit at its limit.
+    bool liftableGraspIk(const SlidingTask &task, const PlannerParams &params, const Eigen::Isometry3d &grasp,
+                         const Eigen::VectorXd &seed, int attempts, std::mt19937_64 &rng, Eigen::VectorXd &solution);
+
+    /// The grasp map: per kStretch of each edge of Q, whether a side grasp just far enough beyond the edge
+    /// for u* (params.graspStandoff, u*/2) is reachable and liftable, the hand as given or (params.graspFlip)
+    /// rolled by pi. Each stretch is probed once, when first asked, by IK from random restarts seeded by
+    /// the stretch itself: an answer depends only on the geometry, never on which plan asked first, so
+    /// any number of plans (in any threads) share one map and get the plans they would get alone.
+    class GraspMap
+    {
+    public:
+        static constexpr double kStretch = 0.01;  ///< m: grasps this close have the same reachability in practice
+
+        /// The map of a robot's grasp frame (graspLink x graspOffset) on `table`, for objects
+        /// `thickness` thick (to the micrometre) under `params`; obstacles do not matter.
+        GraspMap(std::shared_ptr<const RobotModel> robot, std::shared_ptr<const SupportSurface> table,
+                 std::string graspLink, const Eigen::Isometry3d &graspOffset, double thickness, const PlannerParams &params);
+
+        /// The map of `task`'s robot, table, grasp frame and object thickness.
+        GraspMap(const SlidingTask &task, const PlannerParams &params);
+
+        /// Whether a side grasp is reachable on the stretch of `edge.edge` holding `edge.closest`.
+        bool reachable(const EdgeQuery &edge) const;
+
+        /// The stretch of an edge point: (edge index, kStretch cell along the edge).
+        std::pair<int, long> stretch(const EdgeQuery &edge) const;
+
+        /// Whether this map answers for `task` under `params`: the same robot model, table, grasp frame,
+        /// thickness, and the parameters the probes use.
+        bool fits(const SlidingTask &task, const PlannerParams &params) const;
+
+        /// Stretches probed so far (for statistics).
+        std::size_t probed() const;
+
+    private:
+        bool probe(const std::pair<int, long> &stretch) const;
+
+        static double micrometres(double metres) { return std::round(metres * 1e6) / 1e6; }
+
+        SlidingTask geometry_;  ///< robot, table and grasp frame; no object
+        double thickness_;      ///< the object's, to the micrometre
+        PlannerParams params_;
+        mutable std::mutex mutex_;
+        mutable std::map<std::pair<int, long>, bool> known_;
+    };
+
+}  // namespace slideplan
