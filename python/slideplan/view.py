@@ -4,7 +4,8 @@ The scene: the robot (the plan's URDF at its ``base_pose``, visual meshes if the
 else its collision primitives), the table as a prism, the object (its top-surface cloud, meshed)
 moving with the fingertip by Eq. 2, its final pose (translucent) with the overhanging points in
 red, the fingertip path, the grasp frame and the path of the grasp frame along the approach. A
-time slider (with play) scrubs the timed slide, then the approach (:mod:`slideplan.timing`).
+time slider (with play) scrubs the timed slide, then the approach (:mod:`slideplan.timing`);
+"show arm" hides the arm, which stands over the object while it slides.
 
 Why viser: it serves a three.js client from Python with no build step, loads URDFs (through
 yourdfpy), has GUI sliders, and serializes a scene with its animation to one standalone HTML file.
@@ -287,7 +288,7 @@ class PlanView:
         except Exception as error:  # yourdfpy raises anything from OSError to lxml and trimesh errors
             raise InputError(f"cannot load the robot ({type(error).__name__}: {error})", source=str(path), field="robot.urdf") from None
         base = np.asarray(result.robot["base_pose"], dtype=float)
-        scene.add_frame("/robot", show_axes=False, wxyz=_wxyz(base), position=base[:3, 3])
+        self._robot_frame = scene.add_frame("/robot", show_axes=False, wxyz=_wxyz(base), position=base[:3, 3])
         visual = urdf.scene is not None and len(urdf.scene.geometry) > 0  # the bundled robot has primitives only
         self._urdf = urdf
         self._robot = ViserUrdf(self.server, urdf, root_node_name="/robot", load_meshes=visual, load_collision_meshes=not visual,
@@ -322,6 +323,9 @@ class PlanView:
 
     def _add_gui(self) -> None:
         gui, result = self.server.gui, self.result
+        # The arm stands over the object while it slides: hiding it shows the object's motion.
+        arm = gui.add_checkbox("show arm", initial_value=True)
+        arm.on_update(lambda _: setattr(self._robot_frame, "visible", arm.value))
         if not result.solved:
             gui.add_markdown(f"**not solved** (status `{result.status}`): the scene only")
             self.slider = self.play = None

@@ -108,6 +108,10 @@ def test_view_draws_robot_and_table_and_scrubbing_moves_the_object(planned, page
         start = wait_for(page, lambda image: all(hue_mask(image, c).sum() > DRAWN_PIXELS for c in (ROBOT_COLOR, TABLE_COLOR)))
         assert hue_mask(start, ROBOT_COLOR).sum() > DRAWN_PIXELS
         assert hue_mask(start, TABLE_COLOR).sum() > DRAWN_PIXELS
+        # The arm stands over the object while it slides; hide it as a user would, by its checkbox.
+        page.get_by_role("checkbox", name="show arm").uncheck()
+        start = wait_for(page, lambda image: hue_mask(image, ROBOT_COLOR).sum() < 50 and hue_mask(image, OBJECT_COLOR).sum() > 100)
+        assert hue_mask(start, ROBOT_COLOR).sum() < 50
         object_start = hue_mask(start, OBJECT_COLOR)
         assert object_start.sum() > 100
         # scrub as a user would: focus the time slider and jump to its end
