@@ -223,6 +223,18 @@ namespace slideplan
         impl_->addEnvironment("object", makePrism(hull, impl_->tableTop, topZ), Eigen::Isometry3d::Identity(), true);
     }
 
+    void CollisionWorld::moveObject(const PlanarMotion &motion)
+    {
+        if (impl_->environment.size() == impl_->firstObjectPiece)
+            throw std::logic_error("moveObject without an object: call setObject first");
+        Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+        pose.linear() = Eigen::AngleAxisd(motion.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        pose.translation() << motion.x, motion.y, 0.0;
+        fcl::CollisionObjectd &object = *impl_->environment.back().object;
+        object.setTransform(pose);
+        object.computeAABB();
+    }
+
     void CollisionWorld::clearObject()
     {
         impl_->environment.resize(impl_->firstObjectPiece);

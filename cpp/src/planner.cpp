@@ -70,6 +70,7 @@ namespace slideplan
         validity_ = validity;
         pairValidator_ = std::make_unique<PairValidator>(task_, params_, std::move(graspMap));
         objectWorld_ = std::make_unique<CollisionWorld>(task_->robot, *task_->table, task_->obstacles, task_->contactLinks);
+        objectWorld_->setObject(task_->hullXY, task_->surfaceZ);  // at its start pose; moved along paths
         clear();
     }
 
@@ -178,11 +179,14 @@ namespace slideplan
                                   const ob::PlannerTerminationCondition &ptc)
     {
         // What execution pays for (issue 9): fingertip travel over the table and the object's turning.
-        const auto cost = [this](const std::vector<Eigen::Isometry3d> &poses, std::size_t from, std::size_t to) {
+        const auto stepCost = [this](const Eigen::Isometry3d &from, const Eigen::Isometry3d &to) {
+            return (to.translation() - from.translation()).head<2>().norm() +
+                   params_.shortcutYawWeight * std::abs(objectMotion(from, to).yaw);
+        };
+        const auto cost = [&](const std::vector<Eigen::Isometry3d> &poses, std::size_t from, std::size_t to) {
             double total = 0.0;
             for (std::size_t k = from + 1; k <= to; ++k)
-                total += (poses[k].translation() - poses[k - 1].translation()).head<2>().norm() +
-                         params_.shortcutYawWeight * std::abs(objectMotion(poses[k - 1], poses[k]).yaw);
+                total += stepCost(poses[k - 1], poses[k]);
             return total;
         };
         // The path is valid after every attempt, so the time limit may stop the shortcut anywhere.
@@ -197,13 +201,20 @@ namespace slideplan
             // Walk the constraint manifold from waypoint i to waypoint j; keep the walk if it arrives
             // at a lower cost. The endpoints stay, so the object motion of Eq. 2 is unchanged.
             const std::size_t maxSteps = 2 * (j - i) + 10;
+            const double stretchCost = cost(tips, i, j);
             std::vector<Eigen::VectorXd> walk{path[i]};
             std::vector<Eigen::Isometry3d> walkTips{tips[i]};
             Eigen::VectorXd q;
             Eigen::Isometry3d tip;
-            while (walk.size() < maxSteps && (path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9 &&
+            // The walk's cost up to its second-to-last point is final (the last may still be replaced by
+            // waypoint j): once it reaches the stretch's cost the walk cannot be kept, so stop walking.
+            double settledCost = 0.0;
+            while (walk.size() < maxSteps && settledCost < stretchCost &&
+                   (path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9 &&
                    constrainedStep(walk.back(), walkTips.back(), path[j], &tips.front(), q, tip))
             {
+                if (walk.size() >= 2)
+                    settledCost += stepCost(walkTips[walkTips.size() - 2], walkTips.back());
                 walk.push_back(q);
                 walkTips.push_back(tip);
             }
@@ -211,7 +222,7 @@ namespace slideplan
                 continue;
             walk.back() = path[j];  // arrived: the last step landed on waypoint j itself
             walkTips.back() = tips[j];
-            if (cost(walkTips, 0, walkTips.size() - 1) >= cost(tips, i, j) || !armClearOfObject(walk, walkTips, tips.front()))
+            if (cost(walkTips, 0, walkTips.size() - 1) >= stretchCost || !armClearOfObject(walk, walkTips, tips.front()))
                 continue;
             path.erase(path.begin() + i, path.begin() + j + 1);
             path.insert(path.begin() + i, walk.begin(), walk.end());
@@ -225,11 +236,7 @@ namespace slideplan
     {
         for (std::size_t k = 0; k < path.size(); ++k)
         {
-            const PlanarMotion motion = objectMotion(startTip, tips[k]);
-            std::vector<Eigen::Vector2d> hull;
-            for (const Eigen::Vector2d &vertex : task_->hullXY)
-                hull.push_back(motion.apply(vertex));
-            objectWorld_->setObject(hull, task_->surfaceZ);
+            objectWorld_->moveObject(objectMotion(startTip, tips[k]));
             if (!objectWorld_->isValid(path[k], ContactMode::Sliding))
                 return false;
         }

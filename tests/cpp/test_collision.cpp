@@ -78,6 +78,34 @@ TEST(CollisionWorld, BoxObstaclesAndTheObjectBlock)
     EXPECT_FALSE(world.isValid(q, ContactMode::Sliding));
 }
 
+TEST(CollisionWorld, MovedObjectBlocksAsIfSetThere)
+{
+    const auto robot = wamT42();
+    const Eigen::VectorXd q = pressing(*robot, 0.6, 0.0, 0.01);
+    const double top = robot->linkPose(q, "t42_palm").translation().z();  // tall enough to reach the palm
+    const std::vector<Eigen::Vector2d> outline{{0.25, 0.1}, {0.35, 0.1}, {0.35, 0.16}, {0.25, 0.16}};
+    CollisionWorld moved(robot, squareTable(), {}, kContactLinks), placed(robot, squareTable(), {}, kContactLinks);
+    EXPECT_THROW(moved.moveObject(PlanarMotion{}), std::logic_error);
+    moved.setObject(outline, top);
+    std::mt19937_64 rng(3);
+    std::uniform_real_distribution<double> shift(-0.1, 0.45), turn(-M_PI, M_PI);
+    int blocked = 0, free = 0;
+    for (int k = 0; k < 200; ++k)
+    {
+        const PlanarMotion motion{shift(rng), shift(rng) - 0.2, turn(rng)};
+        std::vector<Eigen::Vector2d> there;
+        for (const Eigen::Vector2d &vertex : outline)
+            there.push_back(motion.apply(vertex));
+        moved.moveObject(motion);
+        placed.setObject(there, top);
+        const bool valid = moved.isValid(q, ContactMode::Sliding);
+        EXPECT_EQ(valid, placed.isValid(q, ContactMode::Sliding)) << motion.x << " " << motion.y << " " << motion.yaw;
+        (valid ? free : blocked) += 1;
+    }
+    EXPECT_GT(blocked, 10);  // both verdicts occur, so the comparison means something
+    EXPECT_GT(free, 10);
+}
+
 TEST(CollisionWorld, FoldedArmCollidesWithItself)
 {
     const auto robot = wamT42();

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "slideplan/geometry.hpp"
+#include "slideplan/object_motion.hpp"
 #include "slideplan/obstacle.hpp"
 #include "slideplan/robot_model.hpp"
 
@@ -47,6 +48,10 @@ namespace slideplan
         /// Put the object in the world as a prism over the convex hull of `outlineXY` between the table
         /// top and `topZ`.
         void setObject(const std::vector<Eigen::Vector2d> &outlineXY, double topZ);
+        /// Move the object set by setObject rigidly in the table plane: its outline becomes
+        /// motion.apply(outline). Far cheaper than setObject for an object sliding along a path.
+        /// \throws std::logic_error if no object is set.
+        void moveObject(const PlanarMotion &motion);
         void clearObject();
 
         /// Link pairs checked for self-collision (those not adjacent and not always in contact).
