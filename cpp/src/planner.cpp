@@ -129,6 +129,19 @@ namespace slideplan
                                          const Eigen::VectorXd &target, const Eigen::Isometry3d *startTip,
                                          Eigen::VectorXd &q, Eigen::Isometry3d &tip) const
     {
+        return projectedStep(from, fromTip, target, q, tip) && stepValid(q, tip, startTip);
+    }
+
+    bool SlidingPlanner::stepValid(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip, const Eigen::Isometry3d *startTip) const
+    {
+        // Where the slide started is known in start trees only: there the object must stay clear of
+        // the obstacles (goal trees are checked once connected, pathClear).
+        return validity_->isValid(q, tip) && (!startTip || task_->objectClear(objectMotion(*startTip, tip)));
+    }
+
+    bool SlidingPlanner::projectedStep(const Eigen::VectorXd &from, const Eigen::Isometry3d &fromTip,
+                                       const Eigen::VectorXd &target, Eigen::VectorXd &q, Eigen::Isometry3d &tip) const
+    {
         const Eigen::VectorXd towards = target - from;
         // Aim inside the step bounds: projection moves the state a little further.
         double scale = std::min(1.0, 0.9 * params_.maxJointStep / towards.cwiseAbs().maxCoeff());
@@ -147,11 +160,8 @@ namespace slideplan
                                             params_.maxYawRate * (tip.translation() - fromTip.translation()).head<2>().norm())
             return false;  // turns the object too fast for the distance slid
         const double step = (q - from).norm(), before = towards.norm(), after = (target - q).norm();
-        if (step < 1e-3 * params_.maxJointStep || after > before - 0.25 * step)
-            return false;  // stalled: the projection (or a joint limit) undoes the step
-        // Where the slide started is known in start trees only: there the object must stay clear of
-        // the obstacles (goal trees are checked once connected, pathClear).
-        return validity_->isValid(q, tip) && (!startTip || task_->objectClear(objectMotion(*startTip, tip)));
+        return step >= 1e-3 * params_.maxJointStep && after <= before - 0.25 * step;  // else stalled: the
+                                                                                      // projection (or a joint limit) undoes the step
     }
 
     SlidingPlanner::Node *SlidingPlanner::constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target,
@@ -208,10 +218,11 @@ namespace slideplan
             Eigen::Isometry3d tip;
             // The walk's cost up to its second-to-last point is final (the last may still be replaced by
             // waypoint j): once it reaches the stretch's cost the walk cannot be kept, so stop walking.
+            // Validity is checked only for a walk that arrives cheaper: most walks do not.
             double settledCost = 0.0;
             while (walk.size() < maxSteps && settledCost < stretchCost &&
                    (path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9 &&
-                   constrainedStep(walk.back(), walkTips.back(), path[j], &tips.front(), q, tip))
+                   projectedStep(walk.back(), walkTips.back(), path[j], q, tip))
             {
                 if (walk.size() >= 2)
                     settledCost += stepCost(walkTips[walkTips.size() - 2], walkTips.back());
@@ -220,9 +231,16 @@ namespace slideplan
             }
             if ((path[j] - walk.back()).cwiseAbs().maxCoeff() >= 1e-9)
                 continue;
+            const Eigen::VectorXd landed = walk.back();
+            const Eigen::Isometry3d landedTip = walkTips.back();
             walk.back() = path[j];  // arrived: the last step landed on waypoint j itself
             walkTips.back() = tips[j];
-            if (cost(walkTips, 0, walkTips.size() - 1) >= stretchCost || !armClearOfObject(walk, walkTips, tips.front()))
+            if (cost(walkTips, 0, walkTips.size() - 1) >= stretchCost)
+                continue;
+            bool valid = stepValid(landed, landedTip, &tips.front());
+            for (std::size_t k = 1; k + 1 < walk.size() && valid; ++k)
+                valid = stepValid(walk[k], walkTips[k], &tips.front());
+            if (!valid || !armClearOfObject(walk, walkTips, tips.front()))
                 continue;
             path.erase(path.begin() + i, path.begin() + j + 1);
             path.insert(path.begin() + i, walk.begin(), walk.end());

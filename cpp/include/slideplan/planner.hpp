@@ -55,6 +55,11 @@ namespace slideplan
         /// In a start tree (`startTip`: its root's contact frame) the object must also stay clear of obstacles.
         bool constrainedStep(const Eigen::VectorXd &from, const Eigen::Isometry3d &fromTip, const Eigen::VectorXd &target,
                              const Eigen::Isometry3d *startTip, Eigen::VectorXd &q, Eigen::Isometry3d &tip) const;
+        /// constrainedStep without the validity check.
+        bool projectedStep(const Eigen::VectorXd &from, const Eigen::Isometry3d &fromTip, const Eigen::VectorXd &target,
+                           Eigen::VectorXd &q, Eigen::Isometry3d &tip) const;
+        /// The validity part of constrainedStep.
+        bool stepValid(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip, const Eigen::Isometry3d *startTip) const;
         /// T.ConstrainedExtend(target, near): constrained steps until the target is reached or a step is refused.
         Node *constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target, bool &reached);
         /// Beyond the paper: replace stretches of the path by shorter constrained walks between two of
