@@ -352,14 +352,25 @@ namespace slideplan
                (q.array() <= upper_.array() + tolerance).all();
     }
 
-    Eigen::Isometry3d RobotModel::jointMotion(const RobotLink &link, double value) const
+    void RobotModel::moveJoint(Eigen::Isometry3d &pose, const RobotLink &link, double value)
     {
-        Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
-        if (link.jointType == RobotLink::JointType::Revolute)
-            motion.linear() = Eigen::AngleAxisd(value, link.axis).toRotationMatrix();
-        else if (link.jointType == RobotLink::JointType::Prismatic)
-            motion.translation() = value * link.axis;
-        return motion;
+        if (link.jointType == RobotLink::JointType::Prismatic)
+            pose.translation() += pose.linear() * (value * link.axis);
+        if (link.jointType != RobotLink::JointType::Revolute)
+            return;
+        // About a coordinate axis (most URDFs) the rotation turns two columns of the pose in place:
+        // the kernel's hot spot, 12 products instead of a 3x3 matrix product.
+        for (int k = 0; k < 3; ++k)
+            if (std::abs(link.axis(k)) == 1.0)
+            {
+                const double angle = link.axis(k) * value, c = std::cos(angle), s = std::sin(angle);
+                const int a = (k + 1) % 3, b = (k + 2) % 3;
+                const Eigen::Vector3d u = pose.linear().col(a), v = pose.linear().col(b);
+                pose.linear().col(a) = c * u + s * v;
+                pose.linear().col(b) = c * v - s * u;
+                return;
+            }
+        pose.linear() = pose.linear() * Eigen::AngleAxisd(value, link.axis).toRotationMatrix();
     }
 
     Eigen::Isometry3d RobotModel::pathPose(const FramePath &path, const JointsRef &q) const
@@ -370,7 +381,7 @@ namespace slideplan
             const RobotLink &link = links_[i];
             pose = pose * link.origin;
             if (link.jointType != RobotLink::JointType::Fixed)
-                pose = pose * jointMotion(link, jointValue(link, q));
+                moveJoint(pose, link, jointValue(link, q));
         }
         return pose * path.offset;
     }
@@ -399,7 +410,7 @@ namespace slideplan
                 else
                     column.head<3>() += link.multiplier * axis;
             }
-            pose = pose * jointMotion(link, jointValue(link, q));
+            moveJoint(pose, link, jointValue(link, q));
         }
         const Eigen::Vector3d tip = (pose * path.offset).translation();
         for (Eigen::Index j = 0; j < jacobian.cols(); ++j)
@@ -432,7 +443,7 @@ namespace slideplan
             const RobotLink &link = links_[i];
             poses[i] = poses[link.parent] * link.origin;
             if (link.jointType != RobotLink::JointType::Fixed)
-                poses[i] = poses[i] * jointMotion(link, jointValue(link, q));
+                moveJoint(poses[i], link, jointValue(link, q));
         }
     }
 

@@ -162,6 +162,35 @@ TEST(RobotModel, KernelMatchesKdlForEveryLinkAndTheJacobian)
     }
 }
 
+TEST(RobotModel, KernelMatchesKdlForEveryJointAxisKind)
+{
+    // The WAM turns about z only; the kernel has separate paths for x, -y, a general axis and prismatic joints.
+    const auto joint = [](const std::string &name, const std::string &type, const std::string &parent,
+                          const std::string &child, const std::string &axis) {
+        return "<link name='" + child + "'/><joint name='" + name + "' type='" + type + "'><parent link='" + parent +
+               "'/><child link='" + child + "'/><origin xyz='0.1 0.02 0.3' rpy='0.3 -0.2 0.5'/><axis xyz='" + axis +
+               "'/><limit lower='-2' upper='2' effort='1' velocity='1'/></joint>";
+    };
+    const std::string urdf = "<robot name='axes'><link name='base'/>" + joint("j1", "revolute", "base", "l1", "1 0 0") +
+                             joint("j2", "revolute", "l1", "l2", "0 -1 0") + joint("j3", "revolute", "l2", "l3", "0.6 0 0.8") +
+                             joint("j4", "prismatic", "l3", "l4", "0 0.8 0.6") + joint("j5", "revolute", "l4", "l5", "0 0 -1") +
+                             "</robot>";
+    const RobotModel robot(urdf, "l5");
+    ASSERT_EQ(robot.dof(), 5u);
+    std::mt19937_64 rng(5);
+    std::vector<Eigen::Isometry3d> poses;
+    for (int i = 0; i < 20; ++i)
+    {
+        const Eigen::VectorXd q = robot.randomConfiguration(rng);
+        robot.linkPoses(q, poses);
+        for (std::size_t l = 0; l < robot.links().size(); ++l)
+            EXPECT_LT((poses[l].matrix() - robot.referenceFramePose(q, robot.links()[l].name).matrix()).cwiseAbs().maxCoeff(),
+                      1e-12)
+                << robot.links()[l].name;
+        EXPECT_LT((robot.jacobian(q) - robot.referenceJacobian(q)).cwiseAbs().maxCoeff(), 1e-12) << "configuration " << i;
+    }
+}
+
 TEST(RobotModel, ConstCallsFromManyThreadsGiveTheSequentialAnswers)
 {
     // KDL caches joint poses in mutable members; a shared model must still answer every thread exactly.

@@ -195,7 +195,8 @@ namespace slideplan
         {
             return link.jointIndex >= 0 ? link.multiplier * q(link.jointIndex) + link.offset : link.offset;
         }
-        Eigen::Isometry3d jointMotion(const RobotLink &link, double value) const;
+        /// pose * (the joint's motion at `value`), in place.
+        static void moveJoint(Eigen::Isometry3d &pose, const RobotLink &link, double value);
 
         std::string source_;
         std::string tipLink_;
