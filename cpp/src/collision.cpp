@@ -209,6 +209,31 @@ namespace slideplan
 
     CollisionWorld::~CollisionWorld() = default;
 
+    CollisionWorld::CollisionWorld(std::shared_ptr<const RobotModel> robot, std::unique_ptr<Impl> impl)
+      : robot_(std::move(robot)), impl_(std::move(impl))
+    {
+    }
+
+    std::unique_ptr<CollisionWorld> CollisionWorld::clone() const
+    {
+        const auto copy = [](const fcl::CollisionObjectd &object) {
+            // FCL hands the geometry out as const but takes it as mutable; collision queries only read it.
+            auto result = std::make_unique<fcl::CollisionObjectd>(
+                std::const_pointer_cast<fcl::CollisionGeometryd>(object.collisionGeometry()), object.getTransform());
+            result->computeAABB();
+            return result;
+        };
+        auto impl = std::make_unique<Impl>();
+        for (const Impl::RobotShape &shape : impl_->shapes)
+            impl->shapes.push_back({shape.link, shape.origin, copy(*shape.object), shape.contact});
+        for (const Impl::EnvironmentPiece &piece : impl_->environment)
+            impl->environment.push_back({piece.name, copy(*piece.object), piece.touchable});
+        impl->firstObjectPiece = impl_->firstObjectPiece;
+        impl->selfPairs = impl_->selfPairs;
+        impl->tableTop = impl_->tableTop;
+        return std::unique_ptr<CollisionWorld>(new CollisionWorld(robot_, std::move(impl)));
+    }
+
     std::size_t CollisionWorld::selfPairCount() const
     {
         return impl_->selfPairs.size();

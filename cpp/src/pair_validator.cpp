@@ -37,10 +37,11 @@ namespace slideplan
     }  // namespace
 
     PairValidator::PairValidator(std::shared_ptr<const SlidingTask> task, const PlannerParams &params,
-                                 std::shared_ptr<const GraspMap> graspMap)
+                                 std::shared_ptr<const GraspMap> graspMap, const CollisionWorld *world)
       : task_(std::move(task))
       , params_(params)
-      , world_(std::make_unique<CollisionWorld>(task_->robot, *task_->table, task_->obstacles, task_->contactLinks))
+      , world_(world ? world->clone()
+                     : std::make_unique<CollisionWorld>(task_->robot, *task_->table, task_->obstacles, task_->contactLinks))
       , graspMap_(graspMap ? std::move(graspMap) : std::make_shared<const GraspMap>(*task_, params_))
     {
         if (!graspMap_->fits(*task_, params_))

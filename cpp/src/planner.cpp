@@ -68,8 +68,8 @@ namespace slideplan
         si_->setStateValidityChecker(validity);
         constraint_ = constraint;
         validity_ = validity;
-        pairValidator_ = std::make_unique<PairValidator>(task_, params_, std::move(graspMap));
-        objectWorld_ = std::make_unique<CollisionWorld>(task_->robot, *task_->table, task_->obstacles, task_->contactLinks);
+        pairValidator_ = std::make_unique<PairValidator>(task_, params_, std::move(graspMap), &validity->world());
+        objectWorld_ = validity->world().clone();
         objectWorld_->setObject(task_->hullXY, task_->surfaceZ);  // at its start pose; moved along paths
         clear();
     }

@@ -106,6 +106,35 @@ TEST(CollisionWorld, MovedObjectBlocksAsIfSetThere)
     EXPECT_GT(free, 10);
 }
 
+TEST(CollisionWorld, CloneAnswersAsTheOriginalAndIsIndependent)
+{
+    const auto robot = wamT42();
+    Obstacle box;
+    box.pose.translation() << 0.5, 0.1, 0.1;
+    box.size << 0.1, 0.1, 0.2;
+    CollisionWorld world(robot, squareTable(), {box}, kContactLinks);
+    world.setObject({{0.45, -0.1}, {0.55, -0.1}, {0.5, 0.0}}, 0.05);
+    const auto copy = world.clone();
+    EXPECT_EQ(copy->selfPairCount(), world.selfPairCount());
+    std::mt19937_64 rng(8);
+    int hits = 0;
+    for (int k = 0; k < 300; ++k)
+    {
+        const Eigen::VectorXd q = robot->randomConfiguration(rng);
+        for (const ContactMode mode : {ContactMode::Sliding, ContactMode::Free})
+        {
+            EXPECT_EQ(copy->collisions(q, mode), world.collisions(q, mode));
+            hits += !world.isValid(q, mode);
+        }
+    }
+    EXPECT_GT(hits, 30);  // the configurations meet the table, the box, the object and the arm itself
+    const Eigen::VectorXd q = pressing(*robot, 0.5, -0.05, 0.01);
+    const double top = robot->linkPose(q, "t42_palm").translation().z();
+    copy->setObject({{0.45, -0.1}, {0.55, -0.1}, {0.5, 0.0}}, top);
+    EXPECT_FALSE(copy->isValid(q));
+    EXPECT_TRUE(world.isValid(q));  // the original keeps its own, thin object
+}
+
 TEST(CollisionWorld, FoldedArmCollidesWithItself)
 {
     const auto robot = wamT42();

@@ -34,6 +34,9 @@ namespace slideplan
                        const std::vector<Obstacle> &obstacles, const std::vector<std::string> &contactLinks,
                        double tableDepth = 0.75);
         ~CollisionWorld();
+        /// Another world with the same robot, table, obstacles and object (sharing their immutable
+        /// geometry), without measuring the self-collision pairs again: one per user of a task.
+        std::unique_ptr<CollisionWorld> clone() const;
         CollisionWorld(const CollisionWorld &) = delete;
         CollisionWorld &operator=(const CollisionWorld &) = delete;
 
@@ -60,6 +63,7 @@ namespace slideplan
 
     private:
         struct Impl;
+        CollisionWorld(std::shared_ptr<const RobotModel> robot, std::unique_ptr<Impl> impl);
         bool check(const JointsRef &q, ContactMode mode,
                    std::vector<std::pair<std::string, std::string>> *report) const;
         std::shared_ptr<const RobotModel> robot_;

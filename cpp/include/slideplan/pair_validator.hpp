@@ -45,9 +45,10 @@ namespace slideplan
     {
     public:
         /// `graspMap`: a map shared with other plans of the same geometry (GraspMap::fits), or null for
-        /// one of its own. \throws std::invalid_argument for a map that does not fit.
+        /// one of its own. `world`: a collision world of the task to clone, or null to build one.
+        /// \throws std::invalid_argument for a map that does not fit.
         PairValidator(std::shared_ptr<const SlidingTask> task, const PlannerParams &params,
-                      std::shared_ptr<const GraspMap> graspMap = nullptr);
+                      std::shared_ptr<const GraspMap> graspMap = nullptr, const CollisionWorld *world = nullptr);
 
         /// IsPairValid(phi_s, phi_g): cheap geometry first, then grasp IK, then the transfer motion.
         PairVerdict check(const Eigen::VectorXd &start, const Eigen::VectorXd &goal, std::mt19937_64 &rng,

@@ -29,6 +29,7 @@ namespace slideplan
 
         const SlidingTask &task() const { return *task_; }
         const SlidingConstraint &constraint() const { return *constraint_; }
+        const CollisionWorld &world() const { return *world_; }
 
     private:
         std::shared_ptr<const SlidingTask> task_;
