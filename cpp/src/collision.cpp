@@ -270,6 +270,13 @@ namespace slideplan
         return check(q, mode, nullptr);
     }
 
+    bool CollisionWorld::objectFree(const JointsRef &q, ContactMode mode) const
+    {
+        if (impl_->environment.size() == impl_->firstObjectPiece)
+            throw std::logic_error("objectFree without an object: call setObject first");
+        return check(q, mode, nullptr, true);
+    }
+
     std::vector<std::pair<std::string, std::string>> CollisionWorld::collisions(const JointsRef &q, ContactMode mode) const
     {
         std::vector<std::pair<std::string, std::string>> report;
@@ -277,8 +284,8 @@ namespace slideplan
         return report;
     }
 
-    bool CollisionWorld::check(const JointsRef &q, ContactMode mode,
-                               std::vector<std::pair<std::string, std::string>> *report) const
+    bool CollisionWorld::check(const JointsRef &q, ContactMode mode, std::vector<std::pair<std::string, std::string>> *report,
+                               bool objectOnly) const
     {
         if (q.size() != static_cast<long>(robot_->dof()) || !q.allFinite())
             throw std::invalid_argument("configuration has the wrong size or is not finite");
@@ -291,14 +298,17 @@ namespace slideplan
                 report->emplace_back(a, b);
             return report == nullptr;  // stop at the first hit unless a report is wanted
         };
+        const auto firstPiece = impl_->environment.begin() + static_cast<long>(objectOnly ? impl_->firstObjectPiece : 0);
         for (const auto &shape : impl_->shapes)
-            for (const auto &piece : impl_->environment)
+            for (auto piece = firstPiece; piece != impl_->environment.end(); ++piece)
             {
-                if (mode == ContactMode::Sliding && shape.contact && piece.touchable)
+                if (mode == ContactMode::Sliding && shape.contact && piece->touchable)
                     continue;
-                if (collide(*shape.object, *piece.object) && hit(links[shape.link].name, piece.name))
+                if (collide(*shape.object, *piece->object) && hit(links[shape.link].name, piece->name))
                     return false;
             }
+        if (objectOnly)
+            return free;
         for (const auto &[a, b] : impl_->selfPairs)
             if (collide(*impl_->shapes[a].object, *impl_->shapes[b].object) &&
                 hit(links[impl_->shapes[a].link].name, links[impl_->shapes[b].link].name))

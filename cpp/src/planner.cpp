@@ -255,7 +255,7 @@ namespace slideplan
         for (std::size_t k = 0; k < path.size(); ++k)
         {
             objectWorld_->moveObject(objectMotion(startTip, tips[k]));
-            if (!objectWorld_->isValid(path[k], ContactMode::Sliding))
+            if (!objectWorld_->objectFree(path[k], ContactMode::Sliding))  // the rest was checked as the path grew
                 return false;
         }
         return true;

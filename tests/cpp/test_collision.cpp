@@ -65,6 +65,9 @@ TEST(CollisionWorld, BoxObstaclesAndTheObjectBlock)
     CollisionWorld blocked(robot, squareTable(), {box}, kContactLinks);
     EXPECT_FALSE(blocked.isValid(q));
     EXPECT_EQ(blocked.collisions(q).front().second, "obstacle0");
+    EXPECT_THROW(blocked.objectFree(q), std::logic_error);
+    blocked.setObject({{0.0, 0.3}, {0.05, 0.3}, {0.0, 0.35}}, 0.004);
+    EXPECT_TRUE(blocked.objectFree(q));  // the box is not the object
 
     CollisionWorld world(robot, squareTable(), {}, kContactLinks);
     const Eigen::Vector3d tip = robot->fk(q).translation();
@@ -100,6 +103,7 @@ TEST(CollisionWorld, MovedObjectBlocksAsIfSetThere)
         placed.setObject(there, top);
         const bool valid = moved.isValid(q, ContactMode::Sliding);
         EXPECT_EQ(valid, placed.isValid(q, ContactMode::Sliding)) << motion.x << " " << motion.y << " " << motion.yaw;
+        EXPECT_EQ(valid, moved.objectFree(q, ContactMode::Sliding));  // q meets nothing else
         (valid ? free : blocked) += 1;
     }
     EXPECT_GT(blocked, 10);  // both verdicts occur, so the comparison means something

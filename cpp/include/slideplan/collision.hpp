@@ -44,6 +44,10 @@ namespace slideplan
         /// Not thread-safe: one world per planning thread.
         bool isValid(const JointsRef &q, ContactMode mode = ContactMode::Sliding) const;
 
+        /// True if the robot at q is clear of the object set by setObject (nothing else is checked): for
+        /// configurations already known valid without it. \throws std::logic_error if no object is set.
+        bool objectFree(const JointsRef &q, ContactMode mode = ContactMode::Sliding) const;
+
         /// The colliding pairs at q, by link or obstacle name: for diagnostics and the verifier.
         std::vector<std::pair<std::string, std::string>> collisions(const JointsRef &q,
                                                                     ContactMode mode = ContactMode::Sliding) const;
@@ -64,8 +68,9 @@ namespace slideplan
     private:
         struct Impl;
         CollisionWorld(std::shared_ptr<const RobotModel> robot, std::unique_ptr<Impl> impl);
-        bool check(const JointsRef &q, ContactMode mode,
-                   std::vector<std::pair<std::string, std::string>> *report) const;
+        /// `objectOnly`: the robot against the object alone.
+        bool check(const JointsRef &q, ContactMode mode, std::vector<std::pair<std::string, std::string>> *report,
+                   bool objectOnly = false) const;
         std::shared_ptr<const RobotModel> robot_;
         std::unique_ptr<Impl> impl_;
     };
