@@ -135,9 +135,29 @@ namespace slideplan
             if (orientation(vertices_.row(i), vertices_.row((i + 1) % n), vertices_.row((i + 2) % n)) < 0)
                 convex_ = false;
         triangles_ = earClip(vertices_);
+
+        // Discs around the vertex mean that settle most points without the crossing test: inside the
+        // distance to the nearest edge (if the mean is inside Q), outside the farthest vertex. Shrunk and
+        // grown by 1e-9 so that rounding never decides against the exact test.
+        centre_ = vertices_.colwise().mean().transpose();
+        for (int i = 0; i < n; ++i)
+            outerRadius2_ = std::max(outerRadius2_, (vertices_.row(i).transpose() - centre_).squaredNorm());
+        outerRadius2_ *= 1.0 + 1e-9;
+        if (crosses(centre_))
+            innerRadius2_ = std::pow(closestEdge(centre_).distance, 2) * (1.0 - 1e-9);
     }
 
     bool SupportSurface::contains(const Eigen::Vector2d &point) const
+    {
+        const double radius2 = (point - centre_).squaredNorm();
+        if (radius2 < innerRadius2_)
+            return true;
+        if (radius2 > outerRadius2_)
+            return false;
+        return crosses(point);
+    }
+
+    bool SupportSurface::crosses(const Eigen::Vector2d &point) const
     {
         bool inside = false;
         const int n = size();

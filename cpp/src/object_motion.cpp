@@ -9,6 +9,14 @@ namespace slideplan
         return Eigen::Rotation2Dd(yaw) * point + Eigen::Vector2d(x, y);
     }
 
+    Eigen::Isometry2d PlanarMotion::transform() const
+    {
+        Eigen::Isometry2d result = Eigen::Isometry2d::Identity();
+        result.linear() = Eigen::Rotation2Dd(yaw).toRotationMatrix();
+        result.translation() << x, y;
+        return result;
+    }
+
     PlanarMotion objectMotion(const Eigen::Isometry3d &start, const Eigen::Isometry3d &goal)
     {
         const auto heading = [](const Eigen::Isometry3d &frame) {

@@ -59,9 +59,10 @@ namespace slideplan
         result.comInside = result.comMargin > 0.0 && result.comMargin >= params_.comMargin;
         std::vector<Eigen::Vector2d> outside;
         double weight = 0.0;
+        const Eigen::Isometry2d move = motion.transform();
         for (int i = 0; i < points.rows(); ++i)
         {
-            const Eigen::Vector2d moved = motion.apply(points.row(i).transpose());
+            const Eigen::Vector2d moved = move * points.row(i).transpose();
             if (table.contains(moved))
                 continue;
             const double w = exact ? 1.0 : task_->footprintWeight(i);
@@ -81,7 +82,7 @@ namespace slideplan
             beyond(point);
         if (!exact)
             for (const Eigen::Vector2d &vertex : task_->hullXY)
-                if (const Eigen::Vector2d moved = motion.apply(vertex); !table.contains(moved))
+                if (const Eigen::Vector2d moved = move * vertex; !table.contains(moved))
                     beyond(moved);
         // The hand's free length s (graspStandoff) must lie beyond the edge: H_g moves outward to d_g >= s,
         // and what lies within that length towards the table is not in the hand.

@@ -117,15 +117,16 @@ namespace slideplan
 
     bool SlidingTask::objectClear(const PlanarMotion &motion) const
     {
+        const Eigen::Isometry2d move = motion.transform();
         for (const Obstacle &obstacle : obstacles)
         {
             if (obstacle.bottom() >= surfaceZ)
                 continue;  // above the object: only the arm has to avoid it
             for (int i = 0; i < footprintXY.rows(); ++i)
-                if (obstacle.covers(motion.apply(footprintXY.row(i).transpose())))
+                if (obstacle.covers(move * footprintXY.row(i).transpose()))
                     return false;
             for (const Eigen::Vector2d &vertex : hullXY)
-                if (obstacle.covers(motion.apply(vertex)))
+                if (obstacle.covers(move * vertex))
                     return false;
         }
         return true;

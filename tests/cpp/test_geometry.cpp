@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <cmath>
+#include <random>
 
 using namespace slideplan;
 
@@ -35,6 +36,51 @@ TEST(SupportSurface, PointInConvexAndNonConvexPolygons)
     EXPECT_TRUE(circle.isConvex());
     EXPECT_TRUE(circle.contains({0.99 * std::cos(0.3), 0.99 * std::sin(0.3)}));
     EXPECT_FALSE(circle.contains({1.01 * std::cos(0.3), 1.01 * std::sin(0.3)}));
+}
+
+TEST(SupportSurface, FastContainsAgreesWithTheWindingNumberEverywhere)
+{
+    // contains() settles points inside an inscribed disc and outside a circumscribed one at once; it must
+    // agree with an independent winding-number test, also next to both discs and on a polygon whose
+    // vertex mean lies outside it.
+    const auto winding = [](const Polygon2 &polygon, const Eigen::Vector2d &p) {
+        double angle = 0.0;
+        for (int i = 0, n = static_cast<int>(polygon.rows()); i < n; ++i)
+        {
+            const Eigen::Vector2d a = polygon.row(i).transpose() - p, b = polygon.row((i + 1) % n).transpose() - p;
+            angle += std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b));
+        }
+        return std::abs(angle) > M_PI;
+    };
+    Polygon2 round(100, 2), crescent(8, 2);
+    for (int i = 0; i < 100; ++i)
+        round.row(i) << 0.5 + 0.22 * std::cos(2 * M_PI * i / 100), 0.22 * std::sin(2 * M_PI * i / 100);
+    crescent << 0, 0, 4, 0, 4, 4, 0, 4, 0, 3, 3, 3, 3, 1, 0, 1;  // a C whose vertex mean lies in its mouth
+    std::mt19937_64 rng(2);
+    for (const Polygon2 &polygon : {round, crescent, lShape()})
+    {
+        const SupportSurface surface(polygon, 0.0);
+        const Eigen::Vector2d low = polygon.colwise().minCoeff(), high = polygon.colwise().maxCoeff();
+        const Eigen::Vector2d mean = polygon.colwise().mean().transpose();
+        std::uniform_real_distribution<double> u(-0.2, 1.2), turn(-M_PI, M_PI);
+        int inside = 0;
+        for (int k = 0; k < 20000; ++k)
+        {
+            Eigen::Vector2d p = low + (high - low).cwiseProduct(Eigen::Vector2d(u(rng), u(rng)));
+            if (k % 2)  // half of them on rays from the mean, by the edges and the vertices
+            {
+                const double a = turn(rng);
+                const Eigen::Vector2d ray(std::cos(a), std::sin(a));
+                p = mean + ray * (surface.signedDistance(mean) > 0 ? std::abs(surface.signedDistance(mean)) : 0.0) *
+                               (1.0 + 1e-3 * (u(rng) - 0.5));
+            }
+            if (std::abs(surface.signedDistance(p)) < 1e-12)
+                continue;  // on the boundary either answer is right
+            ASSERT_EQ(surface.contains(p), winding(polygon, p)) << p.transpose();
+            inside += surface.contains(p);
+        }
+        EXPECT_GT(inside, 1000);
+    }
 }
 
 TEST(SupportSurface, ClockwiseInputIsStoredCounterClockwise)

@@ -48,8 +48,13 @@ namespace slideplan
         int size() const { return static_cast<int>(vertices_.rows()); }
 
     private:
+        /// The crossing-number test itself.
+        bool crosses(const Eigen::Vector2d &point) const;
+
         Polygon2 vertices_;
         double height_;
+        Eigen::Vector2d centre_;
+        double innerRadius2_{0.0}, outerRadius2_{0.0};  ///< squared radii of the discs contains() settles at once
         double area_{0.0};
         bool convex_{false};
         std::vector<std::array<int, 3>> triangles_;

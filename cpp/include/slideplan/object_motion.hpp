@@ -13,6 +13,8 @@ namespace slideplan
     {
         double x{0.0}, y{0.0}, yaw{0.0};
         Eigen::Vector2d apply(const Eigen::Vector2d &point) const;
+        /// The same motion as a transform: for many points, one sine and cosine instead of one per point.
+        Eigen::Isometry2d transform() const;
     };
 
     /// Eq. 2: the object motion that carries the contact frame from `start` to `goal` (world poses of F).
