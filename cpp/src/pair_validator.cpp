@@ -57,7 +57,8 @@ namespace slideplan
         result.motion = motion;
         result.comMargin = table.signedDistance(motion.apply(task_->objectCom));
         result.comInside = result.comMargin > 0.0 && result.comMargin >= params_.comMargin;
-        std::vector<Eigen::Vector2d> outside;
+        std::vector<Eigen::Vector2d> &outside = outside_;  // reused: asked for every promising root pair
+        outside.clear();
         double weight = 0.0;
         const Eigen::Isometry2d move = motion.transform();
         for (int i = 0; i < points.rows(); ++i)

@@ -36,7 +36,7 @@ namespace slideplan
             nearest.setDistanceFunction([](const Node *a, const Node *b) { return (a->q - b->q).norm(); });
         }
 
-        Node *add(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip, Node *parent)
+        Node *add(const JointsRef &q, const Eigen::Isometry3d &tip, Node *parent)
         {
             nodes.push_back(std::make_unique<Node>(Node{q, tip, parent, parent ? parent->root : static_cast<int>(roots.size())}));
             Node *node = nodes.back().get();
@@ -46,7 +46,7 @@ namespace slideplan
             return node;
         }
 
-        Node *nearestTo(const Eigen::VectorXd &q) const
+        Node *nearestTo(const JointsRef &q) const
         {
             Node query{q, Eigen::Isometry3d::Identity(), nullptr, -1};
             return nearest.nearest(&query);
@@ -94,9 +94,11 @@ namespace slideplan
         // else from the other forest's: a 6-joint arm's IK branches are separate components of the
         // constraint manifold, and trees rooted in different branches never connect.
         const Forest &other = &forest == startForest_.get() ? *goalForest_ : *startForest_;
-        const Eigen::VectorXd seed = !forest.roots.empty() ? forest.roots.back()->q
-                                     : !other.roots.empty() ? other.roots.back()->q
-                                                            : Eigen::VectorXd();
+        Eigen::VectorXd seed;
+        if (!forest.roots.empty())
+            seed = forest.roots.back()->q;
+        else if (!other.roots.empty())
+            seed = other.roots.back()->q;
         Eigen::VectorXd q;
         // Beyond the paper: some goal roots are drawn for a start root (paired_goal.hpp), the others as
         // Algorithm 1 draws them. The baselines draw theirs as published.
@@ -125,24 +127,23 @@ namespace slideplan
         return true;
     }
 
-    bool SlidingPlanner::constrainedStep(const Eigen::VectorXd &from, const Eigen::Isometry3d &fromTip,
-                                         const Eigen::VectorXd &target, const Eigen::Isometry3d *startTip,
-                                         Eigen::VectorXd &q, Eigen::Isometry3d &tip) const
+    bool SlidingPlanner::constrainedStep(const JointsRef &from, const Eigen::Isometry3d &fromTip, const JointsRef &target,
+                                         const Eigen::Isometry3d *startTip, JointVector &q, Eigen::Isometry3d &tip) const
     {
         return projectedStep(from, fromTip, target, q, tip) && stepValid(q, tip, startTip);
     }
 
-    bool SlidingPlanner::stepValid(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip, const Eigen::Isometry3d *startTip) const
+    bool SlidingPlanner::stepValid(const JointsRef &q, const Eigen::Isometry3d &tip, const Eigen::Isometry3d *startTip) const
     {
         // Where the slide started is known in start trees only: there the object must stay clear of
         // the obstacles (goal trees are checked once connected, pathClear).
         return validity_->isValid(q, tip) && (!startTip || task_->objectClear(objectMotion(*startTip, tip)));
     }
 
-    bool SlidingPlanner::projectedStep(const Eigen::VectorXd &from, const Eigen::Isometry3d &fromTip,
-                                       const Eigen::VectorXd &target, Eigen::VectorXd &q, Eigen::Isometry3d &tip) const
+    bool SlidingPlanner::projectedStep(const JointsRef &from, const Eigen::Isometry3d &fromTip, const JointsRef &target,
+                                       JointVector &q, Eigen::Isometry3d &tip) const
     {
-        const Eigen::VectorXd towards = target - from;
+        const JointVector towards = target - from;
         // Aim inside the step bounds: projection moves the state a little further.
         double scale = std::min(1.0, 0.9 * params_.maxJointStep / towards.cwiseAbs().maxCoeff());
         bool withinStep = false;
@@ -164,12 +165,11 @@ namespace slideplan
                                                                                       // projection (or a joint limit) undoes the step
     }
 
-    SlidingPlanner::Node *SlidingPlanner::constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target,
-                                                            bool &reached)
+    SlidingPlanner::Node *SlidingPlanner::constrainedExtend(Forest &forest, Node *near, const JointsRef &target, bool &reached)
     {
         reached = false;
         Node *current = near;
-        Eigen::VectorXd q;
+        JointVector q;
         Eigen::Isometry3d tip;
         for (;;)
         {
@@ -214,7 +214,7 @@ namespace slideplan
             const double stretchCost = cost(tips, i, j);
             std::vector<Eigen::VectorXd> walk{path[i]};
             std::vector<Eigen::Isometry3d> walkTips{tips[i]};
-            Eigen::VectorXd q;
+            JointVector q;
             Eigen::Isometry3d tip;
             // The walk's cost up to its second-to-last point is final (the last may still be replaced by
             // waypoint j): once it reaches the stretch's cost the walk cannot be kept, so stop walking.
@@ -324,7 +324,7 @@ namespace slideplan
                !pairValidator_->knownUnreachable(overhang);
     }
 
-    SlidingPlanner::Node *SlidingPlanner::nearestForConnection(const Forest &forest, const Eigen::VectorXd &q,
+    SlidingPlanner::Node *SlidingPlanner::nearestForConnection(const Forest &forest, const JointsRef &q,
                                                                const Forest &other, int root)
     {
         if (!params_.screenPairs)
@@ -446,7 +446,7 @@ namespace slideplan
             if (mayAddRoot && canAddRoot(static_cast<int>(startForest_->roots.size()), static_cast<int>(goalForest_->roots.size()),
                                          params_.nStar, rng_))
                 addRoot(*a, ptc);
-            Eigen::VectorXd random(robot.dof());
+            JointVector random(robot.dof());
             for (unsigned i = 0; i < robot.dof(); ++i)
                 random(i) = robot.lowerLimits()(i) + unit(rng_) * (robot.upperLimits()(i) - robot.lowerLimits()(i));
             bool reached = false;

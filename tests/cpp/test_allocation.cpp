@@ -2,10 +2,13 @@
 // this test binary's malloc counts calls (Eigen and operator new both allocate through it). Not built
 // with the sanitizers, whose runtime owns malloc.
 #include "slideplan/constraint.hpp"
+#include "slideplan/planner.hpp"
 #include "test_support.hpp"
 
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
+#include <regex>
 #include <gtest/gtest.h>
 
 namespace
@@ -52,5 +55,34 @@ namespace slideplan
         EXPECT_EQ(allocations - before, 0);
         EXPECT_TRUE(std::isfinite(sink));
         EXPECT_TRUE(robot->ik(target, seed, rng, solution, single));  // the seeded IK above did solve
+    }
+
+    TEST(HotPath, ATreeNodeIsOneAllocation)
+    {
+        // Without collision shapes (FCL's GJK allocates inside every narrow-phase test) the allocations of
+        // a plan are the planner's own: growing the trees dominates them, unless a node, a step or an
+        // iteration allocates more than the node itself.
+        std::ifstream file(testing::robotPath());
+        const std::string urdf((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+        const std::string bare = std::regex_replace(urdf, std::regex("<collision[\\s\\S]*?</collision>"), "");
+        ASSERT_NE(bare.size(), urdf.size());
+        const auto robot = std::make_shared<RobotModel>(bare, "fingertip_contact", testing::defaultMount());
+        Eigen::Matrix<double, Eigen::Dynamic, 3> plate(121, 3);
+        for (int i = 0; i <= 10; ++i)
+            for (int j = 0; j <= 10; ++j)
+                plate.row(i * 11 + j) << 0.45 - 0.05 + 0.01 * i, 0.0 - 0.05 + 0.01 * j, 0.004;
+        const auto task = std::make_shared<SlidingTask>(SlidingTask::make(
+            robot, std::make_shared<SupportSurface>(testing::squareTable()), {},
+            {"t42_finger1_proximal", "t42_finger1_distal"}, "t42_grasp", Eigen::Isometry3d::Identity(), plate,
+            Eigen::Vector2d(0.45, 0.0)));
+        PlannerParams params;
+        params.comMargin = 1.0;  // no pair is ever valid: the trees grow until the time limit
+        const long before = allocations;
+        const PlanResult result = planSliding(task, params, 1, ompl::base::timedPlannerTerminationCondition(0.5));
+        const long spent = allocations - before;
+        EXPECT_EQ(result.status, "timeout");
+        ASSERT_GT(result.stats.nodes, 10000);  // enough tree growth to dominate roots, pairs and set-up
+        EXPECT_LT(static_cast<double>(spent) / static_cast<double>(result.stats.nodes), 1.3)
+            << spent << " allocations, " << result.stats.nodes << " nodes";
     }
 }  // namespace slideplan

@@ -92,6 +92,7 @@ namespace slideplan
         std::shared_ptr<const SlidingTask> task_;
         PlannerParams params_;
         std::unique_ptr<CollisionWorld> world_;  ///< holds the object at its final pose while a pair is checked
+        mutable std::vector<Eigen::Vector2d> outside_;  ///< overhang()'s points beyond Q, kept to reuse the memory
         mutable std::vector<Eigen::VectorXd> graspSeeds_;  ///< recent successful grasp configurations
         std::shared_ptr<const GraspMap> graspMap_;
         mutable std::set<std::pair<int, long>> unreachable_;  ///< stretches where this plan's grasp IK failed

@@ -40,7 +40,7 @@ namespace slideplan
     private:
         struct Node
         {
-            Eigen::VectorXd q;
+            JointVector q;          ///< in the node itself: a tree node is one allocation
             Eigen::Isometry3d tip;  ///< Gamma(q), kept to bound the fingertip step without another FK
             Node *parent{nullptr};
             int root{-1};           ///< index of the tree's root in its forest
@@ -53,15 +53,15 @@ namespace slideplan
         /// relaxed constraint, and refuse the step if projection fails, it jumps (joint or fingertip
         /// bound), progress stalls or the state is invalid.
         /// In a start tree (`startTip`: its root's contact frame) the object must also stay clear of obstacles.
-        bool constrainedStep(const Eigen::VectorXd &from, const Eigen::Isometry3d &fromTip, const Eigen::VectorXd &target,
-                             const Eigen::Isometry3d *startTip, Eigen::VectorXd &q, Eigen::Isometry3d &tip) const;
+        bool constrainedStep(const JointsRef &from, const Eigen::Isometry3d &fromTip, const JointsRef &target,
+                             const Eigen::Isometry3d *startTip, JointVector &q, Eigen::Isometry3d &tip) const;
         /// constrainedStep without the validity check.
-        bool projectedStep(const Eigen::VectorXd &from, const Eigen::Isometry3d &fromTip, const Eigen::VectorXd &target,
-                           Eigen::VectorXd &q, Eigen::Isometry3d &tip) const;
+        bool projectedStep(const JointsRef &from, const Eigen::Isometry3d &fromTip, const JointsRef &target, JointVector &q,
+                           Eigen::Isometry3d &tip) const;
         /// The validity part of constrainedStep.
-        bool stepValid(const Eigen::VectorXd &q, const Eigen::Isometry3d &tip, const Eigen::Isometry3d *startTip) const;
+        bool stepValid(const JointsRef &q, const Eigen::Isometry3d &tip, const Eigen::Isometry3d *startTip) const;
         /// T.ConstrainedExtend(target, near): constrained steps until the target is reached or a step is refused.
-        Node *constrainedExtend(Forest &forest, Node *near, const Eigen::VectorXd &target, bool &reached);
+        Node *constrainedExtend(Forest &forest, Node *near, const JointsRef &target, bool &reached);
         /// Beyond the paper: replace stretches of the path by shorter constrained walks between two of
         /// its waypoints (params.shortcutAttempts tries, fewer if the time limit comes first).
         void shortcut(std::vector<Eigen::VectorXd> &path, std::vector<Eigen::Isometry3d> &tips,
@@ -70,7 +70,7 @@ namespace slideplan
         bool precomputeRoots(const ompl::base::PlannerTerminationCondition &ptc);
         /// Pi_b.NearestTree(q) for the connection step: with screenPairs, only among trees whose root
         /// forms a promising pair with `root` of the other forest.
-        Node *nearestForConnection(const Forest &forest, const Eigen::VectorXd &q, const Forest &other, int root);
+        Node *nearestForConnection(const Forest &forest, const JointsRef &q, const Forest &other, int root);
         /// Clutter (beyond the paper): along a connected path the object, moved by Eq. 2 from the start
         /// root, overlaps no obstacle (goal-tree part; the start trees were checked while growing), and
         /// the arm meets the object only through the contact links.
