@@ -197,6 +197,12 @@ namespace slideplan
         return true;
     }
 
+    bool PairValidator::canLift(const Eigen::VectorXd &goal) const
+    {
+        std::vector<Eigen::VectorXd> path;
+        return lift(goal, path);
+    }
+
     bool PairValidator::transferMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::uint64_t seed,
                                        const ob::PlannerTerminationCondition &ptc,
                                        std::vector<Eigen::VectorXd> &path) const

@@ -123,6 +123,10 @@ namespace slideplan
         if (!forest.isStart && !paired && !pairValidator_->graspReachableNear(tip.translation().head<2>()) &&
             std::uniform_int_distribution<int>(1, kKeep)(rng_) != 1)
             return false;
+        // With pair screening: a goal root the finger cannot lift off from fails every pair it would
+        // form, after their grasp IK (on the triangle table 2.3 such pairs per plan).
+        if (!forest.isStart && params_.screenPairs && !pairValidator_->canLift(q))
+            return false;
         forest.add(q, tip, nullptr);
         return true;
     }

@@ -166,6 +166,36 @@ TEST(PairValidator, AcceptsASlideThatLeavesAGraspableOverhang)
     EXPECT_TRUE(task->robot->linkPose(verdict.approach.back(), "t42_grasp").isApprox(verdict.graspPose, 1e-6));
 }
 
+TEST(PairValidator, AGoalTheFingerCannotLiftOffFromFailsEveryPair)
+{
+    // A plank over the hand, its underside 5 cm above the highest link frame there: the hand fits under it
+    // at the goal, but the finger cannot rise 5 cm (grasp_lift) from there.
+    const auto free = plateTask({0.45, -0.005});
+    PlannerParams params;
+    const Eigen::VectorXd start = contactConfig(*free, params, 0.45, 0.025);
+    const Eigen::VectorXd goal = contactConfig(*free, params, 0.45, -0.145);
+    std::vector<Eigen::Isometry3d> poses;
+    free->robot->linkPoses(goal, poses);
+    double top = 0.0;
+    for (const Eigen::Isometry3d &pose : poses)
+        if (pose.translation().x() > 0.3)  // the links over the table: the hand and the forearm's end
+            top = std::max(top, pose.translation().z());
+    Obstacle plank;
+    plank.pose.translation() << 0.5, -0.1, top + 0.06;
+    plank.size << 0.3, 0.15, 0.02;
+    const auto blocked = std::make_shared<SlidingTask>(SlidingTask::make(
+        free->robot, free->table, {plank}, kContactLinks, kGraspLink, Eigen::Isometry3d::Identity(), squarePlate({0.45, -0.005}),
+        {0.45, -0.005}));
+    const PairValidator open(free, params), covered(blocked, params);
+    EXPECT_TRUE(open.canLift(goal));
+    EXPECT_FALSE(covered.canLift(goal));
+    std::mt19937_64 rng(2);
+    EXPECT_TRUE(open.check(start, goal, rng, within(5.0)).valid);
+    const PairVerdict verdict = covered.check(start, goal, rng, within(5.0));
+    EXPECT_FALSE(verdict.valid);
+    EXPECT_EQ(verdict.reason, "cannot lift the finger off the object");
+}
+
 TEST(PairedGoal, CarriesTheObjectToAGraspableOverhangWithTheContactInTheGoalBand)
 {
     const auto task = plateTask({0.45, 0.0});

@@ -74,6 +74,10 @@ namespace slideplan
         /// (a goal root's contact).
         bool graspReachableNear(const Eigen::Vector2d &point) const;
 
+        /// Whether the finger can lift off from `goal` with no object in the way: a goal root that cannot
+        /// fails the lift of every pair it would form (the object only adds an obstacle).
+        bool canLift(const Eigen::VectorXd &goal) const;
+
     private:
         /// Grasp IK: from phi_g, then from earlier successful grasps (nearby grasp poses have nearby
         /// solutions), then random restarts.
