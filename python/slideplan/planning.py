@@ -607,7 +607,9 @@ def grasp_map(scene: Scene, obj: ThinObject, config: PlannerConfig):
         height,
         scene.hand.grasp_link,
         tuple(base_pose_matrix(scene.hand.grasp_offset).ravel()),
-        float(points[:, 2].mean()) - height,  # as the core measures it: z_s is the cloud's mean height
+        # As the core measures it (z_s is the cloud's mean height) and to the micrometre, as the map keeps
+        # it: clouds of one thickness differ in the last bits of their mean and must still share the map.
+        round(float(points[:, 2].mean()) - height, 6),
         (config.grasp_standoff, config.u_star, config.grasp_lift, config.grasp_flip),
     )
 
