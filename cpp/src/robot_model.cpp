@@ -386,7 +386,7 @@ namespace slideplan
         return pose * path.offset;
     }
 
-    Jacobian RobotModel::pathJacobian(const FramePath &path, const JointsRef &q) const
+    Jacobian RobotModel::pathJacobian(const FramePath &path, const JointsRef &q, Eigen::Isometry3d *poseOut) const
     {
         // Column of a revolute joint: (a x (p_tip - p), a) = (-a x p, a) + (a x p_tip, 0); the second
         // term is added once p_tip is known, so one pass over the path suffices.
@@ -412,9 +412,11 @@ namespace slideplan
             }
             moveJoint(pose, link, jointValue(link, q));
         }
-        const Eigen::Vector3d tip = (pose * path.offset).translation();
+        const Eigen::Isometry3d frame = pose * path.offset;
         for (Eigen::Index j = 0; j < jacobian.cols(); ++j)
-            jacobian.col(j).head<3>() += jacobian.col(j).tail<3>().cross(tip);
+            jacobian.col(j).head<3>() += jacobian.col(j).tail<3>().cross(frame.translation());
+        if (poseOut)
+            *poseOut = frame;
         return jacobian;
     }
 
@@ -555,21 +557,26 @@ namespace slideplan
             else
                 q = randomConfiguration(rng);
             q = q.cwiseMax(lower_).cwiseMin(upper_);
-            Eigen::Matrix<double, 6, 1> error = poseError(pathPose(path, q), target);
+            // One kinematics pass per iteration: a candidate's pass gives its pose and, should it be
+            // taken, the Jacobian of the next step; a rejected step keeps the Jacobian it had.
+            Eigen::Isometry3d pose;
+            Jacobian jac = pathJacobian(path, q, &pose);
+            Eigen::Matrix<double, 6, 1> error = poseError(pose, target);
             double cost = error.squaredNorm();
             // Levenberg-Marquardt damping: shrink after a good step, grow after a bad one.
             double lambda = 1e-2;
             for (int iteration = 0; iteration < options.maxIterations && !converged(error); ++iteration)
             {
-                const Jacobian jac = pathJacobian(path, q);
                 const Eigen::Matrix<double, 6, 6> jjt = jac * jac.transpose() + lambda * Eigen::Matrix<double, 6, 6>::Identity();
                 const JointVector step = jac.transpose() * jjt.ldlt().solve(error);
                 const JointVector candidate = (q + step).cwiseMax(lower_).cwiseMin(upper_);
-                const Eigen::Matrix<double, 6, 1> candidateError = poseError(pathPose(path, candidate), target);
+                const Jacobian candidateJac = pathJacobian(path, candidate, &pose);
+                const Eigen::Matrix<double, 6, 1> candidateError = poseError(pose, target);
                 const double candidateCost = candidateError.squaredNorm();
                 if (candidateCost < cost)
                 {
                     q = candidate;
+                    jac = candidateJac;
                     error = candidateError;
                     cost = candidateCost;
                     lambda = std::max(lambda * 0.1, 1e-12);

@@ -188,7 +188,8 @@ namespace slideplan
         };
         FramePath framePath(const std::string &link, const Eigen::Isometry3d &offset) const;
         Eigen::Isometry3d pathPose(const FramePath &path, const JointsRef &q) const;
-        Jacobian pathJacobian(const FramePath &path, const JointsRef &q) const;
+        /// With `pose`, also the frame's pose from the same pass (equal to pathPose's, bit for bit).
+        Jacobian pathJacobian(const FramePath &path, const JointsRef &q, Eigen::Isometry3d *pose = nullptr) const;
         bool solveIk(const FramePath &path, const Eigen::Isometry3d &target, const Eigen::VectorXd &seed,
                      std::mt19937_64 &rng, Eigen::VectorXd &solution, const IkOptions &options) const;
         double jointValue(const RobotLink &link, const JointsRef &q) const
