@@ -41,12 +41,13 @@ namespace slideplan
             const Eigen::Vector2d offset = com - turn * task.objectCom;
             motion.x = offset.x();
             motion.y = offset.y();
-            const Overhang result = validator.overhang(motion);
-            if (!validator.graspable(result) || !result.comInside)
-                continue;
+            // The fingertip first: one point, where the overhang classifies the whole footprint.
             const Eigen::Vector2d contact = motion.apply(startTip.translation().head<2>());
             const double inside = task.table->signedDistance(contact);
             if (inside <= 0.0 || inside > params.dGoal)
+                continue;
+            const Overhang result = validator.overhang(motion);
+            if (!validator.graspable(result) || !result.comInside)
                 continue;
             // Last, as it may cost a grasp IK: a side grasp reachable where this pose would be grasped.
             if (!validator.graspReachableNear(result.graspPoint))
