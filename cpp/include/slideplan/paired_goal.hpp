@@ -20,7 +20,7 @@ namespace slideplan
     /// inside), keep it if the cheap part of IsPairValid accepts it, the start contact lands in the
     /// goal band P_g (Eq. 4) and (params.graspMap) a side grasp is reachable on that stretch of edge
     /// (the grasp map), and return the contact frame there:
-    /// `startTip` moved by that pose, at a depth from [dz_min, dz_max]. False if no draw of a few was
+    /// `startTip` moved by that pose, at a depth from [dz_min, dz_max]. False if none of 48 draws was
     /// accepted.
     bool pairedGoalTarget(const SlidingTask &task, const PlannerParams &params, const PairValidator &validator,
                           const Eigen::Isometry3d &startTip, std::mt19937_64 &rng,
