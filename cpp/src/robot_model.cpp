@@ -567,6 +567,9 @@ namespace slideplan
             double lambda = 1e-2;
             for (int iteration = 0; iteration < options.maxIterations && !converged(error); ++iteration)
             {
+                if (iteration == options.abandonAfter && iteration > 0 &&
+                    error.head<3>().norm() + error.tail<3>().norm() > options.abandonError)
+                    break;
                 const Eigen::Matrix<double, 6, 6> jjt = jac * jac.transpose() + lambda * Eigen::Matrix<double, 6, 6>::Identity();
                 const JointVector step = jac.transpose() * jjt.ldlt().solve(error);
                 const JointVector candidate = (q + step).cwiseMax(lower_).cwiseMin(upper_);

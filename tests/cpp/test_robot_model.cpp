@@ -111,6 +111,24 @@ TEST(RobotModel, IkIsDeterministicForASeed)
     EXPECT_EQ(first, second);
 }
 
+TEST(RobotModel, IkAbandonsARestartStillFarOffAfterAbandonAfterIterations)
+{
+    const auto robot = wamT42();
+    std::mt19937_64 sampler(3);
+    const Eigen::Isometry3d target = robot->fk(robot->randomConfiguration(sampler));
+    IkOptions options;
+    options.maxAttempts = 5;
+    options.abandonAfter = 2;  // no restart from a random configuration converges in two iterations
+    const auto solves = [&](double abandonError) {
+        options.abandonError = abandonError;
+        std::mt19937_64 rng(4);
+        Eigen::VectorXd q;
+        return robot->ik(target, Eigen::VectorXd(), rng, q, options);
+    };
+    EXPECT_FALSE(solves(1e-3));
+    EXPECT_TRUE(solves(1e3));  // never that far off: no restart is abandoned
+}
+
 TEST(RobotModel, GraspFrameIkUsesTheSameJoints)
 {
     const auto robot = wamT42();

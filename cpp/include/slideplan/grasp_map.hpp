@@ -20,9 +20,11 @@ namespace slideplan
 
     /// IK for the grasp frame `grasp` (task.graspLink x task.graspOffset) from `seed`, then random
     /// restarts up to `attempts`, keeping only a solution from which H_g raised by params.graspLift is
-    /// reachable too: at the edge of the workspace a joint may sit at its limit.
+    /// reachable too: at the edge of the workspace a joint may sit at its limit. `abandonAfter`: as
+    /// IkOptions::abandonAfter.
     bool liftableGraspIk(const SlidingTask &task, const PlannerParams &params, const Eigen::Isometry3d &grasp,
-                         const Eigen::VectorXd &seed, int attempts, std::mt19937_64 &rng, Eigen::VectorXd &solution);
+                         const Eigen::VectorXd &seed, int attempts, std::mt19937_64 &rng, Eigen::VectorXd &solution,
+                         int abandonAfter = 0);
 
     /// The grasp map: per kStretch of each edge of Q, whether a side grasp just far enough beyond the edge
     /// for u* (params.graspStandoff, u*/2) is reachable and liftable, the hand as given or (params.graspFlip)

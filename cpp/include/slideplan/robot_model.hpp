@@ -104,6 +104,11 @@ namespace slideplan
         /// Asked of every converged solution: false goes on with the next restart (a solution must
         /// also do what the caller needs, e.g. a grasp that can then lift). Empty: any.
         std::function<bool(const Eigen::VectorXd &)> accept;
+        /// A restart whose pose error (metres + radians) is still above abandonError after abandonAfter
+        /// iterations ends there: few such restarts converge, and where most restarts fail (probing a
+        /// pose that may be out of reach) they would take all maxIterations. 0: never.
+        int abandonAfter{0};
+        double abandonError{0.1};
     };
 
     /// A serial arm (the chain from the base link to the tip link) inside a robot tree; every link is
