@@ -504,6 +504,19 @@ namespace slideplan
     {
         const auto started = std::chrono::steady_clock::now();
         params.validate();
+        // On a convex table no edge has the centre of mass, com_margin inside it, nearer than com_margin,
+        // and no point of the object lies further than `reach` from it: so no pair can overhang more.
+        double reach = 0.0;
+        for (const Eigen::Vector2d &vertex : task->hullXY)
+            reach = std::max(reach, (vertex - task->objectCom).norm());
+        if (task->table->isConvex() && params.uStar > reach - params.comMargin)
+        {
+            std::ostringstream message;
+            message << "the object is too small for u_star = " << params.uStar << " m: no point of it lies more than "
+                    << reach << " m from its centre of mass, which must stay com_margin = " << params.comMargin
+                    << " m inside the table, so it overhangs an edge by at most " << reach - params.comMargin << " m";
+            throw std::invalid_argument(message.str());
+        }
         if (params.uStar > task->extent)
         {
             std::ostringstream message;

@@ -471,17 +471,38 @@ TEST(SlidingPlanner, BaselinesProduceValidPlansWhenTheySolve)
 
 TEST(SlidingPlanner, TimesOutCleanlyWithoutReachableRoots)
 {
-    // A reconfiguration range of zero and a needle-thin pitch band: valid, but no roots will be found
-    // within 0.3 s; the planner must stop on time and report a timeout.
+    // A reconfiguration range of zero, a needle-thin pitch band and an overhang the plate cannot reach
+    // turning by at most 0.2 rad: valid input, but no plan; the planner must stop on time.
     const auto task = plateTask({0.6, 0.0});
     PlannerParams params;
     params.dzMax = params.dzMin;
     params.deltaBeta = 0.0;
-    params.uStar = 0.09;
+    params.uStar = 0.06;
+    params.maxObjectYaw = 0.2;
     const PlanResult result = planSliding(task, params, 1, within(0.3));
     EXPECT_LT(result.planningTime, 1.5);
     if (result.status != "solved")
         EXPECT_TRUE(result.trajectory.empty());
+}
+
+TEST(SlidingPlanner, RejectsAnObjectTooSmallForUStarBeforeSearching)
+{
+    // The 10 cm plate's corners lie 7.07 cm from its centre of mass, which stays com_margin = 5 mm inside
+    // the (convex) table: no pose overhangs an edge by more than 6.57 cm.
+    const auto task = plateTask({0.6, 0.0});
+    PlannerParams params;
+    params.uStar = 0.066;
+    try
+    {
+        planSliding(task, params, 1, within(10.0));
+        FAIL() << "u* beyond what the plate can overhang was accepted";
+    }
+    catch (const std::invalid_argument &error)
+    {
+        EXPECT_NE(std::string(error.what()).find("too small for u_star"), std::string::npos) << error.what();
+    }
+    params.uStar = 0.065;  // reachable at a 45 degree turn: accepted (and searched)
+    EXPECT_NO_THROW(planSliding(task, params, 1, within(0.2)));
 }
 
 TEST(SlidingPlanner, RejectsBadInput)

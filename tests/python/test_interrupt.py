@@ -6,17 +6,17 @@ import subprocess
 import sys
 import time
 
-# An impossible task: 10 cm of overhang with the centre of mass on the table cannot be had with a
-# 9 cm square, so the planner would run to its 60 s limit unless interrupted.
+# An impossible task: a 10 cm square turned by at most 0.2 rad overhangs an edge by at most 5.4 cm
+# with its centre of mass 5 mm inside, so the planner would run to its 60 s limit unless interrupted.
 SCRIPT = """
 import sys, time
 from slideplan import PlannerConfig, load_object, load_scene, plan
 scene = load_scene("square")
-obj = load_object("square", table_height=0.0, pose=(0.5, 0.0, 0.3))
+obj = load_object("square", table_height=0.0, pose=(0.5, 0.0, 0.0))
 print("planning", flush=True)
 started = time.monotonic()
 try:
-    plan(scene, obj, PlannerConfig(u_star=0.10, time_limit_s=60.0))
+    plan(scene, obj, PlannerConfig(u_star=0.055, max_object_yaw=0.2, time_limit_s=60.0))
 except KeyboardInterrupt:
     print("interrupted after %.3f" % (time.monotonic() - started), flush=True)
     sys.exit(42)

@@ -105,6 +105,7 @@ namespace slideplan
     /// result; planning time counts everything from here, including the baselines' precomputation.
     /// `graspMap` as for SlidingPlanner.
     /// \throws std::invalid_argument for invalid parameters, an unreachable object, u* beyond the object
+    ///         (on a convex table: beyond what it can overhang with its centre of mass com_margin inside)
     ///         or a grasp map that does not fit.
     PlanResult planSliding(std::shared_ptr<const SlidingTask> task, const PlannerParams &params, std::uint64_t seed,
                            const ompl::base::PlannerTerminationCondition &ptc, std::shared_ptr<const GraspMap> graspMap = nullptr);
