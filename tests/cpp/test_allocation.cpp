@@ -76,7 +76,7 @@ namespace slideplan
             {"t42_finger1_proximal", "t42_finger1_distal"}, "t42_grasp", Eigen::Isometry3d::Identity(), plate,
             Eigen::Vector2d(0.45, 0.0)));
         PlannerParams params;
-        // No pair is ever valid (the plate, turned by at most 0.2 rad, overhangs an edge by at most 4.9 cm
+        // No pair is ever valid (the plate, turned by at most 0.2 rad, overhangs an edge by at most 5.4 cm
         // with its centre of mass 5 mm inside): the trees grow until the planner is stopped.
         params.uStar = 0.06;
         params.maxObjectYaw = 0.2;
