@@ -174,25 +174,39 @@ namespace slideplan
     {
         const RobotModel &robot = *task_->robot;
         const Eigen::Isometry3d start = robot.fk(goal);
-        const int steps = static_cast<int>(std::ceil(params_.graspLift / (0.8 * params_.maxTipStep)));
+        // Steps of at most 0.8 maxTipStep, counted in sixteenths: a step that turns a joint further than
+        // maxJointStep is halved, as near the robot's base a few millimetres of lift take more than that
+        // (on the triangle table most goal roots that failed to lift). One still too long at a sixteenth
+        // jumps to another IK branch: no lift.
+        constexpr long kFine = 16;
+        const long steps = static_cast<long>(std::ceil(params_.graspLift / (0.8 * params_.maxTipStep)));
         IkOptions options;
         options.maxAttempts = 1;  // from the previous waypoint only: a restart would jump
         std::mt19937_64 unused(0);
         Eigen::VectorXd previous = goal;
-        for (int k = 1; k <= steps; ++k)
+        long risen = 0, step = kFine;  // in sixteenths of a step
+        while (risen < steps * kFine)
         {
+            const long height = std::min(risen + step, steps * kFine);
             Eigen::Isometry3d target = start;
-            target.translation().z() += params_.graspLift * k / steps;
+            target.translation().z() += params_.graspLift * static_cast<double>(height) / static_cast<double>(steps * kFine);
             Eigen::VectorXd q;
-            if (!robot.ik(target, previous, unused, q, options) ||
-                (q - previous).cwiseAbs().maxCoeff() > params_.maxJointStep)
+            if (!robot.ik(target, previous, unused, q, options))
                 return false;
+            if ((q - previous).cwiseAbs().maxCoeff() > params_.maxJointStep)
+            {
+                if (step == 1)
+                    return false;
+                step /= 2;
+                continue;
+            }
             // The finger may still press into the object until it has risen above it.
             const bool clear = target.translation().z() >= task_->surfaceZ + params_.graspLift - 1e-3;
             if (!world_->isValid(q, clear ? ContactMode::Free : ContactMode::Sliding))
                 return false;
             path.push_back(q);
             previous = q;
+            risen = height;
         }
         return true;
     }

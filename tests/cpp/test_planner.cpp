@@ -196,6 +196,35 @@ TEST(PairValidator, AGoalTheFingerCannotLiftOffFromFailsEveryPair)
     EXPECT_EQ(verdict.reason, "cannot lift the finger off the object");
 }
 
+TEST(PairValidator, LiftsInShorterStepsWhereAStepWouldTurnAJointTooFar)
+{
+    // With a joint step of 0.004 rad, 7 mm of lift (0.8 max_tip_step) turns this arm's joints further:
+    // the lift must go in shorter steps, each within the joint step, and still rise grasp_lift.
+    const auto task = plateTask({0.45, -0.005});
+    PlannerParams params;
+    const Eigen::VectorXd start = contactConfig(*task, params, 0.45, 0.025);
+    const Eigen::VectorXd goal = contactConfig(*task, params, 0.45, -0.145);
+    params.maxJointStep = 0.004;
+    const PairValidator validator(task, params);
+    EXPECT_TRUE(validator.canLift(goal));
+    std::mt19937_64 rng(2);
+    const PairVerdict verdict = validator.check(start, goal, rng, within(5.0));
+    ASSERT_TRUE(verdict.valid) << verdict.reason;
+    const double lifted = task->robot->fk(goal).translation().z() + params.graspLift;
+    Eigen::VectorXd previous = goal;
+    std::size_t waypoints = 0;
+    for (const Eigen::VectorXd &q : verdict.approach)
+    {
+        EXPECT_LE((q - previous).cwiseAbs().maxCoeff(), params.maxJointStep) << "lift waypoint " << waypoints;
+        ++waypoints;
+        previous = q;
+        if (task->robot->fk(q).translation().z() >= lifted - 1e-6)
+            break;
+    }
+    EXPECT_NEAR(task->robot->fk(previous).translation().z(), lifted, 1e-6);
+    EXPECT_GT(waypoints, 7u);  // more than the 7 steps of 0.8 max_tip_step
+}
+
 TEST(PairedGoal, CarriesTheObjectToAGraspableOverhangWithTheContactInTheGoalBand)
 {
     const auto task = plateTask({0.45, 0.0});
