@@ -65,6 +65,16 @@ namespace slideplan
 
     bool GraspMap::reachable(const EdgeQuery &edge) const
     {
+        return lookUp(edge).size() > 0;
+    }
+
+    Eigen::VectorXd GraspMap::graspSeed(const EdgeQuery &edge) const
+    {
+        return lookUp(edge);
+    }
+
+    Eigen::VectorXd GraspMap::lookUp(const EdgeQuery &edge) const
+    {
         const std::pair<int, long> key = stretch(edge);
         {
             const std::lock_guard<std::mutex> lock(mutex_);
@@ -72,13 +82,13 @@ namespace slideplan
                 return known->second;
         }
         // Probed without the lock: two plans may probe the same stretch at once, with the same answer.
-        const bool answer = probe(key);
+        Eigen::VectorXd answer = probe(key);
         const std::lock_guard<std::mutex> lock(mutex_);
         known_.emplace(key, answer);
         return answer;
     }
 
-    bool GraspMap::probe(const std::pair<int, long> &stretch) const
+    Eigen::VectorXd GraspMap::probe(const std::pair<int, long> &stretch) const
     {
         // Side grasps at table height are a thin part of the workspace: about one restart in 5 succeeds,
         // and an unreachable stretch costs every restart. So a restart still 0.1 (m + rad) off after
@@ -105,11 +115,13 @@ namespace slideplan
                             static_cast<std::uint64_t>(stretch.second));
         Eigen::VectorXd solution;
         if (liftableGraspIk(geometry_, params_, grasp, Eigen::VectorXd(), restarts, rng, solution, kAbandon))
-            return true;
+            return solution;
         if (!params_.graspFlip)
-            return false;
+            return {};
         grasp.linear() = grasp.linear() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-        return liftableGraspIk(geometry_, params_, grasp, Eigen::VectorXd(), restarts, rng, solution, kAbandon);
+        if (liftableGraspIk(geometry_, params_, grasp, Eigen::VectorXd(), restarts, rng, solution, kAbandon))
+            return solution;
+        return {};
     }
 
     bool GraspMap::fits(const SlidingTask &task, const PlannerParams &params) const

@@ -464,6 +464,45 @@ TEST(GraspMap, FitsOnlyItsOwnGeometryAndParameters)
     EXPECT_THROW(planSliding(make(kThickness + 0.001, squareTable()), params, 1, within(1.0), map), std::invalid_argument);
 }
 
+TEST(GraspMap, ItsGraspSeedsGraspTheirStretches)
+{
+    // Each reachable stretch keeps the grasp its probe found (the seed of grasps there): H_g of that
+    // configuration is the side grasp at the stretch's centre, just far enough out for u*, the hand as
+    // given or rolled by pi; an unreachable stretch keeps none.
+    const auto task = plateTask({0.6, 0.0});
+    PlannerParams params;
+    const GraspMap map(*task, params);
+    const SupportSurface &table = *task->table;
+    const double beyond = std::max(params.graspStandoff, 0.5 * params.uStar);
+    const double z = table.height() + 0.5 * task->thickness();
+    int reachable = 0, unreachable = 0;
+    for (int i = 0; i < table.size(); ++i)
+    {
+        const Eigen::Vector2d a = table.vertices().row(i).transpose(), b = table.vertices().row((i + 1) % table.size()).transpose();
+        for (double along = 0.5 * GraspMap::kStretch; along < (b - a).norm(); along += GraspMap::kStretch)
+        {
+            const EdgeQuery edge = table.closestEdge(a + along * (b - a).normalized());
+            if (edge.edge != i)
+                continue;  // a corner's other edge
+            const Eigen::VectorXd seed = map.graspSeed(edge);
+            ASSERT_EQ(seed.size() > 0, map.reachable(edge)) << "edge " << i << " at " << along;
+            if (seed.size() == 0)
+            {
+                ++unreachable;
+                continue;
+            }
+            ++reachable;
+            const Eigen::Isometry3d grasp = sideGraspPose(edge.closest + beyond * edge.outwardNormal, edge, z);
+            Eigen::Isometry3d rolled = grasp;
+            rolled.linear() = rolled.linear() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+            const Eigen::Isometry3d reached = task->robot->linkPose(seed, kGraspLink);
+            EXPECT_TRUE(reached.isApprox(grasp, 1e-6) || reached.isApprox(rolled, 1e-6)) << "edge " << i << " at " << along;
+        }
+    }
+    EXPECT_GT(reachable, 0);
+    EXPECT_GT(unreachable, 0);
+}
+
 TEST(SlidingPlanner, AsPublishedWithoutPairScreening)
 {
     const auto task = plateTask({0.6, 0.0});

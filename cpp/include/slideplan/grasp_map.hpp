@@ -47,6 +47,10 @@ namespace slideplan
         /// Whether a side grasp is reachable on the stretch of `edge.edge` holding `edge.closest`.
         bool reachable(const EdgeQuery &edge) const;
 
+        /// The liftable grasp configuration the probe of that stretch found (a seed for grasps on the
+        /// stretch: they lie within a centimetre of it), empty if none is reachable there.
+        Eigen::VectorXd graspSeed(const EdgeQuery &edge) const;
+
         /// The stretch of an edge point: (edge index, kStretch cell along the edge).
         std::pair<int, long> stretch(const EdgeQuery &edge) const;
 
@@ -58,7 +62,9 @@ namespace slideplan
         std::size_t probed() const;
 
     private:
-        bool probe(const std::pair<int, long> &stretch) const;
+        /// The stretch's grasp configuration (empty: unreachable), probed on first use.
+        Eigen::VectorXd lookUp(const EdgeQuery &edge) const;
+        Eigen::VectorXd probe(const std::pair<int, long> &stretch) const;
 
         static double micrometres(double metres) { return std::round(metres * 1e6) / 1e6; }
 
@@ -66,7 +72,7 @@ namespace slideplan
         double thickness_;      ///< the object's, to the micrometre
         PlannerParams params_;
         mutable std::mutex mutex_;
-        mutable std::map<std::pair<int, long>, bool> known_;
+        mutable std::map<std::pair<int, long>, Eigen::VectorXd> known_;  ///< empty: no reachable grasp
     };
 
 }  // namespace slideplan

@@ -79,14 +79,15 @@ namespace slideplan
         bool canLift(const Eigen::VectorXd &goal) const;
 
     private:
-        /// Grasp IK: from phi_g, then from earlier successful grasps (nearby grasp poses have nearby
-        /// solutions), then random restarts.
-        bool graspIk(const Eigen::Isometry3d &grasp, const Eigen::VectorXd &goal, std::mt19937_64 &rng,
-                     Eigen::VectorXd &solution) const;
-        /// Grasp IK for `grasp`, then (params.graspFlip) for it rolled by pi about its approach axis,
-        /// which then replaces `grasp`.
-        bool reachGrasp(Eigen::Isometry3d &grasp, const Eigen::VectorXd &seed, std::mt19937_64 &rng,
-                        Eigen::VectorXd &solution) const;
+        /// Grasp IK: from phi_g, then (params.graspMap) from the map's grasp on the stretch of `edge`,
+        /// then from earlier successful grasps (nearby grasp poses have nearby solutions), then random
+        /// restarts.
+        bool graspIk(const Eigen::Isometry3d &grasp, const EdgeQuery &edge, const Eigen::VectorXd &goal,
+                     std::mt19937_64 &rng, Eigen::VectorXd &solution) const;
+        /// Grasp IK for `grasp` on `edge`, then (params.graspFlip) for it rolled by pi about its approach
+        /// axis, which then replaces `grasp`.
+        bool reachGrasp(Eigen::Isometry3d &grasp, const EdgeQuery &edge, const Eigen::VectorXd &seed,
+                        std::mt19937_64 &rng, Eigen::VectorXd &solution) const;
         bool graspUnreachable(const EdgeQuery &edge) const;
         bool lift(const Eigen::VectorXd &goal, std::vector<Eigen::VectorXd> &path) const;
         bool straightMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::vector<Eigen::VectorXd> &path) const;
