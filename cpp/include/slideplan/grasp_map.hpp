@@ -29,8 +29,10 @@ namespace slideplan
     /// The grasp map: per kStretch of each edge of Q, whether a side grasp just far enough beyond the edge
     /// for u* (params.graspStandoff, u*/2) is reachable and liftable, the hand as given or (params.graspFlip)
     /// rolled by pi. Each stretch is probed once, when first asked, by IK from random restarts seeded by
-    /// the stretch itself: an answer depends only on the geometry, never on which plan asked first, so
-    /// any number of plans (in any threads) share one map and get the plans they would get alone.
+    /// the stretch itself; one between two unreachable anchor stretches (every kAnchor-th) is not, and
+    /// one between anchors with grasps starts from theirs. An answer depends only on the geometry, never
+    /// on which plan asked first, so any number of plans (in any threads) share one map and get the
+    /// plans they would get alone.
     class GraspMap
     {
     public:
@@ -62,8 +64,11 @@ namespace slideplan
         std::size_t probed() const;
 
     private:
+        static constexpr long kAnchor = 5;  ///< stretches: every kAnchor-th of an edge is probed on its own
+
         /// The stretch's grasp configuration (empty: unreachable), probed on first use.
         Eigen::VectorXd lookUp(const EdgeQuery &edge) const;
+        Eigen::VectorXd answer(const std::pair<int, long> &stretch) const;
         Eigen::VectorXd probe(const std::pair<int, long> &stretch) const;
 
         static double micrometres(double metres) { return std::round(metres * 1e6) / 1e6; }
