@@ -7,6 +7,7 @@
 #include <fcl/geometry/shape/sphere.h>
 #include <fcl/narrowphase/collision.h>
 #include <fcl/narrowphase/collision_object.h>
+#include <map>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -92,6 +93,8 @@ namespace slideplan
         std::vector<std::pair<int, int>> selfPairs;
         double tableTop{0.0};
         mutable std::vector<Eigen::Isometry3d> poses;
+        /// Per link asked of rigidFree: the shapes rigid with it and their poses in its frame.
+        std::map<int, std::vector<std::pair<std::size_t, Eigen::Isometry3d>>> rigid;
 
         void pose(const RobotModel &robot, const JointsRef &q)
         {
@@ -275,6 +278,41 @@ namespace slideplan
         if (impl_->environment.size() == impl_->firstObjectPiece)
             throw std::logic_error("objectFree without an object: call setObject first");
         return check(q, mode, nullptr, true);
+    }
+
+    bool CollisionWorld::rigidFree(const std::string &link, const Eigen::Isometry3d &pose) const
+    {
+        const int index = robot_->linkIndex(link);
+        if (index < 0)
+            throw std::invalid_argument("link '" + link + "' is not a link of the robot");
+        auto found = impl_->rigid.find(index);
+        if (found == impl_->rigid.end())
+        {
+            // Links with the same deepest moving joint on their path from the root move as one body; their
+            // relative poses are those at any configuration.
+            const auto &links = robot_->links();
+            const auto mover = [&](int l) {
+                while (l >= 0 && links[l].jointIndex < 0)
+                    l = links[l].parent;
+                return l;
+            };
+            robot_->linkPoses(Eigen::VectorXd::Zero(robot_->dof()), impl_->poses);
+            std::vector<std::pair<std::size_t, Eigen::Isometry3d>> shapes;
+            for (std::size_t s = 0; s < impl_->shapes.size(); ++s)
+                if (const int l = impl_->shapes[s].link; mover(l) == mover(index))
+                    shapes.emplace_back(s, impl_->poses[index].inverse() * impl_->poses[l] * impl_->shapes[s].origin);
+            found = impl_->rigid.emplace(index, std::move(shapes)).first;
+        }
+        for (const auto &[s, relative] : found->second)
+        {
+            fcl::CollisionObjectd &object = *impl_->shapes[s].object;
+            object.setTransform(pose * relative);
+            object.computeAABB();
+            for (std::size_t piece = 0; piece < impl_->firstObjectPiece; ++piece)
+                if (collide(object, *impl_->environment[piece].object))
+                    return false;
+        }
+        return true;
     }
 
     std::vector<std::pair<std::string, std::string>> CollisionWorld::collisions(const JointsRef &q, ContactMode mode) const

@@ -28,6 +28,14 @@ namespace slideplan
             }
         };
 
+        /// The same grasp with the hand rolled by pi about its approach axis (z).
+        Eigen::Isometry3d rolled(const Eigen::Isometry3d &grasp)
+        {
+            Eigen::Isometry3d result = grasp;
+            result.linear() = grasp.linear() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+            return result;
+        }
+
         /// Clears the object from the transfer world however the check ends.
         struct ObjectGuard
         {
@@ -120,19 +128,43 @@ namespace slideplan
         return !graspUnreachable(task_->table->closestEdge(point));
     }
 
-    bool PairValidator::reachGrasp(Eigen::Isometry3d &grasp, const EdgeQuery &edge, const Eigen::VectorXd &seed,
-                                   std::mt19937_64 &rng, Eigen::VectorXd &solution) const
+    bool PairValidator::handClear(const Eigen::Isometry3d &grasp) const
     {
-        if (graspIk(grasp, edge, seed, rng, solution))
-            return true;
-        if (!params_.graspFlip)
-            return false;
-        Eigen::Isometry3d flipped = grasp;
-        flipped.linear() = flipped.linear() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-        if (!graspIk(flipped, edge, seed, rng, solution))
-            return false;
-        grasp = flipped;
-        return true;
+        return world_->rigidFree(task_->graspLink, grasp * task_->graspOffset.inverse());
+    }
+
+    bool PairValidator::graspClear(const Overhang &overhang) const
+    {
+        const Eigen::Isometry3d grasp = graspPose(overhang);
+        return handClear(grasp) || (params_.graspFlip && handClear(rolled(grasp)));
+    }
+
+    std::string PairValidator::reachGrasp(Eigen::Isometry3d &grasp, const EdgeQuery &edge, const Eigen::VectorXd &seed,
+                                          std::mt19937_64 &rng, Eigen::VectorXd &solution) const
+    {
+        std::vector<Eigen::Isometry3d> orientations{grasp};
+        if (params_.graspFlip)
+            orientations.push_back(rolled(grasp));
+        std::size_t tried = 0;
+        for (const Eigen::Isometry3d &orientation : orientations)
+        {
+            // The hand against the table, checked before the IK that would only find it afterwards.
+            if (!handClear(orientation))
+                continue;
+            ++tried;
+            if (graspIk(orientation, edge, seed, rng, solution))
+            {
+                grasp = orientation;
+                return {};
+            }
+        }
+        if (tried == 0)
+            return "grasp configuration in collision";
+        // Only what IK ruled out holds for the whole stretch: the hand's collision depends on how far
+        // beyond the edge the grasp is.
+        if (tried == orientations.size() && params_.graspMap)
+            unreachable_.insert(graspMap_->stretch(edge));
+        return "grasp pose unreachable";
     }
 
     bool PairValidator::graspIk(const Eigen::Isometry3d &grasp, const EdgeQuery &edge, const Eigen::VectorXd &goal,
@@ -309,13 +341,9 @@ namespace slideplan
             return verdict;
         }
         verdict.graspPose = graspPose(result);
-        if (!reachGrasp(verdict.graspPose, result.edge, goal, rng, verdict.graspConfig))
-        {
-            if (params_.graspMap)
-                unreachable_.insert(graspMap_->stretch(result.edge));
-            verdict.reason = "grasp pose unreachable";
+        verdict.reason = reachGrasp(verdict.graspPose, result.edge, goal, rng, verdict.graspConfig);
+        if (!verdict.reason.empty())
             return verdict;
-        }
         std::vector<Eigen::Vector2d> moved;  // the hull moves rigidly with the object (Eq. 2)
         for (const Eigen::Vector2d &vertex : task_->hullXY)
             moved.push_back(result.motion.apply(vertex));

@@ -52,8 +52,9 @@ namespace slideplan
             const Overhang result = validator.overhang(motion);
             if (!validator.graspable(result) || !result.comInside)
                 continue;
-            // Last, as it may cost a grasp IK: a side grasp reachable where this pose would be grasped.
-            if (!validator.graspReachableNear(result.graspPoint))
+            // Last, as they may cost a grasp IK: a side grasp reachable where this pose would be grasped, with
+            // the hand clear of the table there.
+            if (!validator.graspReachableNear(result.graspPoint) || !validator.graspClear(result))
                 continue;
             const double yaw = contactAngles(startTip.linear()).yaw + motion.yaw;
             target = Eigen::Isometry3d::Identity();

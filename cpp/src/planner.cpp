@@ -319,13 +319,19 @@ namespace slideplan
             return verdict->second.valid;
         auto it = promising_.find(key);
         if (it == promising_.end())
-            it = promising_.emplace(key, pairValidator_->overhang(objectMotion(startForest_->roots[startRoot]->tip,
-                                                                               goalForest_->roots[goalRoot]->tip)))
+            it = promising_
+                     .emplace(key, std::make_pair(pairValidator_->overhang(objectMotion(startForest_->roots[startRoot]->tip,
+                                                                                        goalForest_->roots[goalRoot]->tip)),
+                                                  static_cast<signed char>(-1)))
                      .first;
         // The grasp map grows while planning, so it is consulted every time.
-        const Overhang &overhang = it->second;
-        return pairValidator_->graspable(overhang) && overhang.comInside && std::abs(overhang.motion.yaw) <= params_.maxObjectYaw &&
-               !pairValidator_->knownUnreachable(overhang);
+        auto &[overhang, clear] = it->second;
+        if (!pairValidator_->graspable(overhang) || !overhang.comInside || std::abs(overhang.motion.yaw) > params_.maxObjectYaw ||
+            pairValidator_->knownUnreachable(overhang))
+            return false;
+        if (clear < 0)
+            clear = pairValidator_->graspClear(overhang);
+        return clear;
     }
 
     SlidingPlanner::Node *SlidingPlanner::nearestForConnection(const Forest &forest, const JointsRef &q,

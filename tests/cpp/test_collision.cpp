@@ -3,6 +3,7 @@
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
+#include <set>
 
 using namespace slideplan;
 using slideplan::testing::squareTable;
@@ -137,6 +138,45 @@ TEST(CollisionWorld, CloneAnswersAsTheOriginalAndIsIndependent)
     copy->setObject({{0.45, -0.1}, {0.55, -0.1}, {0.5, 0.0}}, top);
     EXPECT_FALSE(copy->isValid(q));
     EXPECT_TRUE(world.isValid(q));  // the original keeps its own, thin object
+}
+
+TEST(CollisionWorld, RigidFreeAnswersForTheHandAsTheFullCheck)
+{
+    // The links rigid with the grasp frame, found as those whose pose relative to it does not change
+    // between two configurations: the hand past the wrist.
+    const auto robot = wamT42();
+    std::mt19937_64 rng(11);
+    const Eigen::VectorXd a = robot->randomConfiguration(rng), b = robot->randomConfiguration(rng);
+    std::set<std::string> hand;
+    for (const RobotLink &link : robot->links())
+        if ((robot->linkPose(a, "t42_grasp").inverse() * robot->linkPose(a, link.name))
+                .isApprox(robot->linkPose(b, "t42_grasp").inverse() * robot->linkPose(b, link.name), 1e-9))
+            hand.insert(link.name);
+    ASSERT_GT(hand.count("t42_finger2_distal"), 0u);
+    ASSERT_EQ(hand.count("wam_link1"), 0u);
+
+    // A wide, high table and a box, so that random configurations put the hand into both often.
+    Polygon2 wide(4, 2);
+    wide << 0.2, -0.8, 1.0, -0.8, 1.0, 0.8, 0.2, 0.8;
+    Obstacle box;
+    box.pose.translation() << -0.5, 0.0, 0.4;
+    box.size << 0.4, 1.0, 0.4;
+    CollisionWorld world(robot, SupportSurface(wide, 0.3), {box}, kContactLinks);
+    world.setObject({{0.3, -0.7}, {0.9, -0.7}, {0.6, 0.7}}, 0.9);  // not checked by rigidFree
+    int free = 0, blocked = 0;
+    for (int k = 0; k < 300; ++k)
+    {
+        const Eigen::VectorXd q = robot->randomConfiguration(rng);
+        bool handHits = false;
+        for (const auto &[link, piece] : world.collisions(q, ContactMode::Free))
+            handHits = handHits || (hand.count(link) > 0 && piece != "object" && robot->linkIndex(piece) < 0);
+        const bool rigidFree = world.rigidFree("t42_grasp", robot->linkPose(q, "t42_grasp"));
+        EXPECT_EQ(rigidFree, !handHits) << q.transpose();
+        (rigidFree ? free : blocked) += 1;
+    }
+    EXPECT_GT(free, 30);  // both answers occur, so the comparison means something
+    EXPECT_GT(blocked, 30);
+    EXPECT_THROW(world.rigidFree("no_such_link", Eigen::Isometry3d::Identity()), std::invalid_argument);
 }
 
 TEST(CollisionWorld, FoldedArmCollidesWithItself)

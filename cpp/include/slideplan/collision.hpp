@@ -48,6 +48,13 @@ namespace slideplan
         /// configurations already known valid without it. \throws std::logic_error if no object is set.
         bool objectFree(const JointsRef &q, ContactMode mode = ContactMode::Sliding) const;
 
+        /// True if the links rigid with `link` (moved by no joint that does not also move it: for the grasp
+        /// link, the hand past its last joint) are clear of the table and the obstacles with `link` at world
+        /// pose `pose`, in any mode. Needs no configuration, so a grasp pose can be screened before its IK;
+        /// the rest of the robot and the object are not checked. Not thread-safe, as isValid.
+        /// \throws std::invalid_argument for an unknown link.
+        bool rigidFree(const std::string &link, const Eigen::Isometry3d &pose) const;
+
         /// The colliding pairs at q, by link or obstacle name: for diagnostics and the verifier.
         std::vector<std::pair<std::string, std::string>> collisions(const JointsRef &q,
                                                                     ContactMode mode = ContactMode::Sliding) const;

@@ -74,6 +74,12 @@ namespace slideplan
         /// (a goal root's contact).
         bool graspReachableNear(const Eigen::Vector2d &point) const;
 
+        /// Whether the hand at H_g for `overhang`, as given or (params.graspFlip) rolled by pi about its
+        /// approach axis, is clear of the table and the obstacles. The hand is rigid past the grasp link's
+        /// last joint, so this needs no IK: at zero grasp_standoff a fingertip under the table top rules out
+        /// most grasps by a corner of Q.
+        bool graspClear(const Overhang &overhang) const;
+
         /// Whether the finger can lift off from `goal` with no object in the way: a goal root that cannot
         /// fails the lift of every pair it would form (the object only adds an obstacle).
         bool canLift(const Eigen::VectorXd &goal) const;
@@ -85,9 +91,12 @@ namespace slideplan
         bool graspIk(const Eigen::Isometry3d &grasp, const EdgeQuery &edge, const Eigen::VectorXd &goal,
                      std::mt19937_64 &rng, Eigen::VectorXd &solution) const;
         /// Grasp IK for `grasp` on `edge`, then (params.graspFlip) for it rolled by pi about its approach
-        /// axis, which then replaces `grasp`.
-        bool reachGrasp(Eigen::Isometry3d &grasp, const EdgeQuery &edge, const Eigen::VectorXd &seed,
-                        std::mt19937_64 &rng, Eigen::VectorXd &solution) const;
+        /// axis, which then replaces `grasp`; an orientation whose hand meets the table or an obstacle is
+        /// not tried. Empty on success, else why not. A stretch whose every orientation failed its IK is
+        /// remembered as unreachable.
+        std::string reachGrasp(Eigen::Isometry3d &grasp, const EdgeQuery &edge, const Eigen::VectorXd &seed,
+                               std::mt19937_64 &rng, Eigen::VectorXd &solution) const;
+        bool handClear(const Eigen::Isometry3d &grasp) const;
         bool graspUnreachable(const EdgeQuery &edge) const;
         bool lift(const Eigen::VectorXd &goal, std::vector<Eigen::VectorXd> &path) const;
         bool straightMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::vector<Eigen::VectorXd> &path) const;

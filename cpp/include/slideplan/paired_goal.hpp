@@ -19,7 +19,7 @@ namespace slideplan
     /// params.maxObjectYaw, its overhang between u* and what keeps the centre of mass comMargin
     /// inside), keep it if the cheap part of IsPairValid accepts it, the start contact lands in the
     /// goal band P_g (Eq. 4) and (params.graspMap) a side grasp is reachable on that stretch of edge
-    /// (the grasp map), and return the contact frame there:
+    /// (the grasp map) with the hand clear of the table there, and return the contact frame there:
     /// `startTip` moved by that pose, at a depth from [dz_min, dz_max]. False if none of 48 draws was
     /// accepted.
     bool pairedGoalTarget(const SlidingTask &task, const PlannerParams &params, const PairValidator &validator,

@@ -97,7 +97,9 @@ namespace slideplan
         std::unique_ptr<CollisionWorld> objectWorld_;  ///< holds the sliding object where pathClear puts it
         std::unique_ptr<Forest> startForest_, goalForest_;
         std::map<std::pair<int, int>, PairVerdict> verdicts_;
-        std::map<std::pair<int, int>, Overhang> promising_;  ///< the cheap part of IsPairValid per root pair
+        /// The cheap part of IsPairValid per root pair, and whether the hand at its H_g is clear of the table
+        /// (-1: not asked yet).
+        std::map<std::pair<int, int>, std::pair<Overhang, signed char>> promising_;
         PlanResult result_;
     };
 
