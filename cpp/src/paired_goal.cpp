@@ -49,6 +49,11 @@ namespace slideplan
             const double inside = task.table->signedDistance(contact);
             if (inside <= 0.0 || inside > params.dGoal)
                 continue;
+            // A turn the slide cannot make at max_yaw_rate along the straight line needs a detour the
+            // trees rarely find: under the paper's any-turn pairs, most triangle-table goal roots were such.
+            if (params.maxYawRate > 0.0 &&
+                std::abs(motion.yaw) > params.maxYawRate * (contact - startTip.translation().head<2>()).norm())
+                continue;
             const Overhang result = validator.overhang(motion);
             if (!validator.graspable(result) || !result.comInside)
                 continue;

@@ -83,6 +83,7 @@ namespace slideplan
         goalForest_ = std::make_unique<Forest>(false, std::make_unique<GoalRegion>(validity_, params_));
         verdicts_.clear();
         promising_.clear();
+        pairedRoot_ = nullptr;
         rng_.seed(seed_);
         result_ = PlanResult();
     }
@@ -127,7 +128,9 @@ namespace slideplan
         // form, after their grasp IK (on the triangle table 2.3 such pairs per plan).
         if (!forest.isStart && params_.screenPairs && !pairValidator_->canLift(q))
             return false;
-        forest.add(q, tip, nullptr);
+        Node *root = forest.add(q, tip, nullptr);
+        if (paired)
+            pairedRoot_ = root;
         return true;
     }
 
@@ -459,6 +462,13 @@ namespace slideplan
             JointVector random(robot.dof());
             for (unsigned i = 0; i < robot.dof(); ++i)
                 random(i) = robot.lowerLimits()(i) + unit(rng_) * (robot.upperLimits()(i) - robot.lowerLimits()(i));
+            // A goal root drawn for a start root is worth a connection at once: the start forest's next
+            // sample is that root (a goal bias; otherwise its tree waited for random samples nearby).
+            if (a->isStart && pairedRoot_)
+            {
+                random = pairedRoot_->q;
+                pairedRoot_ = nullptr;
+            }
             bool reached = false;
             Node *extendedA = constrainedExtend(*a, a->nearestTo(random), random, reached);
             Node *extendedB = constrainedExtend(*b, nearestForConnection(*b, extendedA->q, *a, extendedA->root),

@@ -231,6 +231,7 @@ TEST(PairedGoal, CarriesTheObjectToAGraspableOverhangWithTheContactInTheGoalBand
     PlannerParams params;
     params.comMargin = 0.005;
     params.maxObjectYaw = 0.5;
+    params.maxYawRate = 2.0;  // rad/m: binds for slides shorter than 0.25 m
     const PairValidator validator(task, params);
     const Eigen::VectorXd start = contactConfig(*task, params, 0.46, 0.01);
     const Eigen::Isometry3d startTip = task->robot->fk(start);
@@ -257,6 +258,11 @@ TEST(PairedGoal, CarriesTheObjectToAGraspableOverhangWithTheContactInTheGoalBand
         EXPECT_TRUE(validator.graspable(overhang)) << "held " << overhang.held;
         EXPECT_TRUE(overhang.comInside) << "CoM margin " << overhang.comMargin;
         EXPECT_LE(std::abs(overhang.motion.yaw), params.maxObjectYaw + 1e-12);
+        // A turn the slide can make at max_yaw_rate along the straight line, and a grasp whose hand
+        // clears the table.
+        const double slide = (target.translation() - startTip.translation()).head<2>().norm();
+        EXPECT_LE(std::abs(overhang.motion.yaw), params.maxYawRate * slide + 1e-9) << "slide " << slide;
+        EXPECT_TRUE(validator.graspClear(overhang));
     }
     EXPECT_GE(drawn, 20);
 }

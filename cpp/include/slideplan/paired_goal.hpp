@@ -18,7 +18,8 @@ namespace slideplan
     /// Draw an object pose overhanging an edge of Q (edge by length, the object turned by at most
     /// params.maxObjectYaw, its overhang between u* and what keeps the centre of mass comMargin
     /// inside), keep it if the cheap part of IsPairValid accepts it, the start contact lands in the
-    /// goal band P_g (Eq. 4) and (params.graspMap) a side grasp is reachable on that stretch of edge
+    /// goal band P_g (Eq. 4), the turn is at most params.maxYawRate times the straight slide there, and
+    /// (params.graspMap) a side grasp is reachable on that stretch of edge
     /// (the grasp map) with the hand clear of the table there, and return the contact frame there:
     /// `startTip` moved by that pose, at a depth from [dz_min, dz_max]. False if none of 48 draws was
     /// accepted.

@@ -100,6 +100,7 @@ namespace slideplan
         /// The cheap part of IsPairValid per root pair, and whether the hand at its H_g is clear of the table
         /// (-1: not asked yet).
         std::map<std::pair<int, int>, std::pair<Overhang, signed char>> promising_;
+        const Node *pairedRoot_{nullptr};  ///< a goal root just drawn for a start root: the next sample of the start forest
         PlanResult result_;
     };
 
