@@ -32,8 +32,9 @@ class LocalPoolExecutor:
     """Run tasks in a pool of local worker processes or threads (``concurrent.futures``).
 
     Plans are independent in threads (DESIGN.md 9) and the C++ planner releases the GIL, so threads
-    share one parsed robot and plan nearly as many tasks per second as processes (1.6x against 1.9x
-    over one worker on 2 cores, docs/benchmarks/threads.md: the Python timing step holds the GIL).
+    share one parsed robot; but the Python timing step holds the GIL and takes most of a plan's time,
+    so processes plan more tasks per second (1.2x against 2.5x over one worker on 2 cores,
+    docs/benchmarks/threads.md).
     Processes are started with ``spawn``, not ``fork``: the parent runs a progress-bar
     thread, and forking a threaded process can deadlock the child. If a worker process dies
     (e.g. a crash in the C++ core) the pool breaks: every unfinished task comes back with
