@@ -665,7 +665,8 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
         core_result = _core.plan_sliding(**core_task(scene, obj, config), seed=config.seed,
                                          grasp_map=grasp_map(scene, obj, config))
     except ValueError as error:
-        raise InputError(f"planner rejected the input: {error}", source=scene.source) from None
+        # The core judges scene, object and parameters together: name them, rather than blame the scene file.
+        raise InputError(f"planner rejected the input (scene {scene.source}, object {obj.name or 'unnamed'}): {error}") from None
     result = _wrap_core_result(core_result, scene, obj, config, robot)
     if result.solved:
         from .timing import parameterize

@@ -75,7 +75,7 @@ def test_object_too_small_for_u_star_fails_before_searching():
     # The 10 cm square's corners lie 7.07 cm from its centre of mass, which stays 5 mm inside the table.
     result = run("plan", "--scene", "square", "--object", "square", "--pose", "0.5", "0", "0", "--param", "u_star=0.07",
                  "--time-limit", "20")
-    assert_bad_input(result, "too small for u_star = 0.07 m", "overhangs an edge by at most 0.0657")
+    assert_bad_input(result, "too small for u_star = 0.07 m", "overhangs an edge by at most 0.0657", "object square")
 
 
 def test_pose_given_for_a_cloud(tmp_path):
