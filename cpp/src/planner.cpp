@@ -109,8 +109,9 @@ namespace slideplan
         {
             const Node *start = startForest_->roots[std::uniform_int_distribution<std::size_t>(0, startForest_->roots.size() - 1)(rng_)];
             Eigen::Isometry3d target;
+            // IK from the start root's own configuration: in its IK branch, so that the two trees can meet.
             if (!pairedGoalTarget(*task_, params_, *pairValidator_, start->tip, rng_, target) ||
-                !forest.region->reach(target, rng_, seed, q, ptc))
+                !forest.region->reach(target, rng_, start->q, q, ptc))
                 return false;
         }
         else if (!forest.region->sample(rng_, seed, q, ptc))
