@@ -33,8 +33,8 @@ class LocalPoolExecutor:
 
     Plans are independent in threads (DESIGN.md 9) and the C++ planner releases the GIL, so threads
     share one parsed robot; but the Python timing step holds the GIL and takes most of a plan's time,
-    so processes plan more tasks per second (1.2x against 2.5x over one worker on 2 cores,
-    docs/benchmarks/threads.md).
+    so processes plan more tasks per second (two threads 0.98x, two processes 1.7x one worker on 2
+    cores, docs/benchmarks/threads.md).
     Processes are started with ``spawn``, not ``fork``: the parent runs a progress-bar
     thread, and forking a threaded process can deadlock the child. If a worker process dies
     (e.g. a crash in the C++ core) the pool breaks: every unfinished task comes back with
