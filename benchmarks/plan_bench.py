@@ -13,7 +13,6 @@ median / p90 / p99 planning time, with the CPU named. Unsolved runs count as nev
 from __future__ import annotations
 
 import argparse
-import math
 import datetime
 import os
 import platform
@@ -25,17 +24,13 @@ import numpy as np
 
 from slideplan import PlannerConfig, load_object, load_scene, plan
 from slideplan.objects import load_outline, sample_pose_on_table
-from slideplan.planning import _cached_grasp_map
+from slideplan.planning import clear_grasp_map_cache
 
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")
-# IsPairValid as the paper states it (no turn bound, CoM merely inside, H_g at the centroid of P_out): the
-# baselines of paper V-6 are compared under it, as in the paper.
-PAPER_PAIR = {"max_object_yaw": math.pi, "com_margin": 0.0, "grasp_standoff": 0.0}
-PUBLISHED = {"screen_pairs": False, "shortcut_attempts": 0, "grasp_flip": False, "grasp_map": False, "paired_goals": 0.0,
-             **PAPER_PAIR}
-VARIANTS = (  # (label, planner, reconfiguration range dz* in metres, None: the hand's)
+VARIANTS = (  # (label, planner, reconfiguration range dz* in metres, None: the hand's or the preset's)
     ("slideplan hand", "slideplan", None),
-    ("Algorithm 1 as published dz*=2cm", "published", 0.02),
+    # --preset paper: Algorithm 1 and IsPairValid as published, every departure off (paper-to-code.md).
+    ("Algorithm 1 as published", "published", None),
     ("slideplan dz*=2cm", "slideplan", 0.02),
     ("slideplan dz*=2cm, paired goals off", "unpaired", 0.02),
     # Every run with an empty grasp map, as a single `slideplan plan` starts: the other variants share the
@@ -43,8 +38,8 @@ VARIANTS = (  # (label, planner, reconfiguration range dz* in metres, None: the 
     ("slideplan dz*=2cm, grasp map cold", "cold", 0.02),
     ("slideplan dz*=0.5cm", "slideplan", 0.005),
     ("slideplan dz*=0cm", "slideplan", 0.0),
-    ("cbirrt dz*=2cm, paper's pair conditions", "cbirrt", 0.02),
-    ("cbirrt2 dz*=2cm, paper's pair conditions", "cbirrt2", 0.02),
+    ("cbirrt as published", "cbirrt", None),
+    ("cbirrt2 as published", "cbirrt2", None),
 )
 THRESHOLDS_S = (1.0, 5.0, 10.0, 60.0)
 
@@ -68,10 +63,10 @@ def run_one(job: tuple[str, str, str, float | None, str, int, float]) -> tuple[s
     pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([pose_index, OBJECTS.index(object_name)]),
                                 avoid=scene.footprints(scene.table.height + thickness))
     obj = load_object(object_name, table_height=scene.table.height, pose=pose)
-    overrides = {"published": PUBLISHED, "slideplan": {}, "cold": {}, "unpaired": {"paired_goals": 0.0}}.get(
-        planner, {"planner": planner, **PAPER_PAIR})
+    overrides = {"published": {"preset": "paper"}, "slideplan": {}, "cold": {}, "unpaired": {"paired_goals": 0.0}}.get(
+        planner, {"planner": planner, "preset": "paper"})
     if planner == "cold":
-        _cached_grasp_map.cache_clear()
+        clear_grasp_map_cache()
     config = PlannerConfig.for_scene(scene, seed=pose_index, time_limit_s=time_limit, **overrides)
     if reconfiguration is not None:
         config = config.with_reconfiguration_range(reconfiguration)
@@ -91,7 +86,7 @@ def run_peer(job: tuple[str, str, int, float]) -> tuple[float, float]:
     outline, _, _ = load_outline(object_name)
     pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([pose_index, OBJECTS.index(object_name)]))
     obj = load_object(object_name, table_height=scene.table.height, pose=pose)
-    config = PlannerConfig.for_scene(scene, planner="cbirrt", seed=pose_index, time_limit_s=time_limit)
+    config = PlannerConfig.for_scene(scene, preset="paper", planner="cbirrt", seed=pose_index, time_limit_s=time_limit)
     result = plan(scene, obj, config)
     if not result.solved:
         return np.inf, np.inf  # no valid pair within the budget: neither gets to connect

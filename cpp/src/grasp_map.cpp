@@ -28,12 +28,13 @@ namespace slideplan
         options.maxAttempts = attempts;
         options.abandonAfter = abandonAfter;
         // Asked of every solution, so that the restarts look for another posture rather than give up.
-        options.accept = [&](const Eigen::VectorXd &q) {
-            IkOptions near;
-            near.maxAttempts = 1;
-            Eigen::VectorXd raised;
-            return robot.ikForLink(task.graspLink, lifted, q, rng, raised, near, task.graspOffset);
-        };
+        if (params.liftCheck)
+            options.accept = [&](const Eigen::VectorXd &q) {
+                IkOptions near;
+                near.maxAttempts = 1;
+                Eigen::VectorXd raised;
+                return robot.ikForLink(task.graspLink, lifted, q, rng, raised, near, task.graspOffset);
+            };
         return robot.ikForLink(task.graspLink, grasp, seed, rng, solution, options, task.graspOffset);
     }
 
@@ -158,7 +159,8 @@ namespace slideplan
                std::abs(micrometres(task.thickness()) - thickness_) < 1.5e-6 &&  // rounding may straddle
                theirs.height() == mine.height() && theirs.vertices().rows() == mine.vertices().rows() &&
                theirs.vertices() == mine.vertices() && params.graspStandoff == params_.graspStandoff &&
-               params.uStar == params_.uStar && params.graspLift == params_.graspLift && params.graspFlip == params_.graspFlip;
+               params.uStar == params_.uStar && params.graspLift == params_.graspLift && params.graspFlip == params_.graspFlip &&
+               params.liftCheck == params_.liftCheck;
     }
 
     std::size_t GraspMap::probed() const

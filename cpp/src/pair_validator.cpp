@@ -213,12 +213,14 @@ namespace slideplan
     {
         const RobotModel &robot = *task_->robot;
         const Eigen::Isometry3d start = robot.fk(goal);
+        // The fingertip rises from its contact depth below z_s to grasp_lift above z_s.
+        const double rise = task_->surfaceZ + params_.graspLift - start.translation().z();
         // Steps of at most 0.8 maxTipStep, counted in sixteenths: a step that turns a joint further than
         // maxJointStep is halved, as near the robot's base a few millimetres of lift take more than that
         // (on the triangle table most goal roots that failed to lift). One still too long at a sixteenth
         // jumps to another IK branch: no lift.
         constexpr long kFine = 16;
-        const long steps = static_cast<long>(std::ceil(params_.graspLift / (0.8 * params_.maxTipStep)));
+        const long steps = static_cast<long>(std::ceil(rise / (0.8 * params_.maxTipStep)));
         IkOptions options;
         options.maxAttempts = 1;  // from the previous waypoint only: a restart would jump
         std::mt19937_64 unused(0);
@@ -228,7 +230,7 @@ namespace slideplan
         {
             const long height = std::min(risen + step, steps * kFine);
             Eigen::Isometry3d target = start;
-            target.translation().z() += params_.graspLift * static_cast<double>(height) / static_cast<double>(steps * kFine);
+            target.translation().z() += rise * static_cast<double>(height) / static_cast<double>(steps * kFine);
             Eigen::VectorXd q;
             if (!robot.ik(target, previous, unused, q, options))
                 return false;
@@ -239,8 +241,9 @@ namespace slideplan
                 step /= 2;
                 continue;
             }
-            // The finger may still press into the object until it has risen above it.
-            const bool clear = target.translation().z() >= task_->surfaceZ + params_.graspLift - 1e-3;
+            // The finger may still touch the object until it has risen to the lift height (verify.py
+            // switches to the free-mode check at the same height).
+            const bool clear = height == steps * kFine;
             if (!world_->isValid(q, clear ? ContactMode::Free : ContactMode::Sliding))
                 return false;
             path.push_back(q);
@@ -335,6 +338,14 @@ namespace slideplan
             return verdict;
         }
 
+        // The checks above ran on the fixed-resolution footprint, a screen; from here on P_o itself (the
+        // paper's definition): P_out, u and H_g at the centroid of P_out, once per pair that gets this far.
+        verdict.overhang = overhang(result.motion, true);
+        if (!graspable(result))
+        {
+            verdict.reason = "overhang below u* on the full cloud";
+            return verdict;
+        }
         if (knownUnreachable(result))
         {
             verdict.reason = "grasp pose unreachable";
@@ -380,15 +391,6 @@ namespace slideplan
             verdict.reason = "no transfer motion to the grasp";
             return verdict;
         }
-        // The checks above ran on the fixed-resolution footprint; the accepted pair must also hold on P_o
-        // itself (the paper's definition), once, here at the end where it costs one pass over the cloud.
-        const Overhang exact = overhang(result.motion, true);
-        if (!graspable(exact))
-        {
-            verdict.reason = "overhang below u* on the full cloud";
-            return verdict;
-        }
-        verdict.overhang = exact;
         verdict.approach.reserve(approach.size() + 1);
         verdict.approach.push_back(goal);
         verdict.approach.insert(verdict.approach.end(), approach.begin(), approach.end());

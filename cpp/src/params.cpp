@@ -42,6 +42,29 @@ namespace slideplan
         require(finite(shortcutYawWeight) && shortcutYawWeight >= 0.0, "shortcut_yaw_weight must be >= 0");
     }
 
+    PlannerParams PlannerParams::asPublished()
+    {
+        PlannerParams params;
+        params.deltaBeta = 0.1;
+        params.dzMin = 0.005;
+        params.dzMax = 0.025;
+        params.nStar = 100.0;
+        params.graspStandoff = 0.0;
+        params.screenPairs = false;
+        params.graspFlip = false;
+        params.graspMap = false;
+        params.goalGraspFilter = false;
+        params.liftCheck = false;
+        params.cacheVerdicts = false;
+        params.pairedGoals = 0.0;
+        params.contactRadius = 0.0;
+        params.shortcutAttempts = 0;
+        params.comMargin = 0.0;
+        params.maxObjectYaw = M_PI;
+        params.maxYawRate = 0.0;
+        return params;
+    }
+
     RootPolicy rootPolicyFromName(const std::string &name)
     {
         if (name == "slideplan")

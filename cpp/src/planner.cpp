@@ -5,7 +5,9 @@
 
 #include <chrono>
 #include <cmath>
+#include <ompl/base/PlannerData.h>
 #include <ompl/base/SpaceInformation.h>
+#include <ompl/base/goals/GoalStates.h>
 #include <ompl/base/spaces/RealVectorStateSpace.h>
 #include <ompl/datastructures/NearestNeighborsLinear.h>
 #include <ompl/geometric/PathGeometric.h>
@@ -122,7 +124,7 @@ namespace slideplan
         // object may overhang a stretch further along, and the map's IK is not a proof. A paired root's
         // own grasp is screened by the grasp map already.
         constexpr int kKeep = 10;
-        if (!forest.isStart && !paired && !pairValidator_->graspReachableNear(tip.translation().head<2>()) &&
+        if (!forest.isStart && !paired && params_.goalGraspFilter && !pairValidator_->graspReachableNear(tip.translation().head<2>()) &&
             std::uniform_int_distribution<int>(1, kKeep)(rng_) != 1)
             return false;
         // With pair screening: a goal root the finger cannot lift off from fails every pair it would
@@ -301,7 +303,9 @@ namespace slideplan
     {
         const std::pair<int, int> key(startNode->root, goalNode->root);
         auto it = verdicts_.find(key);
-        if (it == verdicts_.end())
+        // CBiRRT's one pair was validated before its trees grew: its verdict stands either way.
+        const bool recheck = !params_.cacheVerdicts && params_.policy != RootPolicy::Fixed;
+        if (it == verdicts_.end() || recheck)
         {
             ++result_.stats.pairsChecked;
             PairVerdict verdict = pairValidator_->check(startForest_->roots[key.first]->q, goalForest_->roots[key.second]->q, rng_, ptc);
@@ -310,7 +314,7 @@ namespace slideplan
                 ++result_.stats.pairsRejected;
                 ++result_.stats.rejections[verdict.reason];
             }
-            it = verdicts_.emplace(key, std::move(verdict)).first;
+            it = verdicts_.insert_or_assign(key, std::move(verdict)).first;
         }
         return &it->second;
     }
@@ -345,10 +349,11 @@ namespace slideplan
             return forest.nearestTo(q);
         Node *best = nullptr;
         double bestDistance = std::numeric_limits<double>::infinity();
-        std::vector<char> promising(forest.roots.size(), -1);  // per tree, decided on first use
+        // Per tree, decided on first use; signed, since plain char is unsigned on some targets (aarch64).
+        std::vector<signed char> promising(forest.roots.size(), -1);
         for (const auto &node : forest.nodes)
         {
-            char &ok = promising[node->root];
+            signed char &ok = promising[node->root];
             if (ok < 0)
                 ok = other.isStart ? promisingPair(root, node->root) : promisingPair(node->root, root);
             if (!ok)
@@ -441,11 +446,70 @@ namespace slideplan
         result_.status = "solved";
     }
 
+    bool SlidingPlanner::addGivenRoots(bool &startValid)
+    {
+        const RobotModel &robot = *task_->robot;
+        const auto addValid = [&](Forest &forest, const ob::State *state) {
+            const auto *values = state->as<ob::RealVectorStateSpace::StateType>()->values;
+            const Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(values, robot.dof());
+            const Eigen::Isometry3d tip = robot.fk(q);
+            if (!robot.withinLimits(q) || !constraint_->satisfied(tip) || !validity_->isValid(q, tip))
+                return false;
+            forest.add(q, tip, nullptr);
+            return true;
+        };
+        startValid = true;
+        // Not pis_.nextStart(): it skips an invalid start with a warning, and the caller must hear of it.
+        for (unsigned i = 0; pdef_ && i < pdef_->getStartStateCount(); ++i)
+            if (!addValid(*startForest_, pdef_->getStartState(i)))
+                return startValid = false;
+        if (const auto *goals = pdef_ ? dynamic_cast<const ob::GoalStates *>(pdef_->getGoal().get()) : nullptr)
+            for (std::size_t i = 0; i < goals->getStateCount(); ++i)
+                if (!addValid(*goalForest_, goals->getState(i)))
+                    return false;
+        return true;
+    }
+
+    void SlidingPlanner::getPlannerData(ob::PlannerData &data) const
+    {
+        ob::Planner::getPlannerData(data);
+        // Nodes hold Eigen vectors, not OMPL states: the states made here live until the data owns copies.
+        std::vector<ob::State *> states;
+        for (const Forest *forest : {startForest_.get(), goalForest_.get()})
+        {
+            std::map<const Node *, unsigned> index;
+            for (const auto &node : forest->nodes)
+            {
+                states.push_back(si_->allocState());
+                std::copy(node->q.data(), node->q.data() + node->q.size(),
+                          states.back()->as<ob::RealVectorStateSpace::StateType>()->values);
+                const ob::PlannerDataVertex vertex(states.back(), node->parent ? 0 : (forest->isStart ? 1 : 2));
+                index[node.get()] = node->parent ? data.addVertex(vertex)
+                                                 : (forest->isStart ? data.addStartVertex(vertex) : data.addGoalVertex(vertex));
+            }
+            for (const auto &node : forest->nodes)
+                if (node->parent)
+                    data.addEdge(index.at(node->parent), index.at(node.get()));
+        }
+        data.decoupleFromPlanner();
+        for (ob::State *state : states)
+            si_->freeState(state);
+    }
+
     ob::PlannerStatus SlidingPlanner::solve(const ob::PlannerTerminationCondition &ptc)
     {
         const auto started = std::chrono::steady_clock::now();
         const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(); };
+        if (!isSetup())
+            setup();
+        result_ = PlanResult();  // a further call reports only itself; the forests grow on
         result_.planner = rootPolicyName(params_.policy);
+        const bool fresh = startForest_->nodes.empty() && goalForest_->nodes.empty();
+        if (bool startValid = true; fresh && !addGivenRoots(startValid))
+        {
+            result_.status = startValid ? "invalid goal" : "invalid start";
+            return startValid ? ob::PlannerStatus::INVALID_GOAL : ob::PlannerStatus::INVALID_START;
+        }
         const bool ready = precomputeRoots(ptc);
         if (params_.policy != RootPolicy::Sampled)
             result_.stats.precomputeTime = elapsed();
@@ -476,6 +540,7 @@ namespace slideplan
                                                 extendedA->q, reached);
             if (reached)
             {
+                ++result_.stats.connections;
                 Node *startNode = a->isStart ? extendedA : extendedB, *goalNode = a->isStart ? extendedB : extendedA;
                 const PairVerdict *verdict = validatePair(startNode, goalNode, ptc);
                 if (verdict->valid && pathClear(startNode, goalNode))
@@ -499,7 +564,7 @@ namespace slideplan
         void requireReachableObject(const SlidingTask &task, const PlannerParams &params, std::uint64_t seed)
         {
             std::mt19937_64 rng(seed);
-            const Eigen::Vector2d centre = task.objectXY.colwise().mean().transpose();
+            const Eigen::Vector2d centre = task.objectCom;
             for (int k = 0; k < 8; ++k)
             {
                 Eigen::Isometry3d target = Eigen::Isometry3d::Identity();
@@ -549,6 +614,7 @@ namespace slideplan
         auto planner = std::make_shared<SlidingPlanner>(si, task, params, seed, std::move(graspMap));
         si->setup();
         planner->setProblemDefinition(std::make_shared<ob::ProblemDefinition>(si));
+        planner->setup();
         planner->solve(ptc);
         PlanResult result = planner->result();
         result.planningTime = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

@@ -38,6 +38,7 @@ _OPTION_OF_FIELD = {
     "reconfiguration_range": "--reconfiguration-range",
     "dz_max": "--reconfiguration-range",
     "planner": "--planner",
+    "preset": "--preset",
     "workers": "--workers",
     "scheduler": "--scheduler",
     "tip_speed": "--tip-speed",
@@ -123,13 +124,16 @@ def _parse_params(items: list[str]) -> dict:
 
 
 def _config_from_options(
-    scene: Scene, seed: int, time_limit: float, reconfiguration_range: float | None, planner: str, params: list[str]
+    scene: Scene, seed: int, time_limit: float, reconfiguration_range: float | None, planner: str, params: list[str],
+    preset: str = "default",
 ) -> PlannerConfig:
-    """Build the planner config: built-in defaults, the hand's, then the command line's, naming
-    command-line options (not config fields) in errors."""
+    """Build the planner config: built-in defaults, the hand's, the preset's, then the command line's,
+    naming command-line options (not config fields) in errors."""
     overrides = _parse_params(params)
+    overrides.pop("preset", None)  # --preset, not --param preset=, chooses it
     try:
-        config = PlannerConfig.for_scene(scene, **{"seed": seed, "time_limit_s": time_limit, "planner": planner, **overrides})
+        config = PlannerConfig.for_scene(scene, preset=preset,
+                                         **{"seed": seed, "time_limit_s": time_limit, "planner": planner, **overrides})
         if reconfiguration_range is not None:
             config = config.with_reconfiguration_range(reconfiguration_range)
     except InputError as error:
@@ -232,9 +236,13 @@ def plan_command(
         None, "--reconfiguration-range", help="dz_max - dz_min (m); default 0.02."
     ),
     planner: str = typer.Option("slideplan", "--planner", help=f"One of: {', '.join(PLANNERS)}."),
+    preset: str = typer.Option(
+        "default", "--preset", help="default (this project's departures from the paper on) or paper (Algorithm 1 and "
+        "IsPairValid as published: docs/paper-to-code.md); recorded in the plan JSON as params.preset."
+    ),
     param: list[str] = typer.Option(
         [], "--param", help="NAME=VALUE for any planner parameter (u_star, beta0, n_star, ...); repeatable; overrides "
-        "the hand's [hand] params and the built-in defaults."
+        "the preset, the hand's [hand] params and the built-in defaults."
     ),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Write the plan JSON (slideplan.plan/2) here."),
     png_out: Optional[Path] = typer.Option(None, "--png", help="Write a top-down picture here (.png or .svg)."),
@@ -246,7 +254,7 @@ def plan_command(
     """
     try:
         task_scene = load_scene(scene)
-        config = _config_from_options(task_scene, seed, time_limit, reconfiguration_range, planner, param)
+        config = _config_from_options(task_scene, seed, time_limit, reconfiguration_range, planner, param, preset)
         obj, sampled_pose = _load_object(task_scene, object_spec, pose, seed)
         result = _plan_verify_write(task_scene, obj, config, json_out, png_out)
     except (InputError, ValueError, OSError) as error:
@@ -464,6 +472,10 @@ def experiment_command(
     param: list[str] = typer.Option(
         [], "--param", help="NAME=VALUE for any planner parameter, applied to every task after the figure's; repeatable."
     ),
+    preset: str = typer.Option(
+        "default", "--preset", help="default or paper (every departure from the paper off) for the slideplan tasks; "
+        "the baselines always run as published."
+    ),
 ) -> None:
     """Run the planning tasks of one figure, resuming: tasks with a result in OUT/results/ are skipped.
 
@@ -473,7 +485,8 @@ def experiment_command(
     try:
         from .experiments import build_spec, run_experiment
 
-        spec = build_spec(figure, quick=quick, time_limit_s=time_limit, seed=seed, poses=poses, params=_parse_params(param))
+        spec = build_spec(figure, quick=quick, time_limit_s=time_limit, seed=seed, poses=poses, params=_parse_params(param),
+                          preset=preset)
         executor = _experiment_executor(workers, scheduler, threads)
         typer.echo(f"{figure}: {len(spec.tasks)} tasks on {executor.description}, results in {out / 'results'}")
         summary = run_experiment(spec, out, executor)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,7 @@ from shapely.geometry import Polygon
 
 from ._fields import Fields, as_number, as_numbers, as_xy_points, read_toml
 from .errors import InputError
-from .geometry import SupportSurface, simple_polygon_vertices
+from .geometry import SupportSurface, area_centroid, simple_polygon_vertices
 from .paths import find_data_file
 
 CLOUD_SUFFIXES = (".ply", ".npy", ".csv", ".pcd")
@@ -112,14 +113,15 @@ class ThinObject:
         cloud.setflags(write=False)
         return cls(cloud, mean_z - table_height, name)
 
-    @property
+    @cached_property
     def centroid_xy(self) -> np.ndarray:
-        """Mean xy of the points: the centre of mass of a uniform plate sampled on a grid.
+        """The centre of mass of the object as a uniform plate: the area centroid of the region its
+        points cover (:func:`slideplan.geometry.area_centroid`), not their mean.
 
         Returns:
             (2,) array.
         """
-        return self.points[:, :2].mean(axis=0)
+        return area_centroid(self.points[:, :2])
 
 
 def place_points(xy: np.ndarray, pose) -> np.ndarray:

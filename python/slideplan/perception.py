@@ -32,7 +32,7 @@ from shapely.geometry import MultiPoint, Polygon
 
 from ._fields import as_number
 from .errors import InputError
-from .geometry import SupportSurface
+from .geometry import SupportSurface, area_centroid
 from .objects import _checked_cloud, place_points
 from .scenes import BoxObstacle, Scene, load_scene, robot_toml
 
@@ -55,7 +55,8 @@ class PerceivedObject:
         thickness: median height of the object's inner points above the table (m).
         footprint: the grid cells the object covers, as a polygon (world frame; for plots
             and overlap checks).
-        centroid_xy: (2,) mean xy of ``points``.
+        centroid_xy: (2,) centre of mass: the area centroid of ``points``
+            (:func:`slideplan.geometry.area_centroid`).
         yaw: direction of the principal axis of ``points`` (rad, in (-pi/2, pi/2]);
             meaningless for objects with equal second moments (discs, squares). For the
             pose of a known outline use :func:`register_outline`.
@@ -384,8 +385,8 @@ def _smoothed_heights(grid: _Grid, cells: np.ndarray, heights: np.ndarray, sigma
 
 def _thin_object(xy: np.ndarray, thickness: float, table_height: float, footprint) -> PerceivedObject:
     """A perceived object: flat cloud at the table height + thickness, centroid and principal axis."""
-    centroid = xy.mean(axis=0)
-    covariance = np.cov((xy - centroid).T)
+    centroid = area_centroid(xy)
+    covariance = np.cov((xy - xy.mean(axis=0)).T)
     eigenvalues, eigenvectors = np.linalg.eigh(covariance)
     major = eigenvectors[:, int(np.argmax(eigenvalues))]
     yaw = math.atan2(major[1], major[0])

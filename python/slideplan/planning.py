@@ -34,17 +34,22 @@ PLAN_SCHEMA = "slideplan.plan/2"
 READABLE_SCHEMAS = ("slideplan.plan/1", PLAN_SCHEMA)  # /1: the same fields without timing
 STATUSES = ("solved", "timeout", "invalid")
 
-# Fields of PlannerConfig that must be > 0 (the others: beta0 and dz_min may be 0 or more).
-_POSITIVE_FIELDS = (
-    "delta_beta", "n_star", "d_goal", "u_star", "grasp_lift", "grasp_backoff", "transfer_time",
-    "max_joint_step", "max_tip_step", "projection_tolerance", "time_limit_s", "max_object_yaw",
-)
-_INT_FIELDS = {"projection_iterations": 1, "root_ik_attempts": 1, "shortcut_attempts": 0}  # smallest value
+_INT_FIELDS = ("projection_iterations", "root_ik_attempts", "shortcut_attempts")
+_BOOL_FIELDS = ("screen_pairs", "grasp_flip", "grasp_map", "goal_grasp_filter", "lift_check", "cache_verdicts")
 # PlannerConfig fields that are not PlannerParams attributes (or are named differently there).
-_NOT_PARAMS = ("planner", "seed", "time_limit_s")
-
+_NOT_PARAMS = ("planner", "seed", "time_limit_s", "preset")
 
 _CORE_DEFAULTS = _core.PlannerParams()
+_CORE_PUBLISHED = _core.PlannerParams.as_published()
+PRESETS = ("default", "paper")
+# What the "paper" preset fixes (PlannerParams::asPublished): every departure and the values section V
+# gives. The others (beta0, u_star, d_goal, the grasp motion's lift and backoff, ...) the paper leaves
+# open: they keep the hand's and the built-in defaults.
+PAPER_FIELDS = (
+    "delta_beta", "dz_min", "dz_max", "n_star", "grasp_standoff", "screen_pairs", "grasp_flip", "grasp_map",
+    "goal_grasp_filter", "lift_check", "cache_verdicts", "paired_goals", "contact_radius", "shortcut_attempts",
+    "com_margin", "max_object_yaw", "max_yaw_rate",
+)
 
 
 @dataclass(frozen=True)
@@ -74,8 +79,15 @@ class PlannerConfig:
         projection_tolerance: constraint residual tolerance of the projection.
         projection_iterations: Newton iterations of one projection.
         root_ik_attempts: IK attempts per root sample.
-        screen_pairs: beyond the paper, NearestTree skips trees whose root pair is known to fail
-            (docs/paper-to-code.md); False runs Algorithm 1 as published.
+        screen_pairs: beyond the paper, NearestTree skips trees whose root pair is known to fail, and
+            goal roots the finger cannot lift off from are not kept (docs/paper-to-code.md); False is
+            Algorithm 1's NearestTree.
+        goal_grasp_filter: beyond the paper (with ``grasp_map``), a goal root by an edge stretch without
+            a reachable side grasp is kept one time in ten; False keeps every goal root.
+        lift_check: beyond the paper, a grasp IK solution counts only if the grasp frame raised by
+            ``grasp_lift`` is reachable from it; False accepts any solution, as IV-C.1 does.
+        cache_verdicts: beyond the paper, IsPairValid's verdict is remembered per root pair; False checks
+            every connection, as Algorithm 1 does.
         grasp_flip: beyond the paper, also grasp with the hand rolled by pi about its approach axis
             (the same grasp for a hand whose fingers close symmetrically).
         grasp_map: beyond the paper, remember the 1 cm table-edge stretches where no side grasp was
@@ -99,10 +111,14 @@ class PlannerConfig:
         planner: ``"slideplan"`` (Algorithm 1), ``"cbirrt"`` or ``"cbirrt2"`` (baselines, paper V-6).
         seed: random seed; the same seed gives the same plan.
         time_limit_s: planning time budget (s).
+        preset: what the parameters started from, recorded in the plan JSON: ``"default"`` (this
+            project's), or ``"paper"`` (:meth:`as_published`: Algorithm 1 and IV-C.1 as published,
+            every departure off); fields set on top of a preset are recorded with it.
 
     Raises:
-        InputError: on construction, naming the field: a non-finite or out-of-range value,
-            ``dz_min > dz_max``, an unknown planner, a non-integer count or seed.
+        InputError: on construction, naming the field: a value of the wrong type, or one the C++
+            core's validator (``PlannerParams::validate``, the one rule for Python and C++) refuses,
+            an unknown planner or preset, a time limit that is not a positive number.
     """
 
     # Defaults come from the C++ PlannerParams: every parameter is declared once, in params.hpp.
@@ -123,6 +139,9 @@ class PlannerConfig:
     projection_iterations: int = _CORE_DEFAULTS.projection_iterations
     root_ik_attempts: int = _CORE_DEFAULTS.root_ik_attempts
     screen_pairs: bool = _CORE_DEFAULTS.screen_pairs
+    goal_grasp_filter: bool = _CORE_DEFAULTS.goal_grasp_filter
+    lift_check: bool = _CORE_DEFAULTS.lift_check
+    cache_verdicts: bool = _CORE_DEFAULTS.cache_verdicts
     grasp_flip: bool = _CORE_DEFAULTS.grasp_flip
     grasp_map: bool = _CORE_DEFAULTS.grasp_map
     paired_goals: float = _CORE_DEFAULTS.paired_goals
@@ -135,52 +154,70 @@ class PlannerConfig:
     planner: str = _CORE_DEFAULTS.policy
     seed: int = 0
     time_limit_s: float = 60.0
+    preset: str = "default"
 
     def __post_init__(self) -> None:
+        # Types here; ranges and consistency in the C++ core's validator, the one rule for both languages.
         for item in dataclasses.fields(self):
             name, value = item.name, getattr(self, item.name)
             if name == "planner":
                 if value not in PLANNERS:
                     raise InputError(f"unknown planner {value!r} (expected one of: {', '.join(PLANNERS)})", field=name)
-            elif name in ("screen_pairs", "grasp_flip", "grasp_map"):
+            elif name == "preset":
+                if value not in PRESETS:
+                    raise InputError(f"unknown preset {value!r} (expected one of: {', '.join(PRESETS)})", field=name)
+            elif name in _BOOL_FIELDS:
                 if not isinstance(value, (bool, np.bool_)):
                     raise InputError(f"expected True or False, got {value!r}", field=name)
             elif name in _INT_FIELDS or name == "seed":
                 if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
                     raise InputError(f"expected an integer, got {value!r}", field=name)
-                low, high = (0, 2**64) if name == "seed" else (_INT_FIELDS[name], 2**31)  # C++: uint64 seed, int counts
+                low, high = (0, 2**64) if name == "seed" else (-(2**31), 2**31)  # C++: uint64 seed, int counts
                 if not low <= value < high:
                     raise InputError(f"must be in [{low}, {high}), got {value!r}", field=name)
-            else:
-                if not is_number(value) or not math.isfinite(value):
-                    raise InputError(f"expected a finite number, got {value!r}", field=name)
-                if name in _POSITIVE_FIELDS and value <= 0:
-                    raise InputError(f"must be > 0, got {value!r}", field=name)
-                if value < 0:
-                    raise InputError(f"must be >= 0, got {value!r}", field=name)
-                if name == "paired_goals" and value > 1:
-                    raise InputError(f"must be in [0, 1], got {value!r}", field=name)
-        if self.dz_min > self.dz_max:
-            raise InputError(
-                f"must be >= dz_min ({self.dz_min!r}), got {self.dz_max!r} (negative reconfiguration range)",
-                field="dz_max",
-            )
+            elif not is_number(value) or not math.isfinite(value):
+                raise InputError(f"expected a finite number, got {value!r}", field=name)
+        if self.time_limit_s <= 0:
+            raise InputError(f"must be > 0, got {self.time_limit_s!r}", field="time_limit_s")
+        try:
+            self.to_params().validate()
+        except ValueError as error:
+            problem, name = _core_field_message(str(error))
+            raise InputError(problem, field=name) from None
 
     @classmethod
-    def for_scene(cls, scene: Scene, **overrides) -> PlannerConfig:
-        """The config for a scene: built-in defaults, then the hand's ``[hand] params``, then ``overrides``.
+    def for_scene(cls, scene: Scene, preset: str = "default", **overrides) -> PlannerConfig:
+        """The config for a scene: built-in defaults, then the hand's ``[hand] params``, then the preset's
+        fields (``"paper"``: :data:`PAPER_FIELDS` as :meth:`as_published` has them), then ``overrides``.
 
         Args:
             scene: the scene whose hand gives parameter defaults.
+            preset: ``"default"`` or ``"paper"``.
             **overrides: any field, e.g. ``seed=3, u_star=0.03``.
 
         Raises:
-            InputError: an unknown field or a bad value, naming the field.
+            InputError: an unknown field or preset, or a bad value, naming the field.
         """
-        unknown = sorted(set(overrides) - {item.name for item in dataclasses.fields(cls)})
+        unknown = sorted(set(overrides) - {item.name for item in dataclasses.fields(cls)} - {"preset"})
         if unknown:
             raise InputError(f"unknown planner parameter(s) {unknown}", field="param")
-        return cls(**{**scene.hand.params, **overrides})
+        if preset not in PRESETS:
+            raise InputError(f"unknown preset {preset!r} (expected one of: {', '.join(PRESETS)})", field="preset")
+        published = _published_fields() if preset == "paper" else {}
+        return cls(**{**scene.hand.params, **published, **overrides, "preset": preset})
+
+    @classmethod
+    def as_published(cls, **overrides) -> PlannerConfig:
+        """Algorithm 1 and IsPairValid as published (``preset="paper"``): every departure of
+        docs/paper-to-code.md off, the paper's section V values (``Delta_beta`` = 0.1 rad,
+        ``Delta_Z`` = [0.5, 2.5] cm, ``N*`` = 100); the rest built-in defaults. With
+        ``planner="cbirrt"`` or ``"cbirrt2"``, the baselines as published. For a scene's hand
+        (its ``beta0``, ``u_star``) use ``for_scene(scene, preset="paper")``.
+
+        Args:
+            **overrides: any field, e.g. ``seed=3, planner="cbirrt"``.
+        """
+        return cls(**{**_published_fields(), **overrides, "preset": "paper"})
 
     @property
     def reconfiguration_range(self) -> float:
@@ -204,10 +241,10 @@ class PlannerConfig:
         return dataclasses.replace(self, dz_max=self.dz_min + float(range_m))
 
     def to_params(self):
-        """Build the C++ core's parameter object.
+        """Build the C++ core's parameter object (not validated: :meth:`_core.PlannerParams.validate`).
 
         Returns:
-            ``_core.PlannerParams`` with every field but ``seed`` and ``time_limit_s``
+            ``_core.PlannerParams`` with every field but ``seed``, ``time_limit_s`` and ``preset``
             (``planner`` becomes ``policy``).
         """
         params = _core.PlannerParams()
@@ -220,6 +257,20 @@ class PlannerConfig:
     def to_dict(self) -> dict[str, Any]:
         """Return the fields as a plain dict (JSON-ready)."""
         return dataclasses.asdict(self)
+
+
+def _published_fields() -> dict[str, Any]:
+    """The fields the "paper" preset fixes, with their published values."""
+    return {name: getattr(_CORE_PUBLISHED, name) for name in PAPER_FIELDS}
+
+
+def _core_field_message(message: str) -> tuple[str, str]:
+    """``(problem, field)`` of the core validator's "planner parameter NAME must ..." message."""
+    prefix = "planner parameter "
+    if not message.startswith(prefix):
+        return message, "param"
+    name, _, problem = message[len(prefix):].partition(" ")
+    return problem, name
 
 
 @dataclass
@@ -586,9 +637,14 @@ def _cached_grasp_map(robot, vertices: tuple, height: float, grasp_link: str, gr
     from . import _core
 
     params = _core.PlannerParams()
-    params.grasp_standoff, params.u_star, params.grasp_lift, params.grasp_flip = params_key
+    params.grasp_standoff, params.u_star, params.grasp_lift, params.grasp_flip, params.lift_check = params_key
     table = _core.SupportSurface(np.array(vertices, dtype=float), height)
     return _core.GraspMap(robot, table, grasp_link, np.array(grasp_offset, dtype=float).reshape(4, 4), thickness, params)
+
+
+def clear_grasp_map_cache() -> None:
+    """Forget the cached grasp maps: the next plan of every table probes its map anew, as a fresh process does."""
+    _cached_grasp_map.cache_clear()
 
 
 def grasp_map(scene: Scene, obj: ThinObject, config: PlannerConfig):
@@ -610,7 +666,7 @@ def grasp_map(scene: Scene, obj: ThinObject, config: PlannerConfig):
         # As the core measures it (z_s is the cloud's mean height) and to the micrometre, as the map keeps
         # it: clouds of one thickness differ in the last bits of their mean and must still share the map.
         round(float(points[:, 2].mean()) - height, 6),
-        (config.grasp_standoff, config.u_star, config.grasp_lift, config.grasp_flip),
+        (config.grasp_standoff, config.u_star, config.grasp_lift, config.grasp_flip, config.lift_check),
     )
 
 
@@ -679,7 +735,7 @@ def _wrap_core_result(core_result, scene: Scene, obj: ThinObject, config: Planne
     """Copy a ``_core.PlanResult`` and the inputs that produced it into a :class:`PlanResult`."""
     dof = robot.dof
     motion = core_result.object_motion
-    params = {key: value for key, value in config.to_dict().items() if key not in ("planner", "seed")}
+    params = {key: value for key, value in config.to_dict().items() if key not in ("planner", "seed")}  # preset included
     return PlanResult(
         status=core_result.status,
         planner=core_result.planner,

@@ -5,7 +5,10 @@
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
+#include <ompl/base/PlannerData.h>
 #include <ompl/base/PlannerTerminationCondition.h>
+#include <ompl/base/ScopedState.h>
+#include <ompl/base/spaces/RealVectorStateSpace.h>
 #include <thread>
 
 using namespace slideplan;
@@ -210,7 +213,9 @@ TEST(PairValidator, LiftsInShorterStepsWhereAStepWouldTurnAJointTooFar)
     std::mt19937_64 rng(2);
     const PairVerdict verdict = validator.check(start, goal, rng, within(5.0));
     ASSERT_TRUE(verdict.valid) << verdict.reason;
-    const double lifted = task->robot->fk(goal).translation().z() + params.graspLift;
+    // The fingertip rises from its contact depth to grasp_lift above the object's top (not by grasp_lift:
+    // from 1-3 cm below the top that would leave it 2-4 cm above).
+    const double lifted = task->surfaceZ + params.graspLift;
     Eigen::VectorXd previous = goal;
     std::size_t waypoints = 0;
     for (const Eigen::VectorXd &q : verdict.approach)
@@ -391,7 +396,9 @@ TEST(SlidingPlanner, ShortcutKeepsTheEndpointsAndShortensThePath)
     EXPECT_EQ(before.goalConfig, after.goalConfig);
     EXPECT_EQ(after.trajectory.front(), after.startConfig);
     EXPECT_EQ(after.trajectory.back(), after.goalConfig);
-    EXPECT_LE(after.trajectory.size(), before.trajectory.size());
+    // The shortcut keeps a walk only if it lowers fingertip travel + shortcut_yaw_weight x yaw travel.
+    const auto cost = [&](const PlanResult &r) { return r.stats.fingertipPath + shortened.shortcutYawWeight * r.stats.yawTravel; };
+    EXPECT_LT(cost(after), cost(before));
 }
 
 TEST(SlidingPlanner, SameSeedSameTrajectory)
@@ -509,12 +516,137 @@ TEST(GraspMap, ItsGraspSeedsGraspTheirStretches)
     EXPECT_GT(unreachable, 0);
 }
 
-TEST(SlidingPlanner, AsPublishedWithoutPairScreening)
+TEST(PlannerParams, AsPublishedTurnsEveryDepartureOffAndKeepsThePapersValues)
+{
+    const PlannerParams paper = PlannerParams::asPublished();
+    EXPECT_NO_THROW(paper.validate());
+    EXPECT_FALSE(paper.screenPairs || paper.graspFlip || paper.graspMap || paper.goalGraspFilter || paper.liftCheck ||
+                 paper.cacheVerdicts);
+    EXPECT_EQ(paper.pairedGoals, 0.0);
+    EXPECT_EQ(paper.contactRadius, 0.0);
+    EXPECT_EQ(paper.shortcutAttempts, 0);
+    EXPECT_EQ(paper.comMargin, 0.0);
+    EXPECT_EQ(paper.maxYawRate, 0.0);
+    EXPECT_EQ(paper.graspStandoff, 0.0);
+    EXPECT_GE(paper.maxObjectYaw, M_PI);
+    // Section V: Delta_beta = 0.1 rad, Delta_Z = [0.5 cm, 2.5 cm], N* = 100.
+    EXPECT_EQ(paper.deltaBeta, 0.1);
+    EXPECT_EQ(paper.dzMin, 0.005);
+    EXPECT_EQ(paper.dzMax, 0.025);
+    EXPECT_EQ(paper.nStar, 100.0);
+}
+
+TEST(SlidingPlanner, AsPublishedSolvesWithTheTreePathAndEveryConnectionChecked)
+{
+    const auto task = plateTask({0.6, 0.0});
+    const PlannerParams params = PlannerParams::asPublished();
+    const PlanResult result = planSliding(task, params, 3, within(30.0));
+    expectValidPlan(*task, params, result);
+    // Without verdict caching IsPairValid runs at every connection, as in Algorithm 1.
+    EXPECT_EQ(result.stats.pairsChecked, result.stats.connections);
+}
+
+namespace
+{
+    /// The planner set up as planSliding sets it up, for the OMPL interface tests.
+    struct OmplSetup
+    {
+        std::shared_ptr<const SlidingTask> task;
+        ompl::base::SpaceInformationPtr si;
+        std::shared_ptr<SlidingPlanner> planner;
+        ompl::base::ProblemDefinitionPtr pdef;
+
+        OmplSetup(std::shared_ptr<const SlidingTask> t, const PlannerParams &params, std::uint64_t seed) : task(std::move(t))
+        {
+            si = std::make_shared<ompl::base::SpaceInformation>(jointSpace(*task->robot));
+            planner = std::make_shared<SlidingPlanner>(si, task, params, seed);
+            si->setup();
+            pdef = std::make_shared<ompl::base::ProblemDefinition>(si);
+            planner->setProblemDefinition(pdef);
+        }
+    };
+
+    /// A termination condition true after `n` calls: work bounded by iterations, not the clock.
+    ompl::base::PlannerTerminationCondition afterCalls(int n)
+    {
+        auto calls = std::make_shared<int>(0);
+        return ompl::base::PlannerTerminationCondition([calls, n] { return ++*calls > n; });
+    }
+}  // namespace
+
+TEST(SlidingPlanner, PlannerDataHoldsBothForests)
+{
+    OmplSetup setup(plateTask({0.6, 0.0}), PlannerParams(), 5);
+    ASSERT_EQ(setup.planner->solve(within(30.0)), ompl::base::PlannerStatus::EXACT_SOLUTION);
+    ompl::base::PlannerData data(setup.si);
+    setup.planner->getPlannerData(data);
+    const PlanStats &stats = setup.planner->result().stats;
+    EXPECT_EQ(data.numVertices(), static_cast<unsigned>(stats.nodes));
+    EXPECT_EQ(data.numStartVertices(), static_cast<unsigned>(stats.startRoots));
+    EXPECT_EQ(data.numGoalVertices(), static_cast<unsigned>(stats.goalRoots));
+    EXPECT_EQ(data.numEdges(), static_cast<unsigned>(stats.nodes - stats.startRoots - stats.goalRoots));  // a forest
+}
+
+TEST(SlidingPlanner, ASecondSolveReportsOnlyItself)
+{
+    OmplSetup setup(plateTask({0.6, 0.0}), PlannerParams(), 5);
+    setup.planner->solve(afterCalls(20));
+    const long first = setup.planner->result().stats.iterations;
+    ASSERT_GT(first, 0);
+    setup.planner->solve(afterCalls(1));  // at most one iteration
+    EXPECT_LE(setup.planner->result().stats.iterations, 1);
+    ompl::base::PlannerData data(setup.si);
+    setup.planner->getPlannerData(data);
+    EXPECT_GE(data.numVertices(), static_cast<unsigned>(first));  // the forests grew on
+}
+
+TEST(SlidingPlanner, StartsFromTheProblemDefinitionsStartStates)
 {
     const auto task = plateTask({0.6, 0.0});
     PlannerParams params;
-    params.screenPairs = false;
-    expectValidPlan(*task, params, planSliding(task, params, 3, within(30.0)));
+    const Eigen::VectorXd onObject = contactConfig(*task, params, 0.6, 0.0);
+    OmplSetup setup(task, params, 5);
+    ompl::base::ScopedState<> start(setup.si);
+    for (unsigned i = 0; i < onObject.size(); ++i)
+        start[i] = onObject(i);
+    setup.pdef->addStartState(start);
+    setup.planner->solve(afterCalls(0));  // no iteration: only the given root
+    ompl::base::PlannerData data(setup.si);
+    setup.planner->getPlannerData(data);
+    ASSERT_EQ(data.numStartVertices(), 1u);
+    const auto *root = data.getStartVertex(0).getState()->as<ompl::base::RealVectorStateSpace::StateType>();
+    for (unsigned i = 0; i < onObject.size(); ++i)
+        EXPECT_EQ(root->values[i], onObject(i));
+
+    // A start state off the contact constraint (the fingertip 5 cm above the object) is refused.
+    Eigen::Isometry3d above = task->robot->fk(onObject);
+    above.translation().z() += 0.05;
+    Eigen::VectorXd lifted;
+    std::mt19937_64 rng(1);
+    ASSERT_TRUE(task->robot->ik(above, onObject, rng, lifted));
+    OmplSetup off(task, params, 5);
+    ompl::base::ScopedState<> bad(off.si);
+    for (unsigned i = 0; i < lifted.size(); ++i)
+        bad[i] = lifted(i);
+    off.pdef->addStartState(bad);
+    EXPECT_EQ(off.planner->solve(afterCalls(10)), ompl::base::PlannerStatus::INVALID_START);
+}
+
+TEST(SlidingPlanner, CachedVerdictsCheckEachRootPairOnce)
+{
+    // Two tasks where connections repeat a root pair: with the cache every pair is checked once.
+    int repeated = 0;
+    for (std::uint64_t seed = 0; seed < 6; ++seed)
+    {
+        const auto task = plateTask({0.6, 0.0});
+        PlannerParams params;
+        params.screenPairs = false;  // screening would skip the known-bad pairs before they connect
+        const PlanResult result = planSliding(task, params, seed, within(30.0));
+        ASSERT_EQ(result.status, "solved") << "seed " << seed;
+        EXPECT_LE(result.stats.pairsChecked, result.stats.connections);
+        repeated += result.stats.pairsChecked < result.stats.connections;
+    }
+    EXPECT_GT(repeated, 0);
 }
 
 TEST(SlidingPlanner, BaselinesProduceValidPlansWhenTheySolve)

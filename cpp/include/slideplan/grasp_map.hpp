@@ -19,8 +19,8 @@ namespace slideplan
     Eigen::Isometry3d sideGraspPose(const Eigen::Vector2d &point, const EdgeQuery &edge, double z);
 
     /// IK for the grasp frame `grasp` (task.graspLink x task.graspOffset) from `seed`, then random
-    /// restarts up to `attempts`, keeping only a solution from which H_g raised by params.graspLift is
-    /// reachable too: at the edge of the workspace a joint may sit at its limit. `abandonAfter`: as
+    /// restarts up to `attempts`; with params.liftCheck, only a solution from which H_g raised by
+    /// params.graspLift is reachable too: at the edge of the workspace a joint may sit at its limit. `abandonAfter`: as
     /// IkOptions::abandonAfter.
     bool liftableGraspIk(const SlidingTask &task, const PlannerParams &params, const Eigen::Isometry3d &grasp,
                          const Eigen::VectorXd &seed, int attempts, std::mt19937_64 &rng, Eigen::VectorXd &solution,

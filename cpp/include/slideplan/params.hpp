@@ -52,8 +52,8 @@ namespace slideplan
         RootPolicy policy{RootPolicy::Sampled};
 
         /// Beyond the paper: when connecting, NearestTree skips trees whose root pair was already
-        /// rejected or fails the cheap geometric part of IsPairValid (overhang, CoM). False gives
-        /// Algorithm 1 exactly as published.
+        /// rejected or fails the cheap geometric part of IsPairValid (overhang, CoM), and goal roots the
+        /// finger cannot lift off from are not kept. False is Algorithm 1's NearestTree.
         bool screenPairs{true};
 
         /// Beyond the paper: a grasp may also be made with the hand rolled by pi about its approach axis
@@ -69,6 +69,22 @@ namespace slideplan
         /// (paired_goal.hpp); the rest are drawn from C_g as Algorithm 1 does. 0 is the paper; the
         /// baselines (cbirrt, cbirrt2) always draw as published.
         double pairedGoals{0.9};
+
+        /// Beyond the paper: a goal root by a table-edge stretch where the grasp map found no reachable side
+        /// grasp is kept only one time in ten (with graspMap): such roots mostly grow trees whose pairs
+        /// fail at the grasp. False keeps every goal root, as Algorithm 1 does.
+        bool goalGraspFilter{true};
+
+        /// Beyond the paper: a grasp IK solution counts only if H_g raised by grasp_lift is reachable from
+        /// it too (a grasp with a joint at its limit cannot lift the object). False accepts any solution
+        /// of H_g, as IV-C.1 does.
+        bool liftCheck{true};
+
+        /// Beyond the paper: IsPairValid's verdict is remembered per (start root, goal root) pair, so a
+        /// pair that failed (also by a grasp IK that missed by chance) is not checked again when its trees
+        /// meet elsewhere. False checks every connection, as Algorithm 1 does. CBiRRT's one pair is
+        /// validated before its trees grow, either way.
+        bool cacheVerdicts{true};
 
         /// Beyond the paper: start contacts are drawn from the cloud points at most this much farther
         /// from the centre of mass than the closest point (Eq. 3 restricted): a push far from the
@@ -110,6 +126,14 @@ namespace slideplan
 
         /// \throws std::invalid_argument naming the first inconsistent parameter.
         void validate() const;
+
+        /// Algorithm 1 as published: every departure above off (screening, paired goals, the grasp map
+        /// and its goal filter, the lift check, verdict caching, the second hand orientation, the
+        /// shortcut, the contact radius, the CoM margin, the turn bounds, the grasp standoff) and the
+        /// paper's section V values (Delta_beta = 0.1 rad, Delta_Z = [0.5, 2.5] cm, N* = 100). What the
+        /// paper leaves open keeps its default: beta0, u*, d_goal, and how the motion from phi_g to H_g is
+        /// found (lift, transfer, approach). The baselines are these parameters with another policy.
+        static PlannerParams asPublished();
     };
 
     RootPolicy rootPolicyFromName(const std::string &name);  ///< "slideplan" | "cbirrt" | "cbirrt2"

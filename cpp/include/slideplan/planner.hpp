@@ -31,8 +31,14 @@ namespace slideplan
                        const PlannerParams &params, std::uint64_t seed, std::shared_ptr<const GraspMap> graspMap = nullptr);
         ~SlidingPlanner() override;
 
+        /// Algorithm 1 until a valid pair connects or `ptc`. Start states of the problem definition, and
+        /// the states of a GoalStates goal, join the forests as roots before any drawn one (INVALID_START /
+        /// INVALID_GOAL if one violates the contact constraint or collides), when the forests are empty. A
+        /// second call grows the same forests further and reports only itself in result().
         ompl::base::PlannerStatus solve(const ompl::base::PlannerTerminationCondition &ptc) override;
         void clear() override;
+        /// Both forests: every node a vertex (roots tagged 1 for start, 2 for goal), every tree edge an edge.
+        void getPlannerData(ompl::base::PlannerData &data) const override;
 
         /// The plan of the last solve(): trajectory, object motion, grasp and statistics.
         const PlanResult &result() const { return result_; }
@@ -68,6 +74,9 @@ namespace slideplan
                       const ompl::base::PlannerTerminationCondition &ptc);
         /// Baselines: draw roots until the policy's fixed roots exist (and, for CBiRRT, form a valid pair).
         bool precomputeRoots(const ompl::base::PlannerTerminationCondition &ptc);
+        /// The problem definition's start and goal states as roots; false if one is not a valid contact
+        /// configuration (`start` tells which forest).
+        bool addGivenRoots(bool &startValid);
         /// Pi_b.NearestTree(q) for the connection step: with screenPairs, only among trees whose root
         /// forms a promising pair with `root` of the other forest.
         Node *nearestForConnection(const Forest &forest, const JointsRef &q, const Forest &other, int root);

@@ -18,7 +18,8 @@ namespace slideplan
         long iterations{0};
         int startRoots{0};
         int goalRoots{0};
-        long pairsChecked{0};
+        long connections{0};    ///< times a start tree and a goal tree met (each asks IsPairValid)
+        long pairsChecked{0};   ///< IsPairValid evaluations (fewer than connections with verdict caching)
         long pairsRejected{0};
         std::map<std::string, long> rejections;  ///< rejected pairs by reason (IV-C.1 conditions)
         long nodes{0};          ///< tree nodes over both forests

@@ -110,8 +110,17 @@ namespace slideplan::bindings
             .def_readwrite("projection_iterations", &PlannerParams::projectionIterations, "Newton steps per projection.")
             .def_readwrite("root_ik_attempts", &PlannerParams::rootIkAttempts, "IK attempts per root draw.")
             .def_readwrite("screen_pairs", &PlannerParams::screenPairs,
-                           "Beyond the paper: NearestTree skips trees whose root pair is known to fail; False gives "
-                           "Algorithm 1 as published.")
+                           "Beyond the paper: NearestTree skips trees whose root pair is known to fail, and goal roots "
+                           "the finger cannot lift off from are not kept; False is Algorithm 1's NearestTree.")
+            .def_readwrite("goal_grasp_filter", &PlannerParams::goalGraspFilter,
+                           "Beyond the paper (with grasp_map): a goal root by an edge stretch without a reachable side "
+                           "grasp is kept one time in ten; False keeps every goal root.")
+            .def_readwrite("lift_check", &PlannerParams::liftCheck,
+                           "Beyond the paper: a grasp IK solution counts only if H_g raised by grasp_lift is reachable "
+                           "from it; False accepts any solution of H_g.")
+            .def_readwrite("cache_verdicts", &PlannerParams::cacheVerdicts,
+                           "Beyond the paper: IsPairValid's verdict is remembered per root pair; False checks every "
+                           "connection.")
             .def_readwrite("com_margin", &PlannerParams::comMargin,
                            "Beyond the paper: the final centre of mass at least this far inside the table (m).")
             .def_readwrite("max_yaw_rate", &PlannerParams::maxYawRate,
@@ -138,7 +147,9 @@ namespace slideplan::bindings
                 "policy", [](const PlannerParams &p) { return rootPolicyName(p.policy); },
                 [](PlannerParams &p, const std::string &name) { p.policy = rootPolicyFromName(name); },
                 "Root policy: 'slideplan' (Algorithm 1), 'cbirrt' or 'cbirrt2' (baselines of V-6).")
-            .def("validate", &PlannerParams::validate, "Raise ValueError naming the first inconsistent parameter.");
+            .def("validate", &PlannerParams::validate, "Raise ValueError naming the first inconsistent parameter.")
+            .def_static("as_published", &PlannerParams::asPublished,
+                        "Algorithm 1 as published: every departure off, the paper's section V values (params.hpp).");
 
         py::class_<PlanResult>(module, "PlanResult", "Result of plan_sliding().")
             .def_readonly("status", &PlanResult::status, "'solved' or 'timeout'.")
@@ -165,6 +176,7 @@ namespace slideplan::bindings
                     stats["iterations"] = r.stats.iterations;
                     stats["start_roots"] = r.stats.startRoots;
                     stats["goal_roots"] = r.stats.goalRoots;
+                    stats["connections"] = r.stats.connections;
                     stats["pairs_checked"] = r.stats.pairsChecked;
                     stats["pairs_rejected"] = r.stats.pairsRejected;
                     stats["nodes"] = r.stats.nodes;

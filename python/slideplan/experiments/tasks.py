@@ -59,6 +59,8 @@ class Task:
         n_star: ``N*`` of Eq. 5.
         time_limit_s: planning time budget (s).
         params: other planner parameters as sorted JSON (``--param``), applied last; "" for none.
+        preset: ``"default"`` or ``"paper"`` (:meth:`PlannerConfig.as_published`), applied after the
+            scene's hand parameters and before the task's fields; the baselines always run ``"paper"``.
     """
 
     experiment: str
@@ -76,17 +78,19 @@ class Task:
     n_star: float
     time_limit_s: float
     params: str = ""
+    preset: str = "default"
 
     def planner_config(self) -> PlannerConfig:
         """Return the planner configuration of this task: the scene's hand parameters (e.g. the T42's
-        grasp standoff), then the task's fields, then ``params``.
+        grasp standoff), then the preset's, then the task's fields, then ``params``.
 
         Raises:
             InputError: a field out of the planner's range, or an unknown parameter.
         """
         fields = {"dz_min": self.dz_min, "dz_max": self.dz_max, "n_star": self.n_star, "planner": self.planner,
                   "seed": self.seed, "time_limit_s": self.time_limit_s}
-        return PlannerConfig.for_scene(cached_scene(self.scene), **{**fields, **json.loads(self.params or "{}")})
+        return PlannerConfig.for_scene(cached_scene(self.scene), preset=self.preset,
+                                       **{**fields, **json.loads(self.params or "{}")})
 
     @functools.cached_property
     def task_id(self) -> str:
@@ -133,6 +137,7 @@ class _Setting:
     planner: str = "slideplan"
     reconfiguration_range_m: float | None = None
     n_star: float | None = None
+    preset: str | None = None  # None: the run's
 
 
 @functools.lru_cache(maxsize=None)
@@ -226,7 +231,7 @@ def _tasks(
                             pose_index=pose_index, x=x, y=y, yaw=yaw, seed=planner_seed,
                             planner=setting.planner, dz_min=config.dz_min, dz_max=config.dz_max,
                             n_star=scene_base.n_star if setting.n_star is None else setting.n_star,
-                            time_limit_s=scene_base.time_limit_s,
+                            time_limit_s=scene_base.time_limit_s, preset=setting.preset or scene_base.preset,
                         ))
     return tuple(tasks)
 
@@ -262,7 +267,8 @@ def fig11_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Tas
         poses: poses per cell instead of the paper's 100 (None: the paper's, or the quick count).
     """
     settings = tuple(_Setting(reconfiguration_range_m=value) for value in RECONFIGURATION_RANGES_M)
-    settings += tuple(_Setting(planner=name, reconfiguration_range_m=BASELINE_RANGE_M) for name in BASELINES)
+    # The baselines as published (V-6) in either preset: the departures are this project's, not theirs.
+    settings += tuple(_Setting(planner=name, reconfiguration_range_m=BASELINE_RANGE_M, preset="paper") for name in BASELINES)
     return _tasks(
         "fig11", scenes=("square",), objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
         poses=_pose_count(poses, quick, 100), settings=settings, base=base,
@@ -310,7 +316,7 @@ _SPEC_BUILDERS = {"fig10": fig10_spec, "fig11": fig11_spec, "fig12": fig12_spec,
 
 def build_spec(
     figure: str, *, quick: bool = False, time_limit_s: float | None = None, seed: int = 0, poses: int | None = None,
-    params: dict | None = None,
+    params: dict | None = None, preset: str = "default",
 ) -> ExperimentSpec:
     """Build the tasks of one figure.
 
@@ -326,6 +332,8 @@ def build_spec(
         params: planner parameters applied to every task after the figure's own (e.g.
             ``{"max_object_yaw": 3.1416}``); they enter the task ids, so such a run never resumes
             from one without them.
+        preset: ``"default"`` or ``"paper"`` for every slideplan task (the baselines always run
+            ``"paper"``); it enters the task ids and the result rows.
 
     Returns:
         The spec.
@@ -338,7 +346,7 @@ def build_spec(
         raise InputError(f"unknown figure {figure!r} (expected one of: {', '.join(EXPERIMENTS)})", field="figure")
     if time_limit_s is None:
         time_limit_s = QUICK_TIME_LIMIT_S if quick else PAPER_TIME_LIMIT_S
-    base = PlannerConfig(seed=seed, time_limit_s=time_limit_s)  # validates both, naming the field
+    base = PlannerConfig(seed=seed, time_limit_s=time_limit_s, preset=preset)  # validates them, naming the field
     if poses is not None and (isinstance(poses, bool) or not isinstance(poses, int) or poses < 1):
         raise InputError(f"must be a whole number >= 1, got {poses!r}", field="poses")
     tasks = _SPEC_BUILDERS[figure](base, quick, poses)
