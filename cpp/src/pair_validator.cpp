@@ -197,14 +197,31 @@ namespace slideplan
     bool PairValidator::straightMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to,
                                        std::vector<Eigen::VectorXd> &path) const
     {
-        const int steps = std::max(1, static_cast<int>(std::ceil((to - from).cwiseAbs().maxCoeff() / params_.maxJointStep)));
+        const RobotModel &robot = *task_->robot;
+        // The dense path's bounds (DESIGN.md 5) hold for the approach too: a joint step bounds the joints,
+        // and where the fingertip, far out on the arm, moves further than max_tip_step the steps are halved.
+        int steps = std::max(1, static_cast<int>(std::ceil((to - from).cwiseAbs().maxCoeff() / params_.maxJointStep)));
         std::vector<Eigen::VectorXd> segment;  // appended only if the whole motion is free
-        for (int k = 1; k <= steps; ++k)
+        for (int halving = 0; halving < 8; ++halving, steps *= 2)
         {
-            segment.push_back(k == steps ? to : Eigen::VectorXd(from + (to - from) * (static_cast<double>(k) / steps)));
-            if (!world_->isValid(segment.back(), ContactMode::Free))
-                return false;
+            segment.clear();
+            Eigen::Vector3d previous = robot.fk(from).translation();
+            bool dense = true;
+            for (int k = 1; k <= steps && dense; ++k)
+            {
+                segment.push_back(k == steps ? to : Eigen::VectorXd(from + (to - from) * (static_cast<double>(k) / steps)));
+                const Eigen::Vector3d tip = robot.fk(segment.back()).translation();
+                dense = (tip - previous).norm() <= params_.maxTipStep;
+                previous = tip;
+            }
+            if (dense)
+                break;
         }
+        if (segment.size() != static_cast<std::size_t>(steps))
+            return false;  // the fingertip jumps: no such motion at this density
+        for (const Eigen::VectorXd &q : segment)
+            if (!world_->isValid(q, ContactMode::Free))
+                return false;
         path.insert(path.end(), segment.begin(), segment.end());
         return true;
     }

@@ -19,7 +19,7 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiPoint
 
-from .geometry import SupportSurface
+from .geometry import SupportSurface, area_centroid
 from .planning import build_robot, core_obstacles
 from .scenes import obstacle_footprint
 from .transforms import rotation_angle_between, row_to_pose, wrap_angle
@@ -34,6 +34,10 @@ STEP_SLACK = 1e-9  # rounding slack on the joint and fingertip step bounds
 MOTION_TOLERANCE = 1e-6  # object motion and overhang against their recomputed values (m, rad)
 CONFIG_TOLERANCE = 1e-9  # rad: configurations that must be the same (approach ends)
 LIFT_SLACK_M = 1e-3  # the approach switches to free-mode checks once the fingertip is this close to the lift height
+GRASP_TOLERANCE_M = 1e-4  # the grasp frame against H_g recomputed from the cloud (the planner computes it from the same points)
+GRASP_ANGLE_TOLERANCE_RAD = 1e-4
+CONTACT_SLACK_M = 1e-3  # the first contact against contact_radius (IK lands within this of its target)
+TIMING_SLACK = 1e-6  # relative slack on the timing limits (the parameterization slows to meet them exactly)
 
 
 @dataclass
@@ -103,9 +107,12 @@ def verify(result: PlanResult) -> Verification:
     world = _rebuild_world(result)
     violations += check_sliding_path(result, world)
     violations += check_object_motion(result)
+    violations += check_turning(result)
     violations += check_clutter(result, world)
     violations += check_graspability(result, world.table)
+    violations += check_grasp_pose(result, world)
     violations += check_grasp(result, world)
+    violations += check_timing(result, world)
     return Verification(violations)
 
 
@@ -434,6 +441,11 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
         violations.append(f"overhang_m: recorded {result.overhang_m:.6f} m, recomputed {u:.6f} m")
     motion = result.object_motion
     com = np.asarray(result.object["com_xy"], dtype=float)
+    # The data layer's centroid (the planner receives it from there too); recomputed, not trusted.
+    centroid = area_centroid(np.asarray(result.object["points"], dtype=float)[:, :2])
+    if float(np.linalg.norm(com - centroid)) > MOTION_TOLERANCE:
+        violations.append(f"object.com_xy: ({com[0]:.4f}, {com[1]:.4f}) is not the area centroid of the object's "
+                          f"points ({centroid[0]:.4f}, {centroid[1]:.4f})")
     cos_yaw, sin_yaw = math.cos(motion["yaw"]), math.sin(motion["yaw"])
     moved_com = (cos_yaw * com[0] - sin_yaw * com[1] + motion["x"], sin_yaw * com[0] + cos_yaw * com[1] + motion["y"])
     if not table.contains(moved_com):
@@ -446,14 +458,130 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
     return violations
 
 
+def check_turning(result: PlanResult) -> list[str]:
+    """Check the bounds on turning and on the first contact that the plan's parameters claim:
+    ``|yaw| <= max_object_yaw``, every step's turn within ``max_yaw_rate`` times its fingertip travel
+    (when > 0), and the first contact within ``contact_radius`` of the closest point to the centre of
+    mass (when > 0). Parameters a plan does not record are the paper's (no bound).
+
+    Returns:
+        Violations with the numbers.
+    """
+    params = result.params
+    violations = []
+    yaw = abs(result.object_motion["yaw"])
+    if yaw > params.get("max_object_yaw", math.pi) + MOTION_TOLERANCE:
+        violations.append(f"object_motion: turns the object {yaw:.6f} rad > max_object_yaw {params['max_object_yaw']}")
+    poses = [row_to_pose(row) for row in result.fingertip_poses]
+    rate = params.get("max_yaw_rate", 0.0)
+    if rate > 0:
+        for index in range(1, len(poses)):
+            x, y, turn = planar_motion(poses[index - 1], poses[index])
+            travel = float(np.linalg.norm(poses[index][:2, 3] - poses[index - 1][:2, 3]))
+            if abs(turn) > rate * travel + MOTION_TOLERANCE:
+                violations.append(f"trajectory[{index - 1}]->[{index}]: turns {abs(turn):.6f} rad over {travel:.6f} m, "
+                                  f"more than max_yaw_rate {rate} rad/m")
+    radius = params.get("contact_radius", 0.0)
+    if radius > 0 and poses:
+        com = np.asarray(result.object["com_xy"], dtype=float)
+        closest = float(np.min(np.linalg.norm(np.asarray(result.object["points"])[:, :2] - com, axis=1)))
+        contact = float(np.linalg.norm(poses[0][:2, 3] - com))
+        if contact > closest + radius + CONTACT_SLACK_M:
+            violations.append(f"trajectory[0]: first contact {contact:.4f} m from the centre of mass, beyond the closest "
+                              f"point ({closest:.4f} m) + contact_radius {radius}")
+    return violations
+
+
+def check_grasp_pose(result: PlanResult, world: _PlanWorld) -> list[str]:
+    """Check the grasp frame against ``H_g`` of IV-C.1, recomputed from the object's points at their
+    final pose: at the centroid of ``P_out`` (moved outward along the closest edge's normal until it is
+    ``grasp_standoff`` beyond the edge), at mid-thickness, approaching perpendicular to that edge in
+    the table plane, the fingers closing vertically (``y`` up; down too when ``grasp_flip``).
+
+    Returns:
+        Violations naming ``grasp.pose`` and the numbers.
+    """
+    moved = moved_object_xy(result)
+    _, outside, edge = overhang(world.table, moved)
+    if edge is None:
+        return []  # check_graspability reports it
+    start, normal = edge
+    centroid = moved[outside].mean(axis=0)
+    beyond = float((centroid - start) @ normal)
+    xy = centroid + (max(beyond, result.params.get("grasp_standoff", 0.0)) - beyond) * normal
+    expected = np.array([*xy, float(result.table["height"]) + 0.5 * float(result.object["thickness"])])
+    pose = row_to_pose(result.grasp["pose"])
+    violations = []
+    offset = float(np.linalg.norm(pose[:3, 3] - expected))
+    if offset > GRASP_TOLERANCE_M:
+        violations.append(f"grasp.pose: {offset:.4f} m from H_g at ({expected[0]:.4f}, {expected[1]:.4f}, "
+                          f"{expected[2]:.4f}), the centroid of the overhanging points (IV-C.1)")
+    approach = pose[:3, 2]
+    angle = math.acos(max(-1.0, min(1.0, float(approach @ np.array([-normal[0], -normal[1], 0.0])))))
+    if angle > GRASP_ANGLE_TOLERANCE_RAD:
+        violations.append(f"grasp.pose: approach axis {angle:.4f} rad off the inward normal of the table edge")
+    closing = float(pose[2, 1])  # the closing axis y_H, vertical: up, or down for a flipped hand
+    if 1.0 - abs(closing) > GRASP_ANGLE_TOLERANCE_RAD or (closing < 0 and not result.params.get("grasp_flip", True)):
+        violations.append(f"grasp.pose: closing axis has vertical component {closing:.4f}, expected 1"
+                          + (" or -1 (grasp_flip)" if result.params.get("grasp_flip", True) else ""))
+    return violations
+
+
+def check_timing(result: PlanResult, world: _PlanWorld) -> list[str]:
+    """Check the timing block against its own limits: times from 0, strictly increasing, rest at both
+    ends, recorded velocities and accelerations and the finite differences of positions within the
+    joint limits, and the fingertip speed within its cap while sliding and near the object's top.
+
+    Returns:
+        Violations naming ``timing.<segment>`` and the numbers; none for a plan without timing.
+    """
+    from .timing import NEAR_TABLE_M
+
+    if result.timing is None:
+        return []
+    limits = result.timing["limits"]
+    vmax = np.asarray(limits["joint_velocity"], dtype=float)
+    amax = np.asarray(limits["joint_acceleration"], dtype=float)
+    tip_max = float(limits["fingertip_speed"])
+    violations = []
+    for name, path in (("trajectory", np.asarray(result.trajectory)), ("approach", np.asarray(result.grasp["approach"]))):
+        block = result.timing[name]
+        times = np.asarray(block["time_from_start"], dtype=float)
+        velocities = np.asarray(block["velocities"], dtype=float)
+        accelerations = np.asarray(block["accelerations"], dtype=float)
+        label = f"timing.{name}"
+        if len(times) != len(path) or len(path) < 2:
+            violations.append(f"{label}: {len(times)} times for {len(path)} waypoints")
+            continue
+        dt = np.diff(times)
+        if abs(times[0]) > 1e-12 or np.any(dt <= 0):
+            violations.append(f"{label}: time_from_start must start at 0 and increase strictly")
+            continue
+        if max(np.abs(velocities[0]).max(), np.abs(velocities[-1]).max()) > 1e-9:
+            violations.append(f"{label}: the first and last velocities must be zero")
+        excess = max(np.max(np.abs(velocities) / vmax), np.max(np.abs(np.diff(path, axis=0)) / dt[:, None] / vmax))
+        if excess > 1.0 + TIMING_SLACK:
+            violations.append(f"{label}: a joint moves at {excess:.4f} x its velocity limit")
+        if np.max(np.abs(accelerations) / amax) > 1.0 + TIMING_SLACK:
+            violations.append(f"{label}: a joint accelerates at {np.max(np.abs(accelerations) / amax):.4f} x its limit")
+        tips = np.array([world.robot.fk(config)[:3, 3] for config in path])
+        capped = np.ones(len(path), bool) if name == "trajectory" else tips[:, 2] <= world.object_top_z + NEAR_TABLE_M
+        intervals = capped[:-1] | capped[1:]
+        speeds = np.linalg.norm(np.diff(tips, axis=0), axis=1)[intervals] / dt[intervals]
+        if speeds.size and speeds.max() > tip_max * (1.0 + TIMING_SLACK):
+            violations.append(f"{label}: the fingertip moves at {speeds.max():.4f} m/s > fingertip_speed {tip_max}")
+    return violations
+
+
 def check_grasp(result: PlanResult, world: _PlanWorld) -> list[str]:
     """Check the grasp and the approach motion to it.
 
     The grasp link's forward kinematics at ``grasp.config`` must equal ``grasp.pose``; the
     approach must start at the goal configuration, end at the grasp configuration, respect
-    the joint limits and ``max_joint_step``, and be collision-free: in sliding mode while the
-    fingertip is still below ``z_s + grasp_lift`` (it is pressing or lifting off the object,
-    as during the slide), then in free mode against the object at its final pose.
+    the joint limits, ``max_joint_step`` and ``max_tip_step``, and be collision-free against the
+    object at its final pose: in sliding mode (the contact links may touch) while the fingertip
+    lifts off, until it first reaches ``z_s + grasp_lift``, then in free mode with the hand's full
+    collision model, down to the grasp.
 
     Args:
         result: the plan (array shapes already checked).
@@ -479,19 +607,21 @@ def check_grasp(result: PlanResult, world: _PlanWorld) -> list[str]:
         gap = float(np.max(np.abs(approach[index] - end)))
         if gap > CONFIG_TOLERANCE:
             violations.append(f"approach[{index % len(approach)}]: differs from {name} by {gap:.3g} rad")
-    violations += _density_violations("approach", approach, result.params["max_joint_step"])
-    lift_height = world.object_top_z + result.params["grasp_lift"] - LIFT_SLACK_M
-    lifted = [world.robot.fk(waypoint)[2, 3] >= lift_height for waypoint in approach]
+    tips = np.array([world.robot.fk(waypoint)[:3, 3] for waypoint in approach])
+    violations += _density_violations("approach", approach, result.params["max_joint_step"], tips, result.params["max_tip_step"])
+    reached = np.flatnonzero(tips[:, 2] >= world.object_top_z + result.params["grasp_lift"] - LIFT_SLACK_M)
+    lift_end = int(reached[0]) if reached.size else len(approach)  # from here on the hand is free of the object
     collision_world = world.collision_world
-    for index, waypoint in enumerate(approach):
-        violations += _joint_limit_violations(f"approach[{index}]", waypoint, world.robot)
-        if not lifted[index]:
-            violations += _collision_violation(f"approach[{index}]", waypoint, collision_world, _core.ContactMode.SLIDING)
     hull = MultiPoint(moved_object_xy(result)).convex_hull
     collision_world.set_object(shapely.get_coordinates(hull.exterior)[:-1], world.object_top_z)
     try:
-        for index in np.flatnonzero(lifted):
-            violations += _collision_violation(f"approach[{index}]", approach[index], collision_world, _core.ContactMode.FREE)
+        for index, waypoint in enumerate(approach):
+            violations += _joint_limit_violations(f"approach[{index}]", waypoint, world.robot)
+            mode = _core.ContactMode.SLIDING if index < lift_end else _core.ContactMode.FREE
+            violations += _collision_violation(f"approach[{index}]", waypoint, collision_world, mode)
     finally:
         collision_world.clear_object()
+    if lift_end == len(approach):
+        violations.append(f"grasp.approach: the fingertip never rises to grasp_lift ({result.params['grasp_lift']} m) "
+                          "above the object before the grasp")
     return violations

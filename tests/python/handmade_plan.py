@@ -1,10 +1,12 @@
-"""A genuinely valid sliding plan built without the planner, for the verifier and plot tests.
+"""Sliding plans built without the planner, for the verifier, plot, timing and execution tests.
 
-On the square scene, a 10 cm x 6 cm plate lies with its right side 1 cm from the table
-edge x = 0.70. The fingertip presses 1 cm deep at pitch 1.0, yaw 0, and slides 3.5 cm
-along +x in 2.5 mm steps (IK waypoint by waypoint, each seeded with the previous one), so
-the plate ends 2.5 cm over the edge with its centre of mass on the table. The approach
-then lifts the fingertip straight up 7 cm; its last configuration is the "grasp".
+:func:`build_grasp_plan` is a genuinely valid plan, grasp included. :func:`build_plan` has a valid
+slide but no grasp: on the square scene, a 10 cm x 6 cm plate lies with its right side 1 cm from the
+table edge x = 0.70. The fingertip presses 1 cm deep at pitch 1.0, yaw 0, and slides 3.5 cm along +x
+in 2.5 mm steps (IK waypoint by waypoint, each seeded with the previous one), so the plate ends 2.5 cm
+over the edge with its centre of mass on the table. The approach then lifts the fingertip straight up
+7 cm and calls its last configuration the "grasp": the far edge admits no side grasp for this arm, so
+the verifier rejects it (the grasp frame is far from H_g); its corruptions still name their own checks.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import math
 import numpy as np
 
 from slideplan import _core
+from slideplan.geometry import area_centroid
 from slideplan.planning import PlannerConfig, PlanResult, robot_description, robot_model
 from slideplan.scenes import load_scene
 from slideplan.transforms import pose_to_row
@@ -45,6 +48,18 @@ def follow(robot, targets, seed) -> np.ndarray:
         configs.append(config)
         seed = config
     return np.array(configs)
+
+
+def dense_motion(robot, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """The straight joint-space motion start -> end (end included, start not), dense as the planner's
+    approach: every joint within 0.02 rad and the fingertip within 1 cm between waypoints."""
+    steps = max(1, int(np.ceil(np.abs(end - start).max() / 0.02)))
+    while True:
+        motion = np.linspace(start, end, steps + 1)
+        tips = np.array([robot.fk(q)[:3, 3] for q in motion])
+        if np.linalg.norm(np.diff(tips, axis=0), axis=1).max() <= 0.01:
+            return motion[1:]
+        steps *= 2
 
 
 def plate_points() -> np.ndarray:
@@ -81,7 +96,7 @@ def build_plan() -> PlanResult:
         planning_time_s=0.0,
         params=params,
         table={"polygon": np.array(scene.table.vertices), "height": 0.0},
-        object={"name": "plate", "thickness": THICKNESS, "points": points, "com_xy": points[:, :2].mean(axis=0)},
+        object={"name": "plate", "thickness": THICKNESS, "points": points, "com_xy": area_centroid(points[:, :2])},
         robot=robot_description(scene),
         obstacles=[],
         object_motion={"x": float(motion_xy[0]), "y": float(motion_xy[1]), "yaw": float(yaw)},
@@ -115,18 +130,21 @@ def _grasp_frame(x: float, y: float, z: float) -> np.ndarray:
     return frame
 
 
-def build_grasp_plan(grasp_y: float = GRASP_Y) -> PlanResult:
-    """A plan whose object overhangs far enough for a firm side grasp.
+def build_grasp_plan(grasp_y: float = GRASP_Y, slide_steps: int = 4) -> PlanResult:
+    """A valid plan whose object overhangs far enough for a firm side grasp, grasped at H_g.
 
     A 6 cm x 20 cm plate lies 5 cm over the table edge y = 0.20 (centre of mass 5 cm inside). The
-    fingertip slides it 1 cm along +x (as in :func:`build_plan`); the approach lifts the fingertip
-    20 cm, swings in joint space to 20 cm above a pre-grasp beyond the plate's far end, comes down to it
-    and moves in along -y to the side grasp (default 3.5 cm out), whose fingertips then end 1.2 cm beyond the
-    table edge. With ``grasp_y`` < 0.223 the fingertips reach over the table instead.
+    fingertip slides it ``slide_steps`` x 2.5 mm along +x (as in :func:`build_plan`); the approach lifts the
+    fingertip 20 cm, swings in joint space to 20 cm above a pre-grasp beyond the plate's far end, comes
+    down to it and moves in along -y to the side grasp (default 3.5 cm out), whose fingertips then end
+    1.2 cm beyond the table edge. With ``grasp_y`` < 0.223 the fingertips reach over the table instead.
+    The grasp frame is H_g of IV-C.1 for ``grasp_standoff = grasp_y - 0.20``: at the centroid of the
+    overhanging points (x), moved out to the standoff (y), mid-thickness, approaching along -y.
 
     Args:
         grasp_y: y of the grasp frame (m); the pre-grasp backs off far enough that the open
             fingers clear the plate's far end.
+        slide_steps: slide steps of 2.5 mm.
     """
     scene = load_scene("square")
     robot = robot_model(scene)
@@ -134,7 +152,7 @@ def build_grasp_plan(grasp_y: float = GRASP_Y) -> PlanResult:
     xs, ys = np.meshgrid(np.linspace(x0, x1, 13), np.linspace(y0, y1, 41))
     points = np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, THICKNESS)])
     tip_z = THICKNESS - DEPTH_M
-    slide_xs = 0.535 + STEP_M * np.arange(5)
+    slide_xs = 0.535 + STEP_M * np.arange(slide_steps + 1)
     trajectory = follow(robot, [contact_target(x, 0.12, tip_z) for x in slide_xs], np.array([0.0, 1.0, 0.0, 1.5, 0.0, 0.5, 0.0]))
     poses = np.array([robot.fk(q) for q in trajectory])
     lift = follow(robot, [contact_target(slide_xs[-1], 0.12, tip_z + STEP_M * k) for k in range(1, 81)], trajectory[-1])
@@ -150,12 +168,12 @@ def build_grasp_plan(grasp_y: float = GRASP_Y) -> PlanResult:
     for k in range(1, 21):
         upward.append(robot.ik(_grasp_frame(grasp_x, grasp_y + backoff, THICKNESS / 2 + 0.01 * k), seed=upward[-1], rng_seed=1, link="t42_grasp"))
         assert upward[-1] is not None, f"pre-grasp IK failed {k} cm up"
-    swing_steps = int(np.ceil(np.abs(upward[-1] - lift[-1]).max() / 0.02))
-    swing = np.linspace(lift[-1], upward[-1], swing_steps + 1)[1:]
-    approach = np.vstack([trajectory[-1:], lift, swing, upward[-2::-1], outward[-2::-1]])
+    waypoints = np.vstack([trajectory[-1:], lift, upward[::-1], outward[-2::-1]])
+    approach = np.vstack([trajectory[-1:]] + [dense_motion(robot, a, b) for a, b in zip(waypoints[:-1], waypoints[1:])])
     motion_x = float(slide_xs[-1] - slide_xs[0])
     moved = points[:, :2] + (motion_x, 0.0)
-    config = PlannerConfig()
+    # Pressed 3.4 cm from the centre of mass: a hand-made slide, not drawn within contact_radius.
+    config = PlannerConfig(grasp_standoff=max(0.0, grasp_y - GRASP_TABLE_EDGE_Y), contact_radius=0.0)
     params = {key: value for key, value in config.to_dict().items() if key not in ("planner", "seed")}
     return PlanResult(
         status="solved",
@@ -164,7 +182,7 @@ def build_grasp_plan(grasp_y: float = GRASP_Y) -> PlanResult:
         planning_time_s=0.0,
         params=params,
         table={"polygon": np.array(scene.table.vertices), "height": 0.0},
-        object={"name": "long plate", "thickness": THICKNESS, "points": points, "com_xy": points[:, :2].mean(axis=0)},
+        object={"name": "long plate", "thickness": THICKNESS, "points": points, "com_xy": area_centroid(points[:, :2])},
         robot=robot_description(scene),
         obstacles=[],
         object_motion={"x": motion_x, "y": 0.0, "yaw": 0.0},

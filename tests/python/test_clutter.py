@@ -8,7 +8,7 @@ import copy
 import numpy as np
 import pytest
 import shapely
-from handmade_plan import build_plan
+from handmade_plan import build_grasp_plan
 from typer.testing import CliRunner
 
 from slideplan import InputError, PlannerConfig, load_object, load_scene, plan, verify
@@ -77,7 +77,7 @@ def test_an_object_boxed_in_on_every_side_times_out_cleanly(tmp_path):
 
 
 def test_verify_catches_an_object_pushed_through_an_obstacle():
-    plan_ = copy.deepcopy(build_plan())
+    plan_ = copy.deepcopy(build_grasp_plan())
     assert verify(plan_).ok
     # A can on the hand-made slide's path: the object, moved by Eq. 2, passes over it.
     middle = moved_object_xy(plan_).mean(axis=0)

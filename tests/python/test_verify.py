@@ -4,7 +4,7 @@ import copy
 
 import numpy as np
 import pytest
-from handmade_plan import DEPTH_M, PITCH, THICKNESS, build_plan, contact_target
+from handmade_plan import DEPTH_M, PITCH, THICKNESS, build_grasp_plan, build_plan, contact_target
 
 from slideplan.planning import robot_model
 from slideplan.scenes import load_scene
@@ -16,7 +16,13 @@ from slideplan.viz import draw_plan
 
 @pytest.fixture(scope="module")
 def valid_plan():
+    """The slide of build_plan without a grasp: its corruptions name their own checks."""
     return build_plan()
+
+
+@pytest.fixture(scope="module")
+def grasp_plan():
+    return build_grasp_plan()
 
 
 @pytest.fixture
@@ -43,10 +49,62 @@ def assert_reported(plan, *fragments):
         assert any(fragment in violation for violation in violations), (fragment, violations)
 
 
-def test_valid_handmade_plan_passes(valid_plan):
-    verification = verify(valid_plan)
+def test_valid_handmade_plan_passes(grasp_plan):
+    verification = verify(grasp_plan)
     assert verification.ok, str(verification)
-    assert valid_plan.overhang_m > valid_plan.params["u_star"]
+    assert grasp_plan.overhang_m > grasp_plan.params["u_star"]
+
+
+def test_a_lifted_fingertip_is_not_a_grasp(valid_plan):
+    # build_plan calls the end of its lift (the fingertip 6 cm above the table) its grasp.
+    violations = verify(valid_plan).violations
+    assert any("grasp.pose:" in violation and "from H_g" in violation for violation in violations), violations
+    assert all(violation.startswith(("grasp.pose:", "timing.")) for violation in violations), violations
+
+
+def test_a_grasp_cut_from_the_approach_is_rejected(grasp_plan, robot):
+    # The approach cut at a third, its last configuration declared the grasp (consistent FK).
+    plan = copy.deepcopy(grasp_plan)
+    approach = plan.grasp["approach"][: len(plan.grasp["approach"]) // 3]
+    plan.grasp = {"pose": pose_to_row(robot.link_pose(approach[-1], "t42_grasp")), "config": approach[-1].copy(),
+                  "approach": approach}
+    plan.timing = None
+    assert_reported(plan, "grasp.pose:", "from H_g")
+
+
+def test_a_grasp_a_centimetre_off_h_g_is_rejected(grasp_plan, robot):
+    plan = copy.deepcopy(grasp_plan)
+    target = robot.link_pose(plan.grasp["config"], "t42_grasp")
+    target[0, 3] += 0.01  # along the edge
+    config = robot.ik(target, seed=plan.grasp["config"], rng_seed=1, link="t42_grasp")
+    assert config is not None
+    plan.grasp = {**plan.grasp, "pose": pose_to_row(robot.link_pose(config, "t42_grasp")), "config": config}
+    plan.grasp["approach"] = np.vstack([plan.grasp["approach"], config])
+    assert_reported(plan, "grasp.pose: 0.0100 m from H_g")
+
+
+def test_turning_and_contact_bounds_are_checked(grasp_plan):
+    plan = copy.deepcopy(grasp_plan)
+    plan.params["max_object_yaw"] = 1e-9
+    plan.object_motion["yaw"] = 0.01  # also breaks Eq. 2, reported separately
+    plan.params["contact_radius"] = 1e-3  # the slide starts 8 cm from the centre of mass
+    assert_reported(plan, "> max_object_yaw", "beyond the closest point")
+
+
+def test_timing_beyond_its_limits_is_reported(grasp_plan):
+    from slideplan.timing import parameterize
+
+    plan = copy.deepcopy(grasp_plan)
+    plan.timing = parameterize(plan)
+    assert verify(plan).ok, verify(plan)
+    plan.timing["trajectory"]["time_from_start"] = np.asarray(plan.timing["trajectory"]["time_from_start"]) / 2
+    assert_reported(plan, "timing.trajectory: the fingertip moves at")
+
+
+def test_a_wrong_centre_of_mass_is_reported(grasp_plan):
+    plan = copy.deepcopy(grasp_plan)
+    plan.object["com_xy"] = plan.object["points"][:, :2].mean(axis=0) + (0.003, 0.0)
+    assert_reported(plan, "object.com_xy:")
 
 
 def test_waypoint_out_of_depth_band_is_reported(plan, robot):
