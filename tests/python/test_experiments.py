@@ -71,6 +71,16 @@ def test_quick_run_on_the_local_pool_writes_one_verified_row_per_task(quick_spec
         ("slideplan", 0.0), ("slideplan", 0.005), ("slideplan", 0.02), ("cbirrt", 0.02), ("cbirrt2", 0.02)}
 
 
+def assert_same_plans(rows, reference):
+    """The same plans where the reference solved far inside the time limit: whether a run near its limit
+    solves depends on the wall clock (a busy machine), not on the executor, so those are not compared."""
+    fast = reference["solved"] & (reference["planning_time_s"] < TIME_LIMIT_S / 3)
+    assert fast.sum() >= 10, reference[["solved", "planning_time_s"]]
+    assert rows.loc[fast, "solved"].all()
+    for column in ("iterations", "overhang_m"):
+        assert (rows.loc[fast, column] == reference.loc[fast, column]).all(), column
+
+
 def test_dask_cluster_gives_the_same_rows_as_the_local_pool(quick_spec, local_run, tmp_path):
     from distributed import LocalCluster
 
@@ -81,10 +91,7 @@ def test_dask_cluster_gives_the_same_rows_as_the_local_pool(quick_spec, local_ru
     local = load_results(local_run[0]).set_index("task_id").sort_index()
     dask = load_results(tmp_path).set_index("task_id").sort_index()
     assert list(dask.index) == list(local.index)
-    assert (dask["solved"] == local["solved"]).all()
-    solved = local["solved"]
-    assert (dask.loc[solved, "iterations"] == local.loc[solved, "iterations"]).all()
-    assert (dask.loc[solved, "overhang_m"] == local.loc[solved, "overhang_m"]).all()
+    assert_same_plans(dask, local)
 
 
 def test_local_threads_give_the_same_rows_as_local_processes(quick_spec, local_run, tmp_path):
@@ -92,11 +99,8 @@ def test_local_threads_give_the_same_rows_as_local_processes(quick_spec, local_r
     assert summary.executed == len(quick_spec.tasks) and summary.lost == 0 and summary.errors == 0
     local = load_results(local_run[0]).set_index("task_id").sort_index()
     threaded = load_results(tmp_path).set_index("task_id").sort_index()
-    assert (threaded["solved"] == local["solved"]).all()
-    solved = local["solved"]
-    assert (threaded.loc[solved, "iterations"] == local.loc[solved, "iterations"]).all()
-    assert (threaded.loc[solved, "overhang_m"] == local.loc[solved, "overhang_m"]).all()
-    assert threaded.loc[solved, "verified"].eq(True).all()
+    assert_same_plans(threaded, local)
+    assert threaded.loc[threaded["solved"], "verified"].eq(True).all()
 
 
 def test_rerun_runs_nothing_and_a_deleted_part_runs_again(quick_spec, local_run):

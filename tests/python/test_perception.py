@@ -99,7 +99,7 @@ def true_geometry_plan(result, truth, placed):
     )
     table = {"polygon": truth.table.vertices, "height": truth.table.height}
     obj = {**result.object, "thickness": placed.thickness, "points": true_object.points,
-           "com_xy": np.array(placed.outline.centroid.coords[0])}
+           "com_xy": true_object.centroid_xy}
     # The plan's u* and grasp standoff were raised by the perception's edge uncertainty; on the true
     # geometry it owes the hand's own.
     hand = PlannerConfig.for_scene(load_scene("square"))
@@ -122,7 +122,9 @@ def test_perceive_and_plan_passes_verification_against_the_truth(tmp_path, squar
     assert plan.params["u_star"] == pytest.approx(hand.u_star + margin)
     target = perceive(square_scene.points).objects[0]
     placed = min(square_scene.objects, key=lambda item: np.linalg.norm(np.array(item.outline.centroid.coords[0]) - target.centroid_xy))
-    verification = verify(true_geometry_plan(plan, square_scene, placed))
+    # H_g of the true object lies where the perceived one's does only within the perception's error: the
+    # edge uncertainty (which also raised the planned standoff) and the outline's.
+    verification = verify(true_geometry_plan(plan, square_scene, placed), grasp_tolerance=(0.01, 0.01))
     assert verification.ok, str(verification)
     # verify() does not ask whether the fingertip touches the object; the object moves rigidly
     # with the fingertip, so it is enough that the first contact lies on the true object.
