@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from slideplan import PlannerConfig, PlanResult, load_object, load_scene, plan, verify
+from slideplan import InputError, PlannerConfig, PlanResult, load_object, load_scene, plan, verify
 from slideplan.cli import app
 from slideplan.objects import load_outline, sample_pose_on_table
 from slideplan.planning import _cached_grasp_map, grasp_map, robot_model
@@ -151,3 +151,55 @@ def test_the_planned_grasp_can_lift_the_object():
     raised = np.asarray(robot.frame_pose(grasp, result.robot["tip_link"], result.robot["tip_offset"]))
     raised[2, 3] += result.params["grasp_lift"]
     assert robot.ik(raised, seed=grasp, rng_seed=0) is not None
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "accepted"),
+    [("beta0", 2.0, False), ("beta0", 0.0, False), ("delta_beta", 1.5, False),  # Python once accepted these
+     ("delta_beta", 0.0, True), ("transfer_time", 0.0, True), ("grasp_backoff", 0.0, True),  # and refused these
+     ("paired_goals", 1.5, False), ("projection_iterations", 0, False)],
+)
+def test_python_and_the_core_validate_parameters_alike(field, value, accepted):
+    core = PlannerConfig().to_params()
+    setattr(core, field, value)
+    try:
+        core.validate()
+        core_accepts = True
+    except ValueError:
+        core_accepts = False
+    assert core_accepts == accepted
+    if accepted:
+        PlannerConfig(**{field: value})
+    else:
+        with pytest.raises(InputError) as error:
+            PlannerConfig(**{field: value})
+        assert error.value.field == field
+
+
+def test_the_paper_preset_is_recorded_and_overrides_the_hands_departures(tmp_path):
+    scene = load_scene("square")  # the T42: standoff 3 cm, turn rate 7 rad/m, depth band [1, 3] cm
+    paper = PlannerConfig.for_scene(scene, preset="paper", seed=1)
+    hand = PlannerConfig.for_scene(scene)
+    assert (hand.grasp_standoff, hand.max_yaw_rate, hand.dz_min) == (0.03, 7.0, 0.01)
+    assert (paper.grasp_standoff, paper.max_yaw_rate, paper.dz_min, paper.dz_max) == (0.0, 0.0, 0.005, 0.025)
+    assert not (paper.screen_pairs or paper.grasp_map or paper.lift_check or paper.cache_verdicts or paper.grasp_flip)
+    assert paper.u_star == hand.u_star  # what the paper leaves open stays the hand's
+    assert PlannerConfig.as_published(planner="cbirrt").preset == "paper"
+    result = CliRunner().invoke(app, ["plan", "--scene", "square", "--object", "crescent", "--pose", "0.55", "-0.08", "0.4",
+                                      "--preset", "paper", "--time-limit", "30", "--json", str(tmp_path / "p.json")])
+    assert result.exit_code == 0, result.output
+    assert json.loads((tmp_path / "p.json").read_text())["params"]["preset"] == "paper"
+
+
+def test_the_centre_of_mass_is_the_area_centroid_whatever_the_cloud_density():
+    from slideplan.geometry import area_centroid
+
+    crescent = load_object("crescent", table_height=0.0, pose=(0.5, 0.0, 0.3))
+    truth = np.array(crescent.outline.centroid.coords[0])
+    assert np.linalg.norm(crescent.points[:, :2].mean(axis=0) - truth) > 2e-3  # the boundary ring pulls the mean
+    assert np.linalg.norm(crescent.centroid_xy - truth) < 3e-4
+    # A 10 cm x 6 cm plate sampled 4x more densely on its left half: the centroid stays at the middle.
+    rng = np.random.default_rng(0)
+    left = rng.uniform((0.0, 0.0), (0.05, 0.06), (4000, 2))
+    right = rng.uniform((0.05, 0.0), (0.10, 0.06), (1000, 2))
+    assert np.linalg.norm(area_centroid(np.vstack([left, right])) - (0.05, 0.03)) < 1e-3
