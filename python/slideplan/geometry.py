@@ -228,7 +228,7 @@ def area_centroid(xy) -> np.ndarray:
     denser: the bundled outlines' boundary rings put the crescent's mean 3.2 mm off its centroid).
 
     The region is the union of the Delaunay triangles of the points whose longest edge is at most
-    four times the median nearest-neighbour spacing (an alpha shape): it follows concave outlines
+    one and a half times the local point spacing at its corners (a grid's diagonals stay, gaps of two spacings go) (an alpha shape): it follows concave outlines
     and holes wider than that. The one place the centre of mass is computed: objects, perception,
     and through them the planner and execution (the verifier re-derives it on purpose, separately).
 
@@ -242,12 +242,15 @@ def area_centroid(xy) -> np.ndarray:
 
     points = np.asarray(xy, dtype=float)
     try:
-        triangles = points[Delaunay(points).simplices]  # (m, 3, 2)
+        simplices = Delaunay(points).simplices
     except (QhullError, ValueError):
         return points.mean(axis=0)
-    spacing = float(np.median(cKDTree(points).query(points, k=2)[0][:, 1]))
+    triangles = points[simplices]  # (m, 3, 2)
+    # Each point's own spacing (the mean distance to its 6 nearest neighbours), so that a cloud denser in
+    # one part keeps the triangles of its sparser part.
+    spacing = cKDTree(points).query(points, k=min(7, len(points)))[0][:, 1:].mean(axis=1)
     longest = np.max(np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2), axis=1)
-    kept = triangles[longest <= 4.0 * spacing]
+    kept = triangles[longest <= 1.5 * spacing[simplices].max(axis=1)]
     areas = triangle_areas(kept)
     if areas.sum() <= 0.0:
         return points.mean(axis=0)
