@@ -1,4 +1,4 @@
-// Micro-benchmarks of the costs that dominate planning (DESIGN.md 8): FK, Jacobian, IK, isValid.
+// Micro-benchmarks of the costs that dominate planning (docs/design.md 8): FK, Jacobian, IK, isValid.
 // Prints median and p90 per call with the CPU named. Not a test: `make bench` runs it.
 #include "slideplan/collision.hpp"
 #include "slideplan/contact_frame.hpp"

@@ -1,7 +1,7 @@
 """Throughput of planning in threads and processes: plans per second with 1 and 2 threads of one
 process and with 2 processes, on the same problems (square table, 5 objects x N seeded poses).
 
-Plans release the GIL and share nothing mutable (DESIGN.md 9), so threads should scale like
+Plans release the GIL and share nothing mutable (docs/design.md 9), so threads should scale like
 processes. Prints and writes docs/benchmarks/threads.md with the CPU named. Not a test: `make bench`.
 
     python benchmarks/thread_bench.py [--poses 10] [--repeats 3]

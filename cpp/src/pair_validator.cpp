@@ -198,7 +198,7 @@ namespace slideplan
                                        std::vector<Eigen::VectorXd> &path) const
     {
         const RobotModel &robot = *task_->robot;
-        // The dense path's bounds (DESIGN.md 5) hold for the approach too: a joint step bounds the joints,
+        // The dense path's bounds (docs/design.md 5) hold for the approach too: a joint step bounds the joints,
         // and where the fingertip, far out on the arm, moves further than max_tip_step the steps are halved.
         int steps = std::max(1, static_cast<int>(std::ceil((to - from).cwiseAbs().maxCoeff() / params_.maxJointStep)));
         std::vector<Eigen::VectorXd> segment;  // appended only if the whole motion is free

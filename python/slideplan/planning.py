@@ -2,7 +2,7 @@
 
 :func:`plan` turns a :class:`~slideplan.scenes.Scene` and a :class:`~slideplan.objects.ThinObject`
 into the C++ core's inputs, runs Algorithm 1 (``_core.plan_sliding``) and wraps the answer in a
-:class:`PlanResult`, which reads and writes the plan JSON of DESIGN.md section 5
+:class:`PlanResult`, which reads and writes the plan JSON of docs/design.md section 5
 (``slideplan.plan/2``: ``/1`` plus the ``timing`` block of :mod:`slideplan.timing`).
 """
 
@@ -275,7 +275,7 @@ def _core_field_message(message: str) -> tuple[str, str]:
 
 @dataclass
 class PlanResult:
-    """One planning run, as stored in the plan JSON (``slideplan.plan/2``, DESIGN.md 5).
+    """One planning run, as stored in the plan JSON (``slideplan.plan/2``, docs/design.md 5).
 
     It holds everything needed to re-check the plan without the planner
     (:func:`slideplan.verify.verify` does). Arrays are numpy arrays; when ``status`` is
@@ -585,7 +585,7 @@ def _cached_robot(key: str):
 def plan_robot(description: dict[str, Any]):
     """Return the C++ robot model of a plan's ``robot`` block, cached: parsing the URDF and its
     meshes is not free. The model is immutable, so plans in any number of threads share it
-    (DESIGN.md 9).
+    (docs/design.md 9).
 
     Args:
         description: a :func:`robot_description` (or a plan's ``robot`` block).

@@ -1,4 +1,4 @@
-"""Scenes: the table, the robot and its mount, and obstacles, read from TOML (DESIGN.md sec. 5)."""
+"""Scenes: the table, the robot and its mount, and obstacles, read from TOML (docs/design.md sec. 5)."""
 
 from __future__ import annotations
 
@@ -117,7 +117,7 @@ def obstacle_footprint(entry: dict[str, Any]):
 
 @dataclass(frozen=True, eq=False)
 class Hand:
-    """The hand: which frames touch, grasp and may penetrate (DESIGN.md 3 and 5, ``[hand]``).
+    """The hand: which frames touch, grasp and may penetrate (docs/design.md 3 and 5, ``[hand]``).
 
     Attributes:
         tip_link: the link carrying the contact frame ``F``.

@@ -1,4 +1,4 @@
-"""Time parameterization of a plan: the ``timing`` block of ``slideplan.plan/2`` (DESIGN.md 5).
+"""Time parameterization of a plan: the ``timing`` block of ``slideplan.plan/2`` (docs/design.md 5).
 
 A plan's paths are dense geometric paths; a controller needs times, velocities and
 accelerations. :func:`parameterize` gives each segment (the slide, ``trajectory``, and the

@@ -2,7 +2,7 @@
 
 :func:`verify` recomputes, from the fields of a :class:`~slideplan.planning.PlanResult`
 (robot URDF and mount, table, object cloud, configurations), everything the plan claims:
-the contact constraint at every waypoint (DESIGN.md 3, paper IV-C.3), the path density,
+the contact constraint at every waypoint (docs/design.md 3, paper IV-C.3), the path density,
 the object motion of Eq. 2, the graspability of the final object pose (paper IV-C.1) and
 the approach to the grasp. It deliberately shares no code with the planner: it uses only
 the robot model and collision world of the core (kinematics and FCL, which the plan data
@@ -208,7 +208,7 @@ def _density_violations(name: str, path: np.ndarray, max_joint_step: float, tip_
 
 
 def contact_angles(pose: np.ndarray) -> tuple[float, float, float]:
-    """Yaw, pitch and roll of a fingertip pose relative to the horizontal surface (DESIGN.md 3).
+    """Yaw, pitch and roll of a fingertip pose relative to the horizontal surface (docs/design.md 3).
 
     Args:
         pose: (4, 4) or (3, 3) pose of the contact frame ``F``.

@@ -1,4 +1,4 @@
-// DESIGN.md 7: Debian's OMPL and KDL export Eigen::JacobiSVD<MatrixXd> with different layouts. This
+// docs/design.md 7: Debian's OMPL and KDL export Eigen::JacobiSVD<MatrixXd> with different layouts. This
 // test runs OMPL's constraint projection (which uses the SVD) and our IK in one process: if the link
 // order or visibility regresses, one of them aborts or returns garbage here.
 #include "test_support.hpp"

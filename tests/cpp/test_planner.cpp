@@ -424,7 +424,7 @@ TEST(SlidingPlanner, SameSeedSameTrajectory)
 TEST(SlidingPlanner, PlansInThreadsEqualTheirSequentialTwins)
 {
     // One robot model and, in the threads, one grasp map shared by every task, as the Python API shares
-    // them (DESIGN.md 9); the sequential twins each probe a map of their own.
+    // them (docs/design.md 9); the sequential twins each probe a map of their own.
     const auto robot = wamT42();
     const std::vector<Eigen::Vector2d> centres{{0.6, -0.05}, {0.55, 0.08}, {0.62, 0.02}, {0.5, -0.1}};
     std::vector<std::shared_ptr<const SlidingTask>> tasks;

@@ -10,7 +10,7 @@ using slideplan::testing::wamT42;
 
 namespace
 {
-    /// Standard DH of the WAM (DESIGN.md 7), written independently of the URDF.
+    /// Standard DH of the WAM (docs/design.md 7), written independently of the URDF.
     Eigen::Matrix4d dhFlange(const Eigen::VectorXd &q)
     {
         const double alpha[7] = {-M_PI / 2, M_PI / 2, -M_PI / 2, M_PI / 2, -M_PI / 2, M_PI / 2, -M_PI / 2};

@@ -10,7 +10,7 @@
 
 namespace slideplan::testing
 {
-    /// Debian's OMPL logs at debug level by default (DESIGN.md 7): keep test output readable.
+    /// Debian's OMPL logs at debug level by default (docs/design.md 7): keep test output readable.
     inline const bool kQuietOmpl = (ompl::msg::setLogLevel(ompl::msg::LOG_WARN), true);
 
     inline std::string robotPath()

@@ -1,4 +1,4 @@
-"""Plans are independent (DESIGN.md 9): plans run in threads of one process, sharing the cached robot
+"""Plans are independent (docs/design.md 9): plans run in threads of one process, sharing the cached robot
 model, give exactly what the same calls give alone, and every one passes the verifier."""
 
 import threading

@@ -17,7 +17,7 @@
 namespace slideplan
 {
     /// Whether the contacting finger may penetrate the table and the object. During sliding it may:
-    /// the virtual penetration stands for the finger's passive reconfiguration (DESIGN.md 3).
+    /// the virtual penetration stands for the finger's passive reconfiguration (docs/design.md 3).
     enum class ContactMode
     {
         Sliding,  ///< contact links excluded from table and object checks

@@ -24,7 +24,7 @@ namespace slideplan
 
         /// Newton steps with a damped pseudo-inverse of the 3 x n task Jacobian, aiming slightly inside
         /// the bands so the result does not sit on their edge; joint limits are enforced by clamping.
-        /// Replaces OMPL's SVD-based projection (DESIGN.md 7, 8).
+        /// Replaces OMPL's SVD-based projection (docs/design.md 7, 8).
         bool project(Eigen::Ref<Eigen::VectorXd> q) const override;
 
         /// project(), also returning Gamma(q) of the projected state (computed on the way).

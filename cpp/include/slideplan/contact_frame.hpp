@@ -1,5 +1,5 @@
 /// \file contact_frame.hpp
-/// Fingertip contact frame F of Fig. 4 and DESIGN.md section 3: X_F is the contact line and lies in
+/// Fingertip contact frame F of Fig. 4 and docs/design.md section 3: X_F is the contact line and lies in
 /// the surface plane (roll 0), Z_F points into the object, pitch beta is the angle between Z_F and
 /// the surface plane (-Z_F . n_up = sin(beta)), yaw alpha is the heading of X_F about n_up.
 #pragma once

@@ -103,7 +103,7 @@ namespace slideplan
         double comMargin{0.005};
 
         /// Beyond the paper: a pair is valid only if the object turns by at most this much between its
-        /// start and final pose (rad): large turns are what fails in execution (physics-facts.md; of
+        /// start and final pose (rad): large turns are what fails in execution (docs/physics-facts.md; of
         /// plans turning the object 150 deg or more, 2 in 13 executed). 1 rad cut the median yaw travel
         /// from 104 to 33 deg at the same planning time (3 tables x 5 objects x 3 poses); pi accepts
         /// every pair, as the paper does.
@@ -121,7 +121,7 @@ namespace slideplan
 
         /// Beyond the paper: the shortcut keeps a walk when it lowers fingertip travel (m) plus this
         /// weight times the object's yaw travel (rad): turning the object in place is what fails in
-        /// execution (physics-facts.md), so a radian of yaw costs like this many metres of travel.
+        /// execution (docs/physics-facts.md), so a radian of yaw costs like this many metres of travel.
         double shortcutYawWeight{0.05};
 
         /// \throws std::invalid_argument naming the first inconsistent parameter.

@@ -1,7 +1,7 @@
 /// \file robot_model.hpp
 /// The arm: a URDF (urdfdom) read into an immutable kinematic tree; Gamma(phi) (forward kinematics to
 /// the contact frame), its geometric Jacobian, and Gamma~(omega) (inverse kinematics, written here:
-/// DESIGN.md 7 forbids KDL's SVD-based solvers). KDL is kept as the reference the kernel is tested
+/// docs/design.md 7 forbids KDL's SVD-based solvers). KDL is kept as the reference the kernel is tested
 /// against (`referenceFramePose`, `referenceJacobian`).
 ///
 /// Thread safety: every const member may be called from any number of threads at once. (KDL's
@@ -77,7 +77,7 @@ namespace slideplan
         KDL::Segment segment;      ///< the same joint for KDL (reference computations only)
     };
 
-    /// What a scene says about its robot (DESIGN.md 5, [robot] and [hand]).
+    /// What a scene says about its robot (docs/design.md 5, [robot] and [hand]).
     struct RobotSpec
     {
         std::string urdf;                   ///< URDF text

@@ -16,7 +16,7 @@ namespace slideplan::bindings
             .value("FREE", ContactMode::Free, "Every link checked against everything.");
 
         py::class_<Obstacle> obstacle(module, "Obstacle",
-                                      "A static obstacle: a box, an upright cylinder or a vertical prism (DESIGN.md 5 [[obstacles]]).");
+                                      "A static obstacle: a box, an upright cylinder or a vertical prism (docs/design.md 5 [[obstacles]]).");
         py::enum_<Obstacle::Shape>(obstacle, "Shape")
             .value("BOX", Obstacle::Shape::Box)
             .value("CYLINDER", Obstacle::Shape::Cylinder)

@@ -21,7 +21,7 @@ namespace slideplan::bindings
 PYBIND11_MODULE(_core, module)
 {
     module.doc() = "slideplan C++ core: robot kinematics, collision world, geometry and the planner.";
-    // Debian's OMPL logs at debug level to stdout by default (DESIGN.md 7).
+    // Debian's OMPL logs at debug level to stdout by default (docs/design.md 7).
     ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
     module.def(
         "set_ompl_log_level", [](int level) { ompl::msg::setLogLevel(static_cast<ompl::msg::LogLevel>(level)); },

@@ -31,7 +31,7 @@ class TaskExecutor(Protocol):
 class LocalPoolExecutor:
     """Run tasks in a pool of local worker processes or threads (``concurrent.futures``).
 
-    Plans are independent in threads (DESIGN.md 9) and the C++ planner releases the GIL, so threads
+    Plans are independent in threads (docs/design.md 9) and the C++ planner releases the GIL, so threads
     share one parsed robot; but the Python timing step holds the GIL and takes most of a plan's time,
     so processes plan more tasks per second (two threads 0.98x, two processes 1.7x one worker on 2
     cores, docs/benchmarks/threads.md).
