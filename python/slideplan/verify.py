@@ -68,6 +68,7 @@ class _PlanWorld:
     collision_world: object
     table: SupportSurface
     object_top_z: float  # z_s = table height + object thickness
+    approach_tips: np.ndarray  # (K, 3) fingertip positions along grasp.approach, by forward kinematics
 
 
 
@@ -135,6 +136,7 @@ def _rebuild_world(result: PlanResult) -> _PlanWorld:
         collision_world=collision_world,
         table=SupportSurface.from_vertices(polygon, height, field="table.polygon"),
         object_top_z=height + float(result.object["thickness"]),
+        approach_tips=np.array([np.asarray(robot.fk(q))[:3, 3] for q in np.asarray(result.grasp["approach"])]).reshape(-1, 3),
     )
 
 
@@ -568,7 +570,8 @@ def check_timing(result: PlanResult, world: _PlanWorld) -> list[str]:
             violations.append(f"{label}: a joint moves at {excess:.4f} x its velocity limit")
         if np.max(np.abs(accelerations) / amax) > 1.0 + TIMING_SLACK:
             violations.append(f"{label}: a joint accelerates at {np.max(np.abs(accelerations) / amax):.4f} x its limit")
-        tips = np.array([world.robot.fk(config)[:3, 3] for config in path])
+        # The trajectory's recorded poses are checked against forward kinematics in check_sliding_path.
+        tips = np.asarray(result.fingertip_poses)[:, :3] if name == "trajectory" else world.approach_tips
         capped = np.ones(len(path), bool) if name == "trajectory" else tips[:, 2] <= world.object_top_z + NEAR_TABLE_M
         intervals = capped[:-1] | capped[1:]
         speeds = np.linalg.norm(np.diff(tips, axis=0), axis=1)[intervals] / dt[intervals]
@@ -611,7 +614,7 @@ def check_grasp(result: PlanResult, world: _PlanWorld) -> list[str]:
         gap = float(np.max(np.abs(approach[index] - end)))
         if gap > CONFIG_TOLERANCE:
             violations.append(f"approach[{index % len(approach)}]: differs from {name} by {gap:.3g} rad")
-    tips = np.array([world.robot.fk(waypoint)[:3, 3] for waypoint in approach])
+    tips = world.approach_tips
     violations += _density_violations("approach", approach, result.params["max_joint_step"], tips, result.params["max_tip_step"])
     reached = np.flatnonzero(tips[:, 2] >= world.object_top_z + result.params["grasp_lift"] - LIFT_SLACK_M)
     lift_end = int(reached[0]) if reached.size else len(approach)  # from here on the hand is free of the object
