@@ -25,9 +25,8 @@ import numpy as np
 import pandas as pd
 import shapely
 
-from slideplan.execute import cloud_footprint, com_margin
+from slideplan.execute import cloud_footprint
 from slideplan.experiments.execution import SETTINGS, load_execution, plot_execution, summarize_execution
-from slideplan.experiments.runner import _object_at
 from slideplan.experiments.tasks import Task, cached_scene
 from slideplan.planning import plan
 
@@ -64,13 +63,13 @@ def replanned(row: pd.Series) -> dict[str, float]:
     of mass and from its outline, and the shallowest contact depth (mm)."""
     task = Task(**{field.name: row[field.name] for field in dataclasses.fields(Task)})
     scene = cached_scene(task.scene)
-    obj = _object_at(task.object, task.scale, scene.table.height, (task.x, task.y, task.yaw))
+    obj = task.placed_object()
     result = plan(scene, obj, task.planner_config())
     tips = np.asarray(result.fingertip_poses)
     outline = cloud_footprint(np.asarray(result.object["points"])[:, :2])
     depths = scene.table.height + result.object["thickness"] - tips[:, 2]
     return {
-        "grasp_outside_mm": -1000 * com_margin(scene.table, np.asarray(result.grasp["pose"])[:2]),
+        "grasp_outside_mm": -1000 * scene.table.edge_margin(np.asarray(result.grasp["pose"])[:2]),
         "contact_com_mm": 1000 * float(np.linalg.norm(tips[0, :2] - np.asarray(result.object["com_xy"]))),
         "contact_outline_mm": 1000 * outline.boundary.distance(shapely.Point(tips[0, :2])),
         "depth_min_mm": 1000 * float(depths.min()),

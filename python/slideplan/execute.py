@@ -44,13 +44,13 @@ from xml.etree import ElementTree
 
 import numpy as np
 import shapely
-from shapely.geometry import Point, Polygon
+from shapely.geometry import Polygon
 
 from .errors import InputError
 from .geometry import SupportSurface
 from .planning import PlanResult, build_robot, merge_urdf
 from .timing import TimingOptions, parameterize, resolve_limits, time_path
-from .transforms import quaternion_from_matrix, row_to_pose, wrap_angle
+from .transforms import move_planar, quaternion_from_matrix, rotation_2d, row_to_pose, wrap_angle
 from .verify import contact_angles, overhang
 
 EXECUTION_SCHEMA = "slideplan.execution/1"
@@ -278,25 +278,6 @@ def path_features(result: PlanResult) -> tuple[float, float]:
     path = float(np.sum(np.linalg.norm(np.diff(positions, axis=0), axis=1))) if len(poses) > 1 else 0.0
     travel = float(sum(abs(wrap_angle(b - a)) for a, b in zip(yaws, yaws[1:])))
     return path, travel
-
-
-def com_margin(table: SupportSurface, xy) -> float:
-    """Signed distance of a point inside the table edge (m; negative outside).
-
-    Args:
-        table: the support surface.
-        xy: (2,) point.
-    """
-    polygon = table.polygon
-    distance = float(polygon.exterior.distance(Point(xy)))
-    return distance if polygon.contains(Point(xy)) else -distance
-
-
-def _moved(xy: np.ndarray, motion: tuple[float, float, float]) -> np.ndarray:
-    """Eq. 2 on points: ``R(yaw) p + (x, y)``."""
-    x, y, yaw = motion
-    rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
-    return np.atleast_2d(xy) @ rotation.T + (x, y)
 
 
 # ----------------------------------------------------------------------------- model
@@ -844,7 +825,7 @@ def execute(
     motion = result.object_motion
     predicted = (float(motion["x"]), float(motion["y"]), float(motion["yaw"]))
     com0 = np.asarray(result.object["com_xy"], dtype=float)
-    planned_com = _moved(com0, predicted)[0]
+    planned_com = move_planar(com0, predicted)
     tip_path, yaw_travel = path_features(result)
 
     frames: list[np.ndarray] = []
@@ -864,7 +845,7 @@ def execute(
     report = dict(
         success=False, failed_stage=None, failure="", predicted_motion=dict(zip(("x", "y", "yaw"), predicted)),
         actual_motion=None, position_error_m=None, yaw_error_deg=None, overhang_m=None, com_margin_m=None,
-        planned_com_margin_m=com_margin(table, planned_com), normal_force_n={"mean": 0.0, "min": 0.0, "max": 0.0},
+        planned_com_margin_m=table.edge_margin(planned_com), normal_force_n={"mean": 0.0, "min": 0.0, "max": 0.0},
         lifted=False, tip_path_m=tip_path, yaw_travel_deg=math.degrees(yaw_travel),
         settings=dataclasses.asdict(settings),
     )
@@ -899,13 +880,12 @@ def execute(
         if forces:
             report["normal_force_n"] = {"mean": float(np.mean(forces)), "min": float(np.min(forces)), "max": float(np.max(forces))}
         com1, yaw1, _ = runner.object_pose()
-        rotation = np.array([[math.cos(yaw1), -math.sin(yaw1)], [math.sin(yaw1), math.cos(yaw1)]])
-        actual = (*(com1 - rotation @ com0), yaw1)
+        actual = (*(com1 - rotation_2d(yaw1) @ com0), yaw1)
         report["actual_motion"] = dict(zip(("x", "y", "yaw"), map(float, actual)))
         report["position_error_m"] = float(np.linalg.norm(com1 - planned_com))
         report["yaw_error_deg"] = math.degrees(wrap_angle(yaw1 - predicted[2]))
-        report["overhang_m"] = overhang(table, _moved(np.asarray(result.object["points"])[:, :2], actual))[0]
-        report["com_margin_m"] = com_margin(table, com1)
+        report["overhang_m"] = overhang(table, move_planar(np.asarray(result.object["points"])[:, :2], actual))[0]
+        report["com_margin_m"] = table.edge_margin(com1)
         if report["normal_force_n"]["mean"] < _NO_FORCE_N:
             fail("slide", f"no normal force at the fingertip (mean {report['normal_force_n']['mean']:.2f} N): "
                           "the finger does not press, the object does not follow")

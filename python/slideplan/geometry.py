@@ -1,15 +1,13 @@
-"""The support surface (table top): a simple polygon at a height, and its goal band."""
+"""The support surface (table top, a simple polygon at a height) and the area centroid of a cloud."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 import shapely
 from shapely.geometry import Polygon
-from shapely.geometry.base import BaseGeometry
 
 from ._fields import as_number, as_numbers
 from .errors import InputError
@@ -142,6 +140,17 @@ class SupportSurface:
         """Area of the table polygon (m^2)."""
         return self.polygon.area
 
+    def edge_margin(self, xy) -> float:
+        """Signed distance of a point inside the table edge (m; negative outside): how far a centre of
+        mass is from tipping over (``com_margin``).
+
+        Args:
+            xy: (2,) point.
+        """
+        point = shapely.Point(np.asarray(xy, dtype=float))
+        distance = float(self.polygon.exterior.distance(point))
+        return distance if self.polygon.contains(point) else -distance
+
     def contains(self, xy) -> np.ndarray:
         """Test which points lie strictly inside the polygon (points on an edge do not).
 
@@ -158,68 +167,6 @@ class SupportSurface:
         if points.shape[-1:] != (2,):
             raise InputError(f"expected (N, 2) points, got shape {points.shape}", field="xy")
         return shapely.contains_xy(self.polygon, points[..., 0], points[..., 1])
-
-    def goal_band(self, d_goal: float) -> BaseGeometry:
-        """The goal band of Eq. 4: the part of ``Q`` within ``d_goal`` of its boundary.
-
-        It is ``Q`` minus ``Q`` contracted inward by ``d_goal`` (mitred corners, so
-        straight edges stay straight); when the contraction is empty (a table narrower
-        than ``2 d_goal``) the band is the whole polygon.
-
-        Args:
-            d_goal: band width (m), > 0.
-
-        Returns:
-            A shapely Polygon or MultiPolygon (it has a hole for a convex table).
-
-        Raises:
-            InputError: ``d_goal`` is not a positive finite number.
-        """
-        d_goal = as_number(d_goal, source="", field="d_goal", positive=True)
-        contracted = self.polygon.buffer(-d_goal, join_style="mitre")
-        if contracted.is_empty:
-            return self.polygon
-        return self.polygon.difference(contracted)
-
-    def goal_band_triangles(self, d_goal: float) -> np.ndarray:
-        """Triangulate the goal band exactly, for uniform area-weighted sampling (the C++
-        goal sampler takes these triangles).
-
-        Args:
-            d_goal: band width (m), > 0.
-
-        Returns:
-            (m, 3, 2) array of triangle vertices; their areas sum to the band's area.
-
-        Raises:
-            InputError: ``d_goal`` is not a positive finite number.
-        """
-        band = self.goal_band(d_goal)
-        triangles = _triangulate(band, max_edge=d_goal / 2.0)
-        total = float(np.sum(triangle_areas(triangles)))
-        if not math.isclose(total, band.area, rel_tol=1e-9):
-            # Only the fallback triangulation (shapely < 2.1) can get here.
-            raise RuntimeError(
-                f"goal band triangulation covers {total:.12g} m^2 of {band.area:.12g} m^2; "
-                "install shapely >= 2.1 for an exact constrained triangulation"
-            )
-        return triangles
-
-    def sample_goal_band(self, n: int, d_goal: float, rng: np.random.Generator) -> np.ndarray:
-        """Draw points uniformly (by area) from the goal band.
-
-        Args:
-            n: number of points, >= 0.
-            d_goal: band width (m), > 0.
-            rng: the random generator (seed it for reproducible samples).
-
-        Returns:
-            (n, 2) array of points in the band.
-
-        Raises:
-            InputError: ``d_goal`` is not a positive finite number.
-        """
-        return sample_in_triangles(self.goal_band_triangles(d_goal), n, rng)
 
 
 def area_centroid(xy) -> np.ndarray:
@@ -262,52 +209,8 @@ def area_centroid(xy) -> np.ndarray:
     return (areas[:, None] * kept.mean(axis=1)).sum(axis=0) / areas.sum()
 
 
-def _triangulate(region: BaseGeometry, *, max_edge: float) -> np.ndarray:
-    """Triangles exactly covering ``region`` (polygons with holes allowed), as (m, 3, 2)."""
-    if hasattr(shapely, "constrained_delaunay_triangles"):  # shapely >= 2.1
-        triangles = shapely.get_parts(shapely.constrained_delaunay_triangles(region))
-    else:
-        # Plain Delaunay ignores the region's edges; splitting those edges into pieces
-        # shorter than the band is wide makes them appear as Delaunay edges, so every
-        # triangle lies wholly inside or wholly outside and its centroid tells which.
-        candidates = shapely.get_parts(shapely.delaunay_triangles(shapely.segmentize(region, max_edge)))
-        centroids = shapely.get_coordinates(shapely.centroid(candidates))
-        triangles = candidates[shapely.contains_xy(region, centroids[:, 0], centroids[:, 1])]
-    # Each triangle's exterior ring has 4 coordinates (closed); keep the first three.
-    coordinates = shapely.get_coordinates(shapely.get_exterior_ring(triangles))
-    return coordinates.reshape(-1, 4, 2)[:, :3, :]
-
-
 def triangle_areas(triangles: np.ndarray) -> np.ndarray:
     """Return the (unsigned) areas of (m, 3, 2) triangles as an (m,) array."""
     edge_1 = triangles[:, 1] - triangles[:, 0]
     edge_2 = triangles[:, 2] - triangles[:, 0]
     return 0.5 * np.abs(edge_1[:, 0] * edge_2[:, 1] - edge_1[:, 1] * edge_2[:, 0])
-
-
-def sample_in_triangles(triangles: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
-    """Draw points uniformly (by area) from the union of disjoint triangles.
-
-    Args:
-        triangles: (m, 3, 2) array, m >= 1, total area > 0.
-        n: number of points, >= 0.
-        rng: the random generator.
-
-    Returns:
-        (n, 2) array of points.
-
-    Raises:
-        InputError: ``n`` is negative or there is no triangle area to sample from.
-    """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-        raise InputError(f"expected an integer >= 0, got {n!r}", field="n")
-    areas = triangle_areas(triangles)
-    if areas.sum() <= 0:
-        raise InputError("no area to sample from", field="triangles")
-    chosen = triangles[rng.choice(len(triangles), size=n, p=areas / areas.sum())]
-    u, v = rng.random((2, n))
-    # Fold the unit square onto the triangle u + v <= 1, which keeps the density uniform.
-    outside = u + v > 1.0
-    u[outside], v[outside] = 1.0 - u[outside], 1.0 - v[outside]
-    origin = chosen[:, 0]
-    return origin + u[:, None] * (chosen[:, 1] - origin) + v[:, None] * (chosen[:, 2] - origin)

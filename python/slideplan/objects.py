@@ -17,6 +17,7 @@ from ._fields import Fields, as_number, as_numbers, as_xy_points, read_toml
 from .errors import InputError
 from .geometry import SupportSurface, area_centroid, simple_polygon_vertices
 from .paths import find_data_file
+from .transforms import move_planar, rotation_2d
 
 CLOUD_SUFFIXES = (".ply", ".npy", ".csv", ".pcd")
 DEFAULT_THICKNESS = 0.004  # m; a few mm, like the paper's objects
@@ -79,7 +80,7 @@ class ThinObject:
         pose = as_numbers(pose, 3, source="", field="pose")
         if not isinstance(outline, Polygon) or not outline.is_valid or outline.area <= 0:
             raise InputError("expected a valid shapely Polygon with area > 0", field="outline")
-        xy = place_points(_sample_outline(outline, resolution), pose)
+        xy = move_planar(_sample_outline(outline, resolution), pose)
         points = np.column_stack([xy, np.full(len(xy), table_height + thickness)])
         points.setflags(write=False)
         return cls(points, thickness, name, place_outline(outline, pose))
@@ -101,7 +102,7 @@ class ThinObject:
             InputError: wrong shape, fewer than 3 points, NaN/inf, or a cloud whose mean
                 z is not above the table top.
         """
-        cloud = _checked_cloud(points, source=source)
+        cloud = checked_cloud(points, source=source)
         table_height = as_number(table_height, source="", field="table_height")
         mean_z = float(cloud[:, 2].mean())
         if mean_z <= table_height:
@@ -124,23 +125,8 @@ class ThinObject:
         return area_centroid(self.points[:, :2])
 
 
-def place_points(xy: np.ndarray, pose) -> np.ndarray:
-    """Apply a planar pose to points: ``R(yaw) p + (x, y)``.
-
-    Args:
-        xy: (N, 2) points in the object frame.
-        pose: (x, y, yaw).
-
-    Returns:
-        (N, 2) points in the world frame.
-    """
-    x, y, yaw = pose
-    rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
-    return xy @ rotation.T + (x, y)
-
-
 def place_outline(outline: Polygon, pose) -> Polygon:
-    """Apply a planar pose ``R(yaw) p + (x, y)`` to an outline (same map as :func:`place_points`).
+    """Apply a planar pose ``R(yaw) p + (x, y)`` to an outline (same map as :func:`~slideplan.transforms.move_planar`).
 
     Args:
         outline: the outline in the object frame.
@@ -150,8 +136,8 @@ def place_outline(outline: Polygon, pose) -> Polygon:
         The outline in the world frame.
     """
     x, y, yaw = pose
-    cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
-    return shapely.affinity.affine_transform(outline, [cos_yaw, -sin_yaw, sin_yaw, cos_yaw, x, y])
+    rotation = rotation_2d(yaw)
+    return shapely.affinity.affine_transform(outline, [*rotation.ravel(), x, y])
 
 
 def _sample_outline(outline: Polygon, resolution: float) -> np.ndarray:
@@ -179,7 +165,7 @@ def _sample_outline(outline: Polygon, resolution: float) -> np.ndarray:
     return np.vstack([np.column_stack([grid_x[inside], grid_y[inside]]), *boundary])
 
 
-def _checked_cloud(points, *, source: str) -> np.ndarray:
+def checked_cloud(points, *, source: str) -> np.ndarray:
     """Return ``points`` as a fresh (N, 3) float array with N >= 3, all finite.
 
     Raises:
@@ -302,7 +288,7 @@ def load_point_cloud(path: str | Path) -> np.ndarray:
         points = reader(path)
     except (OSError, ValueError, KeyError, plyfile.PlyParseError) as error:  # ValueError covers numpy's parse errors
         raise InputError(f"cannot read point cloud ({error})", source=str(path)) from None
-    return _checked_cloud(points, source=str(path))
+    return checked_cloud(points, source=str(path))
 
 
 def load_outline(path_or_name: str | Path) -> tuple[Polygon, float, str]:

@@ -33,8 +33,9 @@ from shapely.geometry import MultiPoint, Polygon
 from ._fields import as_number
 from .errors import InputError
 from .geometry import SupportSurface, area_centroid
-from .objects import _checked_cloud, place_points
+from .objects import checked_cloud
 from .scenes import BoxObstacle, Scene, load_scene, robot_toml
+from .transforms import move_planar
 
 _PLANE_SAMPLE = 20_000  # RANSAC runs on this many random points: plenty for a plane, fast for any cloud
 _MAX_PLANES = 4  # floor, table, and a couple of box tops are all a tabletop scene has
@@ -252,7 +253,7 @@ def perceive(
         as_number(cell_size, source="", field="cell_size", positive=True)
     if max_thickness <= min_height:
         raise InputError(f"must be > min_height ({min_height:g}), got {max_thickness!r}", field="max_thickness")
-    cloud = _checked_cloud(points, source=source)
+    cloud = checked_cloud(points, source=source)
     problem = _Problem(source)
     plane = _table_plane(cloud, plane_tolerance, min_table_area, max_tilt_deg, seed, problem)
     a, b, c = plane.coefficients
@@ -506,7 +507,7 @@ def register_outline(points_xy, outline: Polygon, *, resolution: float = 0.002) 
     perceived_tree = cKDTree(points_xy)
 
     def cost(pose) -> float:
-        posed = place_points(sample_xy, pose)
+        posed = move_planar(sample_xy, pose)
         to_points = perceived_tree.query(posed)[0]
         to_outline = cKDTree(posed).query(points_xy)[0]
         return float(np.mean(to_points**2) + np.mean(to_outline**2))

@@ -19,23 +19,18 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from .experiments.runner import load_results
+from .experiments.results import load_results
 from .experiments.stats import planning_runs, planning_time_summary, setting_label, settings_in_order, success_rate_curve
 from .experiments.tasks import OBJECTS, TABLES
+from .viz import save_figure
 
 FORMATS = ("png", "svg")
-_DPI = 150
 _CURVE_POINTS = 400
 
 
-def _save(figure: Figure, out_dir: str | Path, name: str) -> list[Path]:
-    """Write ``name`` in every format of :data:`FORMATS` and return the paths."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    paths = [out_dir / f"{name}.{suffix}" for suffix in FORMATS]
-    for path in paths:
-        figure.savefig(path, dpi=_DPI)
-    return paths
+def save_figures(figure: Figure, out_dir: str | Path, name: str) -> list[Path]:
+    """Write ``name`` in every format of :data:`FORMATS` to ``out_dir`` and return the paths."""
+    return [save_figure(figure, Path(out_dir) / f"{name}.{suffix}") for suffix in FORMATS]
 
 
 def _time_label(results: pd.DataFrame) -> str:
@@ -101,7 +96,7 @@ def plot_planning_time_by_geometry(results: pd.DataFrame, out_dir: str | Path, n
         axes.set_title(f"Planning time {title}, n = {len(runs)} runs")
         axes.set_xlabel("object" if category == "object" else "table")
         axes.set_ylabel(_time_label(runs))
-    return _save(figure, out_dir, name)
+    return save_figures(figure, out_dir, name)
 
 
 def plot_success_rate_vs_time(results: pd.DataFrame, out_dir: str | Path, name: str = "fig11") -> list[Path]:
@@ -143,7 +138,7 @@ def plot_success_rate_vs_time(results: pd.DataFrame, out_dir: str | Path, name: 
     axes.set_title("Success rate vs planning time (shaded: 95% Wilson interval)")
     axes.grid(True, which="both", linewidth=0.3)
     axes.legend(loc="lower right")
-    return _save(figure, out_dir, name)
+    return save_figures(figure, out_dir, name)
 
 
 def plot_planning_time_vs_n_star(results: pd.DataFrame, out_dir: str | Path, name: str = "fig12") -> list[Path]:
@@ -177,7 +172,7 @@ def plot_planning_time_vs_n_star(results: pd.DataFrame, out_dir: str | Path, nam
     ranges = ", ".join(f"{100 * value:g} cm" for value in sorted(runs["reconfiguration_range_m"].unique()))
     axes.set_title(f"Planning time vs N* (dz* = {ranges}, n = {len(runs)} runs)")
     axes.grid(True, which="both", linewidth=0.3)
-    return _save(figure, out_dir, name)
+    return save_figures(figure, out_dir, name)
 
 
 _PLOTTERS = {

@@ -17,6 +17,7 @@ from ._fields import Fields, read_toml
 from .errors import InputError
 from .geometry import SupportSurface
 from .paths import data_dir, find_data_file
+from .transforms import move_planar
 
 # Planner parameters a hand may give defaults for ([hand] params).
 HAND_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "grasp_lift", "grasp_backoff", "grasp_standoff",
@@ -107,9 +108,8 @@ def obstacle_footprint(entry: dict[str, Any]):
     shape = entry.get("shape", "box")
     if shape == "box":
         corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * np.asarray(entry["size"][:2]) / 2
-        cos_yaw, sin_yaw = np.cos(entry["yaw"]), np.sin(entry["yaw"])
-        rotation = np.array([[cos_yaw, -sin_yaw], [sin_yaw, cos_yaw]])
-        return shapely.Polygon(corners @ rotation.T + np.asarray(entry["center"][:2])), entry["center"][2] - entry["size"][2] / 2
+        motion = (*entry["center"][:2], entry["yaw"])
+        return shapely.Polygon(move_planar(corners, motion)), entry["center"][2] - entry["size"][2] / 2
     if shape == "cylinder":
         return shapely.Point(entry["center"][:2]).buffer(entry["radius"], quad_segs=32), entry["center"][2] - entry["height"] / 2
     return shapely.Polygon(entry["polygon"]), entry["bottom"]

@@ -149,3 +149,23 @@ def wrap_angle(angle: float) -> float:
 def yawed_pose(center, yaw: float) -> np.ndarray:
     """4x4 pose at ``center`` rotated by ``yaw`` about the world z axis (how boxes are placed)."""
     return homogeneous(rotation_from_rpy(0.0, 0.0, yaw), center)
+
+
+def rotation_2d(yaw: float) -> np.ndarray:
+    """The (2, 2) rotation ``R(yaw)`` of the plane."""
+    cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
+    return np.array([[cos_yaw, -sin_yaw], [sin_yaw, cos_yaw]])
+
+
+def move_planar(xy, motion) -> np.ndarray:
+    """Apply a planar motion (Eq. 2) to points: ``R(yaw) p + (x, y)``.
+
+    Args:
+        xy: (N, 2) points, or one (2,) point.
+        motion: (x, y, yaw).
+
+    Returns:
+        The moved points, in the shape of ``xy``.
+    """
+    x, y, yaw = (float(value) for value in motion)
+    return np.asarray(xy, dtype=float) @ rotation_2d(yaw).T + (x, y)

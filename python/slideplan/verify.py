@@ -22,7 +22,7 @@ from shapely.geometry import MultiPoint
 from .geometry import SupportSurface, area_centroid
 from .planning import build_robot, core_obstacles
 from .scenes import obstacle_footprint
-from .transforms import rotation_angle_between, row_to_pose, wrap_angle
+from .transforms import move_planar, rotation_2d, rotation_angle_between, row_to_pose, wrap_angle
 
 if TYPE_CHECKING:
     from .planning import PlanResult
@@ -299,8 +299,7 @@ def planar_motion(first_pose: np.ndarray, last_pose: np.ndarray) -> tuple[float,
         X_F heading) onto the last one's.
     """
     yaw = wrap_angle(contact_angles(last_pose)[0] - contact_angles(first_pose)[0])
-    rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
-    x, y = last_pose[:2, 3] - rotation @ first_pose[:2, 3]
+    x, y = last_pose[:2, 3] - rotation_2d(yaw) @ first_pose[:2, 3]
     return float(x), float(y), yaw
 
 
@@ -332,14 +331,13 @@ def check_clutter(result: PlanResult, world: _PlanWorld) -> list[str]:
     violations = []
     try:
         for index, config in enumerate(np.asarray(result.trajectory)):
-            x, y, yaw = planar_motion(first, row_to_pose(result.fingertip_poses[index]))
-            rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+            motion = planar_motion(first, row_to_pose(result.fingertip_poses[index]))
             if footprints is not None:
-                moved = points @ rotation.T + (x, y)
+                moved = move_planar(points, motion)
                 inside = shapely.contains_xy(footprints, moved[:, 0], moved[:, 1])
                 if inside.any():
                     violations.append(f"trajectory[{index}]: {int(inside.sum())} object points lie inside an obstacle")
-            world.collision_world.set_object(hull @ rotation.T + (x, y), world.object_top_z)
+            world.collision_world.set_object(move_planar(hull, motion), world.object_top_z)
             hits = world.collision_world.collisions(config, _core.ContactMode.SLIDING)
             hits = [pair for pair in hits if "object" in pair]
             if hits:
@@ -381,9 +379,7 @@ def moved_object_xy(result: PlanResult) -> np.ndarray:
         (N, 2) array.
     """
     motion = result.object_motion
-    cos_yaw, sin_yaw = math.cos(motion["yaw"]), math.sin(motion["yaw"])
-    rotation = np.array([[cos_yaw, -sin_yaw], [sin_yaw, cos_yaw]])
-    return np.asarray(result.object["points"])[:, :2] @ rotation.T + (motion["x"], motion["y"])
+    return move_planar(np.asarray(result.object["points"])[:, :2], (motion["x"], motion["y"], motion["yaw"]))
 
 
 def _closest_edge(table: SupportSurface, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -451,15 +447,13 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
     if float(np.linalg.norm(com - centroid)) > MOTION_TOLERANCE:
         violations.append(f"object.com_xy: ({com[0]:.4f}, {com[1]:.4f}) is not the area centroid of the object's "
                           f"points ({centroid[0]:.4f}, {centroid[1]:.4f})")
-    cos_yaw, sin_yaw = math.cos(motion["yaw"]), math.sin(motion["yaw"])
-    moved_com = (cos_yaw * com[0] - sin_yaw * com[1] + motion["x"], sin_yaw * com[0] + cos_yaw * com[1] + motion["y"])
-    if not table.contains(moved_com):
+    moved_com = move_planar(com, (motion["x"], motion["y"], motion["yaw"]))
+    margin = table.edge_margin(moved_com)
+    if margin <= 0.0:
         violations.append(f"final object pose: centre of mass ({moved_com[0]:.4f}, {moved_com[1]:.4f}) is off the table")
-    else:
-        margin = table.polygon.exterior.distance(shapely.Point(moved_com))
-        if margin < result.params.get("com_margin", 0.0) - MOTION_TOLERANCE:
-            violations.append(f"final object pose: centre of mass {margin:.4f} m inside the table edge, "
-                              f"less than com_margin {result.params['com_margin']}")
+    elif margin < result.params.get("com_margin", 0.0) - MOTION_TOLERANCE:
+        violations.append(f"final object pose: centre of mass {margin:.4f} m inside the table edge, "
+                          f"less than com_margin {result.params['com_margin']}")
     return violations
 
 

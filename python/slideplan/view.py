@@ -30,7 +30,7 @@ import numpy as np
 
 from .errors import InputError
 from .planning import PlanResult
-from .transforms import quaternion_from_matrix, row_to_pose
+from .transforms import move_planar, quaternion_from_matrix, row_to_pose
 from .verify import planar_motion
 
 # Colours (RGB 0-255) with distinct hues, so that a screenshot can tell the parts apart (tests do).
@@ -133,13 +133,6 @@ def object_mesh(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return points, faces[edges.max(axis=1) <= 3.0 * spacing]
 
 
-def _moved(xy: np.ndarray, motion) -> np.ndarray:
-    """Points (N, 2) moved by a planar motion ``(x, y, yaw)``: ``R(yaw) p + (x, y)``."""
-    x, y, yaw = (float(value) for value in motion)
-    rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
-    return np.asarray(xy, dtype=float) @ rotation.T + (x, y)
-
-
 def _wxyz(pose: np.ndarray) -> np.ndarray:
     """viser's scalar-first quaternion of a 4x4 pose."""
     x, y, z, w = quaternion_from_matrix(pose)
@@ -203,7 +196,7 @@ class PlanView:
         height = float(self.result.table["height"])
         target = np.asarray(self.result.object["com_xy"], dtype=float)
         if len(self._motions):
-            target = _moved(target[None], self._motions[-1])[0]
+            target = move_planar(target, self._motions[-1])
         base = np.asarray(self.result.robot["base_pose"], dtype=float)[:2, 3]
         away = target - base
         heading = math.atan2(away[1], away[0]) + 0.7  # a three-quarter view rather than along the arm
@@ -258,7 +251,7 @@ class PlanView:
         """The object's points outside the table at its final pose, in red (in the final pose's frame)."""
         import shapely
 
-        moved = _moved(points[:, :2], self._motions[-1])
+        moved = move_planar(points[:, :2], self._motions[-1])
         outside = ~shapely.contains_xy(shapely.Polygon(polygon), moved[:, 0], moved[:, 1])
         if outside.any():
             self.server.scene.add_point_cloud("/final_object/overhang", points[outside] + (0, 0, 0.001),

@@ -1,4 +1,4 @@
-"""Top-down pictures of scenes and plans (matplotlib, no display needed).
+"""Top-down pictures of plans (matplotlib, no display needed).
 
 Figures are built with :class:`matplotlib.figure.Figure` directly rather than pyplot, so
 drawing never touches the global backend or leaks figures in long experiment runs.
@@ -6,13 +6,12 @@ drawing never touches the global backend or leaks figures in long experiment run
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.patches import Circle, Polygon as PolygonPatch
+from matplotlib.patches import Polygon as PolygonPatch
 
 from .geometry import SupportSurface
 from .scenes import obstacle_footprint
@@ -20,9 +19,7 @@ from .transforms import row_to_pose
 from .verify import moved_object_xy, overhang
 
 if TYPE_CHECKING:
-    from .objects import ThinObject
     from .planning import PlanResult
-    from .scenes import Scene
 
 _TABLE_STYLE = {"facecolor": "0.9", "edgecolor": "0.35", "linewidth": 1.2, "label": "table"}
 
@@ -49,7 +46,7 @@ def _draw_obstacles(axes, entries) -> None:
                                     label="obstacles" if index == 0 else None))
 
 
-def _save(figure: Figure, path: str | Path) -> Path:
+def save_figure(figure: Figure, path: str | Path) -> Path:
     """Save as SVG if the suffix is ``.svg``, else PNG (the suffix ``.png`` is added if missing)."""
     path = Path(path)
     if path.suffix.lower() not in (".png", ".svg"):
@@ -109,43 +106,5 @@ def draw_plan(result: PlanResult, path: str | Path) -> Path:
     axes.set_title(title)
     axes.autoscale_view()
     axes.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small")
-    return _save(figure, path)
+    return save_figure(figure, path)
 
-
-def draw_scene(scene: Scene, obj: ThinObject, path: str | Path) -> Path:
-    """Draw a planning problem from above: table, object, robot base and its reach.
-
-    The reach circle is where the fingertip can get at table height with the arm
-    stretched straight (an upper bound on the workspace, not a guarantee).
-
-    Args:
-        scene: table, robot and obstacles.
-        obj: the object.
-        path: output file, ``.png`` or ``.svg``.
-
-    Returns:
-        The path written.
-
-    Raises:
-        OSError: the file cannot be written.
-        InputError: the robot cannot be loaded.
-    """
-    from .planning import base_pose_matrix, robot_model
-
-    figure, axes = _new_axes()
-    _draw_table(axes, scene.table.vertices)
-    _draw_obstacles(axes, [obstacle.to_dict() for obstacle in scene.obstacles])
-    axes.scatter(obj.points[:, 0], obj.points[:, 1], s=2, color="tab:blue", label=f"object {obj.name}".strip())
-    base = base_pose_matrix(scene.base_pose)[:3, 3]
-    robot = robot_model(scene)
-    # The WAM's zero configuration stretches the arm straight up, so its fingertip distance
-    # from the base frame is the arm's full length.
-    arm_length = float(np.linalg.norm(np.asarray(robot.fk(np.zeros(robot.dof)))[:3, 3] - base))
-    height_above_table = base[2] - scene.table.height
-    reach = math.sqrt(max(arm_length**2 - height_above_table**2, 0.0))
-    axes.add_patch(Circle(base[:2], reach, fill=False, linestyle="--", color="0.4", label="reach at table height"))
-    axes.plot(*base[:2], marker="^", color="black", markersize=10, linestyle="none", label="robot base")
-    axes.set_title(f"scene {scene.name}, object {obj.name or 'cloud'}")
-    axes.autoscale_view()
-    axes.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small")
-    return _save(figure, path)

@@ -19,7 +19,6 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from slideplan import InputError, PlannerConfig, SupportSurface, ThinObject, load_object, load_scene, plan
-from slideplan.objects import load_outline
 
 settings.register_profile(
     "ci", derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large]

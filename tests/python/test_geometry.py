@@ -4,11 +4,10 @@ import math
 
 import numpy as np
 import pytest
-import shapely
 from shapely.geometry import Polygon
 
 from slideplan.errors import InputError
-from slideplan.geometry import SupportSurface, sample_in_triangles, triangle_areas
+from slideplan.geometry import SupportSurface
 
 SQUARE = [[0.35, -0.25], [0.85, -0.25], [0.85, 0.25], [0.35, 0.25]]
 L_SHAPE = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.4], [0.4, 0.4], [0.4, 1.0], [0.0, 1.0]]
@@ -92,73 +91,3 @@ def test_circle_rejects_bad_arguments(radius, points, field):
     with pytest.raises(InputError, match=field):
         SupportSurface.circle((0.0, 0.0), radius, points=points)
 
-
-def check_band_and_triangles(table: SupportSurface, d_goal: float) -> None:
-    band = table.goal_band(d_goal)
-    contracted = table.polygon.buffer(-d_goal, join_style="mitre")
-    assert band.area == pytest.approx(table.area - contracted.area, rel=1e-9)
-    triangles = table.goal_band_triangles(d_goal)
-    assert triangles.ndim == 3 and triangles.shape[1:] == (3, 2)
-    assert triangle_areas(triangles).sum() == pytest.approx(band.area, rel=1e-9)
-    covered = shapely.union_all(shapely.polygons(triangles))
-    assert covered.symmetric_difference(band).area <= 1e-9 * band.area
-
-
-@pytest.mark.parametrize("shape", SHAPES)
-@pytest.mark.parametrize("d_goal", [0.03, 0.1])
-def test_goal_band_is_polygon_minus_contraction_and_triangles_cover_it_exactly(shape, d_goal):
-    check_band_and_triangles(make_table(shape), d_goal)
-
-
-@pytest.mark.parametrize("shape", SHAPES)
-def test_fallback_triangulation_without_constrained_delaunay_is_exact(shape, monkeypatch):
-    monkeypatch.delattr(shapely, "constrained_delaunay_triangles", raising=False)
-    check_band_and_triangles(make_table(shape), 0.05)
-
-
-def test_goal_band_is_whole_table_when_contraction_is_empty():
-    narrow = SupportSurface.from_vertices([[0, 0], [1, 0], [1, 0.1], [0, 0.1]])
-    assert narrow.goal_band(0.06).equals(narrow.polygon)
-    assert triangle_areas(narrow.goal_band_triangles(0.06)).sum() == pytest.approx(0.1, rel=1e-9)
-
-
-@pytest.mark.parametrize("d_goal", [0.0, -0.1, float("nan")])
-def test_goal_band_rejects_bad_width(d_goal):
-    with pytest.raises(InputError, match="d_goal"):
-        make_table("square").goal_band(d_goal)
-
-
-@pytest.mark.parametrize("shape", SHAPES)
-def test_goal_band_samples_lie_in_band(shape):
-    table = make_table(shape)
-    d_goal = 0.05
-    samples = table.sample_goal_band(3000, d_goal, np.random.default_rng(3))
-    assert samples.shape == (3000, 2)
-    band = table.goal_band(d_goal).buffer(1e-12)
-    assert shapely.contains_xy(band, samples[:, 0], samples[:, 1]).all()
-    assert shapely.contains_xy(table.polygon.buffer(1e-12), samples[:, 0], samples[:, 1]).all()
-
-
-def test_goal_band_samples_are_uniform_by_area():
-    table = make_table("square")
-    d_goal = 0.05
-    samples = table.sample_goal_band(40000, d_goal, np.random.default_rng(0))
-    # The left strip x < 0.40 is 0.05 x 0.5 of the 0.09 m^2 band.
-    expected = 0.025 / 0.09
-    fraction = np.mean(samples[:, 0] < 0.35 + d_goal)
-    assert fraction == pytest.approx(expected, abs=4 * math.sqrt(expected * (1 - expected) / 40000))
-
-
-def test_goal_band_sampling_is_seeded():
-    table = make_table("L")
-    first = table.sample_goal_band(50, 0.1, np.random.default_rng(7))
-    again = table.sample_goal_band(50, 0.1, np.random.default_rng(7))
-    other = table.sample_goal_band(50, 0.1, np.random.default_rng(8))
-    np.testing.assert_array_equal(first, again)
-    assert not np.array_equal(first, other)
-
-
-def test_sample_in_triangles_rejects_negative_count():
-    triangles = np.array([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]])
-    with pytest.raises(InputError, match="n"):
-        sample_in_triangles(triangles, -1, np.random.default_rng(0))

@@ -242,16 +242,5 @@ namespace slideplan::bindings
             "Benchmark peer: connect a valid start/goal pair (start, goal: configurations) with OMPL's "
             "ProjectedStateSpace + RRTConnect on the same constraint and validity (the other arguments as for "
             "plan_sliding). Returns (solved, seconds, path states).");
-        module.def(
-            "can_add_root",
-            [](int startRoots, int goalRoots, double nStar, std::uint64_t rngSeed, int draws) {
-                std::mt19937_64 rng(rngSeed);
-                int added = 0;
-                for (int i = 0; i < draws; ++i)
-                    added += canAddRoot(startRoots, goalRoots, nStar, rng);
-                return added;
-            },
-            py::arg("start_roots"), py::arg("goal_roots"), py::arg("n_star"), py::arg("rng_seed"), py::arg("draws"),
-            "Eq. 5 drawn `draws` times: how many allowed a new root.");
     }
 }  // namespace slideplan::bindings

@@ -12,7 +12,8 @@ The command line does the same: ``slideplan experiment fig11 --quick --out out/f
 """
 
 from .executors import DaskExecutor, LocalPoolExecutor, TaskExecutor
-from .runner import ROW_SCHEMA, RunSummary, finished_task_ids, load_results, part_path, run_experiment, run_task
+from .results import ROW_SCHEMA, finished_task_ids, load_results, part_path
+from .runner import RunSummary, run_experiment, run_task
 from .stats import (
     charged_planning_time,
     mean_and_standard_error,

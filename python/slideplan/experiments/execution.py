@@ -24,7 +24,7 @@ from ..execute import ExecutionSettings, execute, path_features
 from ..planning import plan
 from ..transforms import row_to_pose
 from ..verify import verify
-from .runner import ROW_SCHEMA, _object_at, load_results
+from .results import ROW_SCHEMA, load_results
 from .tasks import Task, cached_scene
 
 SETTINGS = ("nominal", "stress")
@@ -80,7 +80,7 @@ def run_execution_task(task: Task) -> dict:
     row.update(task.fields(), solved=False, status="error")
     try:
         scene = cached_scene(task.scene)
-        obj = _object_at(task.object, task.scale, scene.table.height, (task.x, task.y, task.yaw))
+        obj = task.placed_object()
         result = plan(scene, obj, task.planner_config())
         row.update(status=result.status, planning_time_s=result.planning_time_s)
         if not result.solved or not verify(result).ok:
@@ -161,7 +161,7 @@ def plot_execution(results: pd.DataFrame, out_dir: str | Path, name: str = "exec
     """
     from matplotlib.figure import Figure
 
-    from ..plots import _save
+    from ..plots import save_figures
 
     executed = results[results["solved"].fillna(False) & results["error"].isna()]
     figure = Figure(figsize=(13, 3.8))
@@ -185,4 +185,4 @@ def plot_execution(results: pd.DataFrame, out_dir: str | Path, name: str = "exec
         axes.legend(fontsize=8)
         axes.grid(alpha=0.3)
     figure.tight_layout()
-    return _save(figure, out_dir, name)
+    return save_figures(figure, out_dir, name)

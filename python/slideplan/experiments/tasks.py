@@ -20,7 +20,7 @@ import shapely.affinity
 from shapely.geometry import Polygon
 
 from ..errors import InputError
-from ..objects import load_outline, sample_pose_on_table
+from ..objects import ThinObject, load_outline, sample_pose_on_table
 from ..planning import PlannerConfig
 from ..scenes import Scene, load_scene
 
@@ -112,6 +112,10 @@ class Task:
         """Return the task as a flat dict: ``task_id``, the fields and ``reconfiguration_range_m``."""
         return {"task_id": self.task_id, **dataclasses.asdict(self), "reconfiguration_range_m": self.reconfiguration_range_m}
 
+    def placed_object(self) -> ThinObject:
+        """The task's object at its initial pose on its scene's table (cached: a pose's settings share it)."""
+        return _placed_object(self.object, self.scale, cached_scene(self.scene).table.height, (self.x, self.y, self.yaw))
+
 
 @dataclass(frozen=True)
 class ExperimentSpec:
@@ -162,6 +166,12 @@ def scaled_outline(name: str, scale: float) -> tuple[Polygon, float]:
     """
     outline, thickness, _ = load_outline(name)
     return shapely.affinity.scale(outline, scale, scale, origin=(0.0, 0.0)), thickness
+
+
+@functools.lru_cache(maxsize=4)
+def _placed_object(name: str, scale: float, table_height: float, pose: tuple[float, float, float]) -> ThinObject:
+    outline, thickness = scaled_outline(name, scale)
+    return ThinObject.from_outline(outline, thickness=thickness, table_height=table_height, pose=pose, name=name)
 
 
 def _name_key(text: str) -> int:
