@@ -1,11 +1,13 @@
-"""Time-parameterization benchmark of issue 11: how long `slideplan.timing.parameterize` takes.
+"""Time-parameterization benchmark: the C++ TOPP-RA (`slideplan.timing.parameterize`) against the Python
+toppra it replaced (tests/python/toppra_reference.py), on the plans of Fig. 10.
 
-Plans the square table with 5 objects x N seeded poses, then times `parameterize` (slide and
-approach, URDF limits, fingertip cap) on every solved plan, R repetitions each. Prints and writes
-(docs/benchmarks/timing.md) the median / p90 / max per plan with the CPU named, the waypoint counts,
-and the one-off cost of the first call in a process (importing toppra). Not a test: `make bench`.
+Plans the Fig. 10 tasks (4 tables x 5 objects x 2 scales x N poses, the hand's parameters), then times
+both parameterizations of every solved plan (slide and approach, URDF limits, fingertip cap), R
+repetitions each, and compares their durations. Prints and writes (docs/benchmarks/timing.md) the
+median / p90 / max per plan with the CPU named, the largest duration difference, and the cost of the
+first call in a fresh process. Not a test: `make bench`.
 
-    python benchmarks/timing_bench.py [--poses 10] [--repeat 5]
+    python benchmarks/timing_bench.py [--poses 3] [--repeat 5]
 """
 
 from __future__ import annotations
@@ -20,29 +22,52 @@ import time
 from pathlib import Path
 
 import numpy as np
-from plan_bench import write_report
-from plan_bench import OBJECTS, cpu_name  # same directory: python puts it on sys.path
+from plan_bench import cpu_name, write_report  # same directory: python puts it on sys.path
 
-from slideplan import PlannerConfig, load_object, load_scene, plan
-from slideplan.objects import load_outline, sample_pose_on_table
-from slideplan.timing import parameterize
+from slideplan import InputError, load_scene, plan
+from slideplan.experiments.tasks import build_spec
+from slideplan.timing import NEAR_TABLE_M, parameterize, resolve_limits
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests/python"))
+import toppra_reference  # noqa: E402  (needs toppra: the test extra)
 
 GOAL_S = 0.050  # the issue's budget for parameterizing one plan
 
 
 def solved_plans(poses: int) -> list:
-    """Seeded plans on the square table (unsolved ones left out)."""
-    scene = load_scene("square")
+    """The solved plans of the first ``poses`` poses of every Fig. 10 cell."""
     plans = []
-    for object_name in OBJECTS:
-        outline, _, _ = load_outline(object_name)
-        for index in range(poses):
-            pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([index, OBJECTS.index(object_name)]))
-            obj = load_object(object_name, table_height=scene.table.height, pose=pose)
-            result = plan(scene, obj, PlannerConfig(seed=index, time_limit_s=10))
-            if result.solved:
-                plans.append(result)
+    for task in build_spec("fig10", poses=poses).tasks:
+        try:
+            result = plan(load_scene(task.scene), task.placed_object(), task.planner_config())
+        except InputError:  # an object too small for u* at half scale
+            continue
+        if result.solved:
+            plans.append(result)
     return plans
+
+
+def toppra_timing(result) -> dict:
+    """Both segments timed by the toppra reference, as parameterize times them."""
+    limits = resolve_limits(result)
+    robot = result.robot_model()
+    approach = np.asarray(result.grasp["approach"], dtype=float)
+    tips = np.array([np.asarray(robot.fk(config))[:3, 3] for config in approach])
+    top = result.table["height"] + result.object["thickness"]
+    return {
+        "trajectory": toppra_reference.time_path(np.asarray(result.trajectory), np.asarray(result.fingertip_poses)[:, :3],
+                                                 np.ones(len(result.trajectory), bool), limits, "trajectory"),
+        "approach": toppra_reference.time_path(approach, tips, tips[:, 2] < top + NEAR_TABLE_M, limits, "approach"),
+    }
+
+
+def median_seconds(function, repeat: int) -> float:
+    samples = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        function()
+        samples.append(time.perf_counter() - start)
+    return float(np.median(samples))
 
 
 def first_call_seconds(result) -> float:
@@ -61,45 +86,50 @@ def first_call_seconds(result) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--poses", type=int, default=10, help="seeded poses per object")
+    parser.add_argument("--poses", type=int, default=3, help="poses per Fig. 10 cell")
     parser.add_argument("--repeat", type=int, default=5, help="timings per plan (the median is kept)")
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parent.parent / "docs/benchmarks/timing.md")
     args = parser.parse_args()
 
-    plans = solved_plans(args.poses)  # plan() already timed them once: toppra is imported, the URDF parsed
-    per_plan, waypoints = [], []
+    plans = solved_plans(args.poses)
+    toppra_timing(plans[0])  # import toppra before timing it
+    ours, theirs, differences, waypoints = [], [], [], []
     for result in plans:
-        samples = []
-        for _ in range(args.repeat):
-            start = time.perf_counter()
-            parameterize(result)
-            samples.append(time.perf_counter() - start)
-        per_plan.append(float(np.median(samples)))
+        ours.append(median_seconds(lambda: parameterize(result), args.repeat))
+        theirs.append(median_seconds(lambda: toppra_timing(result), args.repeat))
+        reference = toppra_timing(result)
+        for segment in ("trajectory", "approach"):
+            duration = result.timing[segment]["time_from_start"][-1]
+            expected = reference[segment]["time_from_start"][-1]
+            differences.append(abs(duration - expected) / expected)
         waypoints.append((len(result.trajectory), len(result.grasp["approach"])))
-    per_plan = np.array(per_plan)
+    ours, theirs, differences = np.array(ours), np.array(theirs), np.array(differences)
     slide, approach = np.array(waypoints).T
+
+    def row(name, values):
+        return f"| {name} | {1e3 * np.median(values):.2f} ms | {1e3 * np.quantile(values, 0.9):.2f} ms | {1e3 * values.max():.2f} ms |"
 
     first_call = first_call_seconds(plans[0])
     lines = [
         f"# Time-parameterization benchmark ({datetime.date.today().isoformat()})",
         "",
         f"CPU: {cpu_name()}, {os.cpu_count()} cores (1-minute load average {os.getloadavg()[0]:.1f} at the end: other "
-        f"work on the machine slows the numbers); one thread. Square table, objects {', '.join(OBJECTS)}, "
-        f"{args.poses} seeded poses each: {len(plans)} solved plans; each parameterized {args.repeat} times "
-        "(its median kept). `parameterize` times the slide and the approach under the URDF velocity limits, "
-        "the default accelerations and the 5 cm/s fingertip cap.",
+        f"work on the machine slows the numbers); one thread. The Fig. 10 tasks, {args.poses} poses per table, object "
+        f"and scale: {len(plans)} solved plans; each timed {args.repeat} times by each implementation (its median kept), "
+        "slide and approach under the URDF velocity limits, the default accelerations and the 5 cm/s fingertip cap.",
         "",
         "| per plan | median | p90 | max |",
         "|---|---|---|---|",
-        f"| parameterize | {1e3 * np.median(per_plan):.1f} ms | {1e3 * np.quantile(per_plan, 0.9):.1f} ms | "
-        f"{1e3 * per_plan.max():.1f} ms |",
+        row("C++ TOPP-RA (`parameterize`)", ours),
+        row("toppra, Python (before)", theirs),
         "",
-        f"Waypoints per plan: slide median {int(np.median(slide))} (max {slide.max()}), approach median "
-        f"{int(np.median(approach))} (max {approach.max()}). Goal: under {1e3 * GOAL_S:.0f} ms per plan "
-        f"({'met' if np.quantile(per_plan, 0.9) < GOAL_S else 'NOT met'} at p90).",
+        f"Durations: the largest difference between the two over {len(differences)} segments is "
+        f"{100 * differences.max():.4f}% (median {100 * np.median(differences):.5f}%). Waypoints per plan: slide median "
+        f"{int(np.median(slide))} (max {slide.max()}), approach median {int(np.median(approach))} (max {approach.max()}). "
+        f"Goal: under {1e3 * GOAL_S:.0f} ms per plan ({'met' if np.quantile(ours, 0.9) < GOAL_S else 'NOT met'} at p90).",
         "",
-        f"Not included above: the first call in a fresh process also imports toppra (with matplotlib and scipy) "
-        f"and parses the URDF: {first_call:.2f} s, once.",
+        f"The first `parameterize` in a fresh process (its imports and the URDF parse included): {1e3 * first_call:.1f} ms. "
+        "`plan()` times a solved plan inside its C++ call, without the GIL.",
     ]
     write_report(lines, args.out)
 

@@ -792,7 +792,7 @@ def execute(
 
     Raises:
         InputError: the plan is not solved, or its robot cannot be imported (naming the element),
-            or a mesh is missing, or the timing block does not fit the plan, or toppra finds no
+            or a mesh is missing, or the timing block does not fit the plan, or TOPP-RA finds no
             timing of a segment this function times itself.
     """
     if result.status != "solved":

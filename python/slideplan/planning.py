@@ -14,7 +14,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 from xml.etree import ElementTree
 
 import numpy as np
@@ -24,10 +24,8 @@ from ._fields import is_number
 from .errors import InputError
 from .objects import ThinObject
 from .scenes import Scene
+from .timing import TimingOptions, core_limits, robot_limits, timing_from_dict
 from .transforms import homogeneous, pose_to_row, rotation_from_rpy, yawed_pose
-
-if TYPE_CHECKING:
-    from .timing import TimingOptions
 
 PLANNERS = ("slideplan", "cbirrt", "cbirrt2")
 PLAN_SCHEMA = "slideplan.plan/2"
@@ -342,6 +340,14 @@ class PlanResult:
         """Number of arm joints."""
         return len(self.joint_names)
 
+    def robot_model(self):
+        """The plan's robot as a ``_core.RobotModel`` (:func:`plan_robot` of its ``robot`` block, cached).
+
+        Raises:
+            InputError: the URDF or a mesh cannot be loaded, naming the file.
+        """
+        return plan_robot(self.robot)
+
     def to_dict(self) -> dict[str, Any]:
         """Return the plan as JSON-ready nested dicts and lists, ``schema`` first."""
         content = {item.name: getattr(self, item.name) for item in dataclasses.fields(self)}
@@ -454,8 +460,6 @@ def _read_timing(data: dict[str, Any]) -> dict[str, Any] | None:
     """The checked ``timing`` block of a plan dict, or None if it has none (``/1``, or null)."""
     if data.get("timing") is None:
         return None
-    from .timing import timing_from_dict
-
     dof = len(data["joint_names"])
     return timing_from_dict(data["timing"], dof, {"trajectory": len(data["trajectory"]), "approach": len(data["grasp"]["approach"])})
 
@@ -717,17 +721,19 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
 
     config = config or PlannerConfig.for_scene(scene)
     robot = robot_model(scene)
+    limits = robot_limits(robot, str(scene.urdf_path), robot.joint_names, timing)
     try:
+        # A solved plan is timed in the same call, without the GIL.
         core_result = _core.plan_sliding(**core_task(scene, obj, config), seed=config.seed,
-                                         grasp_map=grasp_map(scene, obj, config))
+                                         grasp_map=grasp_map(scene, obj, config), timing=core_limits(limits))
     except ValueError as error:
         # The core judges scene, object and parameters together: name them, rather than blame the scene file.
         raise InputError(f"planner rejected the input (scene {scene.source}, object {obj.name or 'unnamed'}): {error}") from None
+    except RuntimeError as error:
+        raise InputError(str(error), field="timing") from None
     result = _wrap_core_result(core_result, scene, obj, config, robot)
     if result.solved:
-        from .timing import parameterize
-
-        result.timing = parameterize(result, timing)
+        result.timing = {**core_result.timing, "limits": limits}
     return result
 
 

@@ -36,9 +36,6 @@ def examples(count: int) -> int:
 
 
 SCENE = load_scene("square")
-# The first solved plan imports toppra (about a second, for the time parameterization): import it here,
-# so that timed plans measure planning, whichever test runs first.
-import toppra  # noqa: E402, F401
 SLACK_S = 0.5  # a plan may overrun its time limit by at most this much
 
 finite = st.floats(min_value=-5.0, max_value=5.0, allow_nan=False)

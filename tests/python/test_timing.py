@@ -8,6 +8,8 @@ import csv
 import dataclasses
 import json
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -299,3 +301,71 @@ def test_plan_takes_timing_options():
     tips = fingertip_positions(result, result.trajectory)
     check_segment(result.trajectory, result.timing["trajectory"], URDF_VELOCITY, DEFAULT_JOINT_ACCELERATION,
                   tips, np.ones(len(tips), bool), 0.02)
+
+
+@pytest.fixture(scope="module")
+def table_plans():
+    """One solved plan per table of Fig. 10 (full scale), with the hand's parameters."""
+    from slideplan.experiments.tasks import build_spec
+
+    plans = {}
+    for task in build_spec("fig10", poses=2).tasks:
+        if task.scale == 1.0 and task.scene not in plans:
+            result = plan(load_scene(task.scene), task.placed_object(), task.planner_config())
+            if result.solved:
+                plans[task.scene] = result
+    assert set(plans) == {"square", "round", "long", "triangle"}
+    return list(plans.values())
+
+
+def test_the_cxx_profile_matches_toppra_within_two_percent(table_plans):
+    # The C++ TOPP-RA against the Python toppra it replaced (toppra_reference.py): same limits, same grid, durations
+    # within 2% (they agree to about 1e-4 on the Fig. 10 plans: benchmarks/timing_bench.py).
+    import toppra_reference  # tests/python; toppra is in the test extra
+    from slideplan.timing import resolve_limits
+
+    for result in table_plans:
+        limits = resolve_limits(result)
+        approach = np.asarray(result.grasp["approach"])
+        tips = fingertip_positions(result, approach)
+        object_top = result.table["height"] + result.object["thickness"]
+        reference = {
+            "trajectory": toppra_reference.time_path(np.asarray(result.trajectory), np.asarray(result.fingertip_poses)[:, :3],
+                                                     np.ones(len(result.trajectory), bool), limits, "trajectory"),
+            "approach": toppra_reference.time_path(approach, tips, tips[:, 2] < object_top + NEAR_TABLE_M, limits, "approach"),
+        }
+        for segment in ("trajectory", "approach"):
+            ours, theirs = result.timing[segment]["time_from_start"][-1], reference[segment]["time_from_start"][-1]
+            assert ours == pytest.approx(theirs, rel=0.02), (result.table, segment)
+
+
+def test_plan_times_in_the_planner_call_as_parameterize_does(table_plans):
+    # plan() times a solved plan inside the C++ call; parameterize() re-times a plan: the same profile.
+    for result in table_plans:
+        again = parameterize(result)
+        for segment in ("trajectory", "approach"):
+            for key in ("time_from_start", "velocities", "accelerations"):
+                np.testing.assert_array_equal(result.timing[segment][key], again[segment][key])
+
+
+def test_timed_plans_of_every_table_respect_every_limit(table_plans):
+    for result in table_plans:
+        limits = result.timing["limits"]
+        tips = fingertip_positions(result, result.trajectory)
+        check_segment(result.trajectory, result.timing["trajectory"], limits["joint_velocity"], limits["joint_acceleration"],
+                      tips, np.ones(len(tips), bool), limits["fingertip_speed"])
+        approach = np.asarray(result.grasp["approach"])
+        approach_tips = fingertip_positions(result, approach)
+        capped = approach_tips[:, 2] < result.table["height"] + result.object["thickness"] + NEAR_TABLE_M
+        check_segment(approach, result.timing["approach"], limits["joint_velocity"], limits["joint_acceleration"],
+                      approach_tips, capped, limits["fingertip_speed"])
+
+
+def test_importing_slideplan_and_planning_loads_no_plotting_physics_or_toppra():
+    # The CLI and a ROS node pay every import on every start: planning needs none of these.
+    code = ("import sys, slideplan; from slideplan import load_scene, load_object, plan; "
+            "s = load_scene('square'); r = plan(s, load_object('crescent', table_height=s.table.height, pose=(0.55, -0.08, 0.4))); "
+            "assert r.solved and r.timing is not None; "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'toppra', 'matplotlib', 'mujoco', 'pandas', 'viser'}))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

@@ -4,10 +4,12 @@
 #pragma once
 
 #include "slideplan/object_motion.hpp"
+#include "slideplan/timing.hpp"
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,6 +46,7 @@ namespace slideplan
         Eigen::VectorXd graspConfig;
         std::vector<Eigen::VectorXd> approach;            ///< dense, goal config to grasp config
         PlanStats stats;
+        std::optional<PlanTiming> timing;                 ///< timePlan's profile, when the caller asks for one
     };
 
 }  // namespace slideplan

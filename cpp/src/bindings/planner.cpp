@@ -2,6 +2,7 @@
 
 #include "slideplan/ompl_peer.hpp"
 #include "slideplan/planner.hpp"
+#include "slideplan/timing.hpp"
 
 #include <atomic>
 #include <chrono>
@@ -22,6 +23,33 @@ namespace slideplan::bindings
             for (std::size_t i = 0; i < rows.size(); ++i)
                 matrix.row(static_cast<long>(i)) = rows[i].transpose();
             return matrix;
+        }
+
+        Eigen::MatrixXd tipPositions(const std::vector<Eigen::Isometry3d> &frames)
+        {
+            Eigen::MatrixXd positions(static_cast<long>(frames.size()), 3);
+            for (std::size_t i = 0; i < frames.size(); ++i)
+                positions.row(static_cast<long>(i)) = frames[i].translation().transpose();
+            return positions;
+        }
+
+        py::dict timedSegment(const TimedPath &path)
+        {
+            py::dict segment;
+            segment["time_from_start"] = path.timeFromStart;
+            segment["velocities"] = path.velocities;
+            segment["accelerations"] = path.accelerations;
+            return segment;
+        }
+
+        py::object timingDict(const std::optional<PlanTiming> &timing)
+        {
+            if (!timing)
+                return py::none();
+            py::dict block;
+            block["trajectory"] = timedSegment(timing->trajectory);
+            block["approach"] = timedSegment(timing->approach);
+            return std::move(block);
         }
 
         py::array_t<double> poses(const std::vector<Eigen::Isometry3d> &frames)
@@ -53,7 +81,8 @@ namespace slideplan::bindings
                         const std::vector<Obstacle> &obstacles, const std::vector<std::string> &contactLinks,
                         const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints, const Eigen::Vector2d &objectCom,
                         const PlannerParams &params, std::uint64_t seed, double timeLimit, const std::string &graspLink,
-                        const Eigen::Matrix4d &graspOffset, std::shared_ptr<const GraspMap> graspMap)
+                        const Eigen::Matrix4d &graspOffset, std::shared_ptr<const GraspMap> graspMap,
+                        const std::optional<TimingLimits> &timing)
         {
             const auto task = makeTask(robot, table, obstacles, contactLinks, objectPoints, objectCom, graspLink, graspOffset,
                                        timeLimit);
@@ -81,6 +110,9 @@ namespace slideplan::bindings
             {
                 py::gil_scoped_release release;
                 result = planSliding(task, params, seed, ptc, std::move(graspMap));
+                if (timing && result.status == "solved")
+                    result.timing = timePlan(*robot, stack(result.trajectory, robot->dof()), tipPositions(result.fingertipPoses),
+                                             stack(result.approach, robot->dof()), task->surfaceZ, *timing);
             }
             if (interrupted)
                 throw py::error_already_set();  // the KeyboardInterrupt raised by the signal handler
@@ -188,7 +220,9 @@ namespace slideplan::bindings
                     stats["rejections"] = r.stats.rejections;
                     return stats;
                 },
-                "Planner statistics.");
+                "Planner statistics.")
+            .def_property_readonly("timing", [](const PlanResult &r) { return timingDict(r.timing); },
+                                   "The profile asked for with plan_sliding(timing=...) (as time_plan returns it), or None.");
 
         py::class_<GraspMap, std::shared_ptr<GraspMap>>(
             module, "GraspMap",
@@ -209,16 +243,65 @@ namespace slideplan::bindings
         module.def("plan_sliding", &plan, py::arg("robot"), py::arg("table"), py::arg("obstacles"), py::arg("contact_links"),
                    py::arg("object_points"), py::arg("object_com_xy"), py::arg("params"), py::arg("seed"),
                    py::arg("time_limit"), py::arg("grasp_link"), py::arg("grasp_offset") = Eigen::Matrix4d::Identity(),
-                   py::arg("grasp_map") = nullptr,
+                   py::arg("grasp_map") = nullptr, py::arg("timing") = py::none(),
                    "Plan a pre-grasp sliding motion (Algorithm 1). Releases the GIL; Ctrl-C raises KeyboardInterrupt.\n\n"
                    "robot: the shared, immutable RobotModel; table: SupportSurface Q; obstacles: BoxObstacle list; "
                    "contact_links: links that may touch table and object while sliding; object_points: (N, 3) top-surface "
                    "cloud P_o, world frame; object_com_xy: centre of mass; params: PlannerParams; seed: RNG seed; "
                    "time_limit: seconds; grasp_link, grasp_offset (4x4): the grasp frame H_g = link * offset; grasp_map: "
                    "a GraspMap shared with other plans of the same robot, table, grasp frame, thickness and grasp "
-                   "parameters (None: one of its own; the plan is the same either way).\n"
+                   "parameters (None: one of its own; the plan is the same either way); timing: TimingLimits to time "
+                   "a solved plan with (time_plan), still without the GIL, or None.\n"
                    "Raises ValueError for bad input (object off the table or degenerate, bad parameters, non-positive "
-                   "time limit, unknown grasp link, a grasp map made for other geometry).");
+                   "time limit, unknown grasp link, a grasp map made for other geometry, malformed timing limits); "
+                   "RuntimeError when a solved path has no rest-to-rest time parameterization.");
+
+        py::class_<TimingLimits>(module, "TimingLimits", "Limits of the time parameterization (timing.hpp).")
+            .def(py::init([](Eigen::VectorXd jointVelocity, Eigen::VectorXd jointAcceleration, double fingertipSpeed) {
+                     return TimingLimits{std::move(jointVelocity), std::move(jointAcceleration), fingertipSpeed};
+                 }),
+                 py::arg("joint_velocity"), py::arg("joint_acceleration"), py::arg("fingertip_speed"),
+                 "joint_velocity, joint_acceleration: (dof,) limits (rad/s, rad/s^2); fingertip_speed: the cap (m/s).")
+            .def_readonly("joint_velocity", &TimingLimits::jointVelocity, "(dof,) rad/s.")
+            .def_readonly("joint_acceleration", &TimingLimits::jointAcceleration, "(dof,) rad/s^2.")
+            .def_readonly("fingertip_speed", &TimingLimits::fingertipSpeed, "m/s.");
+        module.attr("NEAR_TABLE_M") = kNearTableM;
+        module.def(
+            "time_path",
+            [](const Eigen::MatrixXd &path, const Eigen::MatrixXd &tips, const std::vector<bool> &capped, const TimingLimits &limits) {
+                TimedPath timed;
+                {
+                    py::gil_scoped_release release;
+                    timed = timePath(path, tips, capped, limits);
+                }
+                return timedSegment(timed);
+            },
+            py::arg("path"), py::arg("tips"), py::arg("capped"), py::arg("limits"),
+            "Time one dense path from rest to rest (timing.hpp). Releases the GIL.\n\n"
+            "path: (M, dof) waypoints; tips: (M, 3) fingertip positions; capped: M flags, where the fingertip cap "
+            "applies (an interval is capped when either end is); limits: TimingLimits.\n"
+            "Returns {'time_from_start', 'velocities', 'accelerations'}. Raises ValueError for malformed input, "
+            "RuntimeError when no rest-to-rest parameterization exists.");
+        module.def(
+            "time_plan",
+            [](const RobotModel &robot, const Eigen::MatrixXd &trajectory, const Eigen::MatrixXd &trajectoryTips,
+               const Eigen::MatrixXd &approach, double objectTopZ, const TimingLimits &limits) {
+                PlanTiming timing;
+                {
+                    py::gil_scoped_release release;
+                    timing = timePlan(robot, trajectory, trajectoryTips, approach, objectTopZ, limits);
+                }
+                return timingDict(timing);
+            },
+            py::arg("robot"), py::arg("trajectory"), py::arg("trajectory_tips"), py::arg("approach"), py::arg("object_top_z"),
+            py::arg("limits"),
+            "Time-optimal rest-to-rest profiles of a plan's slide and approach (TOPP-RA, timing.hpp). Releases the GIL.\n\n"
+            "robot: the plan's RobotModel (its fingertip frame gives the approach's fingertip positions); trajectory: "
+            "(M, dof) slide, capped throughout; trajectory_tips: (M, 3) fingertip positions along it; approach: (K, dof) "
+            "move to the grasp, capped within NEAR_TABLE_M of object_top_z (m); limits: TimingLimits.\n"
+            "Returns {'trajectory': segment, 'approach': segment}, each {'time_from_start': (M,), 'velocities': (M, dof), "
+            "'accelerations': (M, dof)}. Raises ValueError for malformed input, RuntimeError when no rest-to-rest "
+            "parameterization exists.");
         module.def(
             "ompl_projected_connect",
             [](std::shared_ptr<const RobotModel> robot, const SupportSurface &table, const std::vector<Obstacle> &obstacles,
