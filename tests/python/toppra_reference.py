@@ -20,18 +20,7 @@ _MIN_PATH_STEP = 1e-6  # path-parameter step for repeated waypoints, so that tim
 
 
 def time_path(path: np.ndarray, tips: np.ndarray, capped: np.ndarray, limits: dict[str, Any], name: str) -> dict[str, np.ndarray]:
-    """Time one dense joint path from rest to rest (TOPP-RA, then the finite-difference check).
-
-    Args:
-        path: (M, dof) waypoints.
-        tips: (M, 3) fingertip positions at the waypoints (world frame).
-        capped: (M,) True where the fingertip speed cap applies (an interval is capped when
-            either of its ends is).
-        limits: as returned by :func:`resolve_limits`.
-        name: the segment's name, for error messages.
-
-    Returns:
-        ``{"time_from_start": (M,), "velocities": (M, dof), "accelerations": (M, dof)}``.
+    """:func:`slideplan.timing.time_path` (same arguments, same result) computed by toppra.
 
     Raises:
         RuntimeError: toppra finds no parameterization (a path it cannot follow at rest-to-rest).
