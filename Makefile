@@ -5,7 +5,7 @@ BUILD_DIR := build/py
 export CMAKE_BUILD_PARALLEL_LEVEL ?= 2
 
 APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev libompl-dev \
-                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev libassimp-dev libqhull-dev chromium \
+                libfcl-dev liborocos-kdl-dev liburdfdom-dev libgtest-dev libassimp-dev libqhull-dev libnanoflann-dev chromium \
                 libegl1 libegl-mesa0 libgl1-mesa-dri
 # chromium: the 3D view's browser test; the last three: Mesa's software EGL, for MuJoCo's headless renderer.
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)

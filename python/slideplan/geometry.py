@@ -9,6 +9,7 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
+from . import _core
 from ._fields import as_number, as_numbers
 from .errors import InputError
 
@@ -174,43 +175,26 @@ def area_centroid(xy) -> np.ndarray:
     of the region they cover, whatever their density (a mean of the points leans towards where they are
     denser: the bundled outlines' boundary rings put the crescent's mean 3.2 mm off its centroid).
 
-    The region is the union of the Delaunay triangles of the points whose longest edge is at most
-    one and a half times the local point spacing at its corners (a grid's diagonals stay, gaps of two spacings go) (an alpha shape): it follows concave outlines
-    and holes wider than that. The one place the centre of mass is computed: objects, perception,
-    and through them the planner and execution (the verifier re-derives it on purpose, separately).
+    The region is the union of the Delaunay triangles of the points whose longest edge is at most one
+    and a half times the local point spacing at its corners (the mean distance to a point's 6 nearest
+    neighbours: a grid's diagonals stay, gaps of two spacings go), an alpha shape: it follows concave
+    outlines and holes wider than that. Clouds over 20,000 points are thinned to one point per 1 mm cell
+    first. Computed in C++ (``_core.area_centroid``, Qhull and nanoflann, without the GIL). The one place
+    the centre of mass is computed: objects, perception, and through them the planner and execution (the
+    verifier re-derives it on purpose from the plan's points).
 
     Args:
-        xy: (N, 2) points, N >= 3, not all on one line.
+        xy: (N, 2) points, N >= 1.
 
     Returns:
         (2,) area centroid; the points' mean for a cloud that covers no area.
+
+    Raises:
+        InputError: ``xy`` is not (N, 2) with N >= 1, or a point is not finite (field ``xy``).
     """
-    from scipy.spatial import Delaunay, QhullError, cKDTree
-
-    points = np.asarray(xy, dtype=float)
-    if len(points) > 20_000:
-        # One point per 1 mm cell: the region stays the same to a fraction of a millimetre, and a
-        # 100,000-point cloud triangulates in 0.2 s instead of 1.6 s.
-        _, first = np.unique(np.floor(points / 1e-3).astype(np.int64), axis=0, return_index=True)
-        points = points[np.sort(first)]
-    try:
-        simplices = Delaunay(points).simplices
-    except (QhullError, ValueError):
-        return points.mean(axis=0)
-    triangles = points[simplices]  # (m, 3, 2)
-    # Each point's own spacing (the mean distance to its 6 nearest neighbours), so that a cloud denser in
-    # one part keeps the triangles of its sparser part.
-    spacing = cKDTree(points).query(points, k=min(7, len(points)))[0][:, 1:].mean(axis=1)
-    longest = np.max(np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2), axis=1)
-    kept = triangles[longest <= 1.5 * spacing[simplices].max(axis=1)]
-    areas = triangle_areas(kept)
-    if areas.sum() <= 0.0:
-        return points.mean(axis=0)
-    return (areas[:, None] * kept.mean(axis=1)).sum(axis=0) / areas.sum()
-
-
-def triangle_areas(triangles: np.ndarray) -> np.ndarray:
-    """Return the (unsigned) areas of (m, 3, 2) triangles as an (m,) array."""
-    edge_1 = triangles[:, 1] - triangles[:, 0]
-    edge_2 = triangles[:, 2] - triangles[:, 0]
-    return 0.5 * np.abs(edge_1[:, 0] * edge_2[:, 1] - edge_1[:, 1] * edge_2[:, 0])
+    points = np.ascontiguousarray(xy, dtype=float)
+    if points.ndim != 2 or points.shape[1] != 2 or len(points) == 0:
+        raise InputError(f"expected (N, 2) points with N >= 1, got shape {points.shape}", field="xy")
+    if not np.isfinite(points).all():
+        raise InputError("a point is not finite", field="xy")
+    return np.asarray(_core.area_centroid(points))

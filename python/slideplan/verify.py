@@ -231,11 +231,11 @@ def contact_angles(pose: np.ndarray) -> tuple[float, float, float]:
 def _start_contact_violations(cloud_xy: np.ndarray, tip_xy: np.ndarray) -> list[str]:
     """Eq. 3: the slide starts with the fingertip on the object (within the cloud's own point spacing
     of one of its points), or nothing is pushed."""
-    from scipy.spatial import cKDTree
-
-    tree = cKDTree(cloud_xy)
-    spacing = float(np.median(tree.query(cloud_xy, k=2)[0][:, 1])) if len(cloud_xy) > 1 else 0.0
-    gap = float(tree.query(tip_xy)[0])
+    tree = shapely.STRtree(shapely.points(cloud_xy))
+    # Each point's nearest other point (exclusive: not itself, nor its duplicates).
+    nearest = tree.query_nearest(tree.geometries, return_distance=True, exclusive=True, all_matches=False)[1]
+    spacing = float(np.median(nearest)) if len(nearest) else 0.0
+    gap = float(tree.query_nearest(shapely.Point(tip_xy), return_distance=True, all_matches=False)[1][0])
     if gap <= max(spacing, 1e-3):
         return []
     return [f"trajectory[0]: the fingertip is {gap:.4f} m from the nearest point of the object (point spacing "

@@ -1,4 +1,5 @@
 #include "slideplan/contact_frame.hpp"
+#include "slideplan/area_centroid.hpp"
 #include "slideplan/geometry.hpp"
 
 #include <Eigen/Geometry>
@@ -152,4 +153,39 @@ TEST(ContactFrame, RotationHasTheRequestedAngles)
             EXPECT_NEAR(angles.roll, 0.0, 1e-12);
             EXPECT_NEAR(-r.col(2).z(), std::sin(pitch), 1e-12);  // Z_F points into the surface
         }
+}
+
+// The area centroid follows the region the points cover, not where they are dense.
+TEST(AreaCentroid, IsTheCentroidOfTheCoveredRegionWhateverTheDensity)
+{
+    // A 40 mm x 10 mm plate: its left half sampled every 0.25 mm, its right half every 1 mm (16 times
+    // sparser). The mean leans 8.7 mm to the left; the area centroid is the plate's middle.
+    std::vector<Eigen::Vector2d> points;
+    for (int i = 0; i <= 80; ++i)
+        for (int j = 0; j <= 40; ++j)
+            points.emplace_back(i * 0.25e-3, j * 0.25e-3);
+    for (int i = 21; i <= 40; ++i)
+        for (int j = 0; j <= 10; ++j)
+            points.emplace_back(i * 1e-3, j * 1e-3);
+    Points2 cloud(static_cast<Eigen::Index>(points.size()), 2);
+    for (std::size_t k = 0; k < points.size(); ++k)
+        cloud.row(static_cast<Eigen::Index>(k)) = points[k].transpose();
+    const Eigen::Vector2d middle(20e-3, 5e-3);
+    EXPECT_LT((areaCentroid(cloud) - middle).norm(), 1e-9);
+    EXPECT_GT((cloud.colwise().mean().transpose() - middle).norm(), 5e-3);
+    // A gap of 10 spacings between two such plates is not part of the object.
+    Points2 twoPlates(2 * cloud.rows(), 2);
+    twoPlates << cloud, cloud.rowwise() + Eigen::RowVector2d(0.05, 0.0);
+    EXPECT_LT((areaCentroid(twoPlates) - (middle + Eigen::Vector2d(0.025, 0.0))).norm(), 1e-9);
+}
+
+TEST(AreaCentroid, IsTheMeanWhenThePointsCoverNoArea)
+{
+    Points2 line(5, 2);
+    line << 0, 0, 1, 1, 2, 2, 3, 3, 4, 4;
+    EXPECT_TRUE(areaCentroid(line).isApprox(Eigen::Vector2d(2, 2)));
+    Points2 bad(1, 2);
+    bad << 0, std::nan("");
+    EXPECT_THROW(areaCentroid(bad), std::invalid_argument);
+    EXPECT_THROW(areaCentroid(Points2(0, 2)), std::invalid_argument);
 }

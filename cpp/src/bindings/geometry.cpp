@@ -1,5 +1,6 @@
 #include "bindings.hpp"
 
+#include "slideplan/area_centroid.hpp"
 #include "slideplan/contact_frame.hpp"
 #include "slideplan/geometry.hpp"
 
@@ -32,6 +33,10 @@ namespace slideplan::bindings
             .def_property_readonly("is_convex", &SupportSurface::isConvex, "Whether Q is convex.")
             .def_property_readonly("triangles", &SupportSurface::triangles, "Ear-clipping triangles (vertex indices).");
 
+        module.def("area_centroid", &areaCentroid, py::arg("points"), py::call_guard<py::gil_scoped_release>(),
+                   "Centre of mass of a uniform thin plate known by (N, 2) points of its top surface: the area "
+                   "centroid of the alpha shape they cover, whatever their density (the points' mean if they "
+                   "cover no area). Raises ValueError for no points or a non-finite one.");
         module.def("contact_rotation", &contactRotation, py::arg("yaw"), py::arg("pitch"),
                    "r(alpha, beta) of Eqs. 3-4: fingertip orientation for yaw alpha and pitch beta (3x3).");
         module.def(
