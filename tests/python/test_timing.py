@@ -361,11 +361,14 @@ def test_timed_plans_of_every_table_respect_every_limit(table_plans):
                       approach_tips, capped, limits["fingertip_speed"])
 
 
-def test_importing_slideplan_and_planning_loads_no_plotting_physics_or_toppra():
-    # The CLI and a ROS node pay every import on every start: planning needs none of these.
-    code = ("import sys, slideplan; from slideplan import load_scene, load_object, plan; "
-            "s = load_scene('square'); r = plan(s, load_object('crescent', table_height=s.table.height, pose=(0.55, -0.08, 0.4))); "
-            "assert r.solved and r.timing is not None; "
-            "print(sorted({m.split('.')[0] for m in sys.modules} & {'toppra', 'matplotlib', 'mujoco', 'pandas', 'viser'}))")
+def test_slideplan_plan_loads_no_plotting_physics_scipy_or_toppra(tmp_path):
+    # The CLI and a ROS node pay every import on every start: planning, verifying and writing a plan need
+    # none of these (scipy.spatial alone cost 0.4 s a call; pydantic comes with typer 0.29).
+    code = ("import sys; from slideplan.cli import app; "
+            "app(['plan', '--scene', 'square', '--object', 'crescent', '--pose', '0.55', '-0.08', '0.4', "
+            f"'--json', {str(tmp_path / 'p.json')!r}], standalone_mode=False); "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & "
+            "{'toppra', 'matplotlib', 'mujoco', 'pandas', 'viser', 'scipy', 'pydantic'}))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "[]"
+    assert json.loads((tmp_path / "p.json").read_text())["status"] == "solved"
+    assert out.strip().splitlines()[-1] == "[]"
