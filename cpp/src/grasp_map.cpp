@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace slideplan
 {
@@ -167,6 +168,30 @@ namespace slideplan
     {
         const std::lock_guard<std::mutex> lock(mutex_);
         return known_.size();
+    }
+
+    std::vector<GraspMap::Entry> GraspMap::entries() const
+    {
+        const std::lock_guard<std::mutex> lock(mutex_);
+        std::vector<Entry> all;
+        all.reserve(known_.size());
+        for (const auto &[stretch, grasp] : known_)
+            all.push_back({stretch.first, stretch.second, grasp});
+        return all;
+    }
+
+    void GraspMap::remember(const std::vector<Entry> &entries)
+    {
+        const long edges = static_cast<long>(geometry_.table->vertices().rows());
+        const long dof = static_cast<long>(geometry_.robot->dof());
+        for (const Entry &entry : entries)
+            if (entry.edge < 0 || entry.edge >= edges || entry.cell < 0 ||
+                (entry.grasp.size() != 0 && (entry.grasp.size() != dof || !entry.grasp.allFinite())))
+                throw std::invalid_argument("grasp map entry (edge " + std::to_string(entry.edge) + ", cell " +
+                                            std::to_string(entry.cell) + ") does not fit this robot and table");
+        const std::lock_guard<std::mutex> lock(mutex_);
+        for (const Entry &entry : entries)
+            known_.emplace(std::make_pair(entry.edge, entry.cell), entry.grasp);
     }
 
 }  // namespace slideplan

@@ -16,7 +16,6 @@ Set the environment variable ``SLIDEPLAN_OMPL_LOG`` to keep OMPL's own log level
 """
 
 import os
-from importlib.metadata import PackageNotFoundError, version
 
 from . import _core
 from .errors import InputError
@@ -27,10 +26,18 @@ from .planning import PlannerConfig, PlanResult, plan
 from .scenes import Scene, load_scene
 from .verify import Verification, verify
 
-try:
-    __version__ = version("slideplan")
-except PackageNotFoundError:  # running from a source checkout without installing
-    __version__ = "0.1.0"
+
+
+def __getattr__(name: str):
+    # __version__ on demand: importlib.metadata costs every CLI call 40-80 ms to import.
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return version("slideplan")
+        except PackageNotFoundError:  # running from a source checkout without installing
+            return "0.1.0"
+    raise AttributeError(f"module 'slideplan' has no attribute {name!r}")
 
 if "SLIDEPLAN_OMPL_LOG" not in os.environ:
     _core.set_ompl_log_level(4)  # warnings and errors only: Debian's OMPL logs debug output by default

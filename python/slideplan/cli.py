@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import os
 import time
 import warnings
 from pathlib import Path
@@ -23,6 +24,7 @@ from typing import Optional, Tuple
 import numpy as np
 import typer
 
+from . import grasp_cache
 from .errors import InputError
 from .objects import CLOUD_SUFFIXES, ThinObject, load_object, load_outline, sample_pose_on_table
 from .planning import PLANNERS, PlannerConfig, PlanResult
@@ -246,12 +248,18 @@ def plan_command(
     ),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Write the plan JSON (slideplan.plan/2) here."),
     png_out: Optional[Path] = typer.Option(None, "--png", help="Write a top-down picture here (.png or .svg)."),
+    no_cache: bool = typer.Option(
+        False, "--no-cache", help="Neither read nor write the stored grasp map (as SLIDEPLAN_NO_CACHE=1; "
+        "SLIDEPLAN_CACHE_DIR moves it): every edge stretch the plan needs is probed anew."
+    ),
 ) -> None:
     """Plan a pre-grasp sliding motion and verify it.
 
     Exit codes: 0 solved and verified, 1 not solved within the time limit, 2 bad input,
     3 solved but the plan fails verification.
     """
+    if no_cache:
+        os.environ[grasp_cache.NO_CACHE_ENV] = "1"
     try:
         task_scene = load_scene(scene)
         config = _config_from_options(task_scene, seed, time_limit, reconfiguration_range, planner, param, preset)

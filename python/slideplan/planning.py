@@ -19,7 +19,7 @@ from xml.etree import ElementTree
 
 import numpy as np
 
-from . import _core
+from . import _core, grasp_cache
 from ._fields import is_number
 from .errors import InputError
 from .objects import ThinObject
@@ -637,41 +637,50 @@ def core_obstacles(entries: list[dict[str, Any]]) -> list:
 
 @functools.lru_cache(maxsize=32)
 def _cached_grasp_map(robot, vertices: tuple, height: float, grasp_link: str, grasp_offset: tuple, thickness: float,
-                      params_key: tuple):
+                      params_key: tuple, stored: Path | None):
     from . import _core
 
     params = _core.PlannerParams()
     params.grasp_standoff, params.u_star, params.grasp_lift, params.grasp_flip, params.lift_check = params_key
     table = _core.SupportSurface(np.array(vertices, dtype=float), height)
-    return _core.GraspMap(robot, table, grasp_link, np.array(grasp_offset, dtype=float).reshape(4, 4), thickness, params)
+    core_map = _core.GraspMap(robot, table, grasp_link, np.array(grasp_offset, dtype=float).reshape(4, 4), thickness, params)
+    grasp_cache.restore(core_map, stored)
+    return core_map
 
 
 def clear_grasp_map_cache() -> None:
-    """Forget the cached grasp maps: the next plan of every table probes its map anew, as a fresh process does."""
+    """Forget the grasp maps held in memory: the next plan of every table starts from the stored map (or
+    probes anew if the disk cache is off, :mod:`slideplan.grasp_cache`), as a fresh process does."""
     _cached_grasp_map.cache_clear()
+
+
+def _grasp_map_and_file(scene: Scene, obj: ThinObject, config: PlannerConfig):
+    points = np.asarray(obj.points, dtype=float)
+    height = float(scene.table.height)
+    vertices = tuple(map(tuple, np.asarray(scene.table.vertices, dtype=float)))
+    # As the core measures it (z_s is the cloud's mean height) and to the micrometre, as the map keeps
+    # it: clouds of one thickness differ in the last bits of their mean and must still share the map.
+    thickness = round(float(points[:, 2].mean()) - height, 6)
+    params_key = (config.grasp_standoff, config.u_star, config.grasp_lift, config.grasp_flip, config.lift_check)
+    try:
+        stored = grasp_cache.map_path(robot_description(scene), vertices, height, thickness, params_key)
+    except OSError as error:
+        raise InputError(f"cannot read the robot ({error})", source=scene.source, field="robot") from None
+    core_map = _cached_grasp_map(robot_model(scene), vertices, height, scene.hand.grasp_link,
+                                 tuple(base_pose_matrix(scene.hand.grasp_offset).ravel()), thickness, params_key, stored)
+    return core_map, stored
 
 
 def grasp_map(scene: Scene, obj: ThinObject, config: PlannerConfig):
     """The grasp map (``_core.GraspMap``) of the scene's robot and table for this object's thickness and
-    the config's grasp parameters, cached: plans of many objects on one table probe each edge stretch
-    once. Its answers depend only on that geometry, so a plan is the same with a fresh map or a shared one.
+    the config's grasp parameters, cached in memory and on disk (:mod:`slideplan.grasp_cache`): plans of
+    many objects on one table probe each edge stretch once. Its answers depend only on that geometry, so
+    a plan is the same with a fresh map or a shared one.
 
     Raises:
         InputError: the robot cannot be loaded.
     """
-    points = np.asarray(obj.points, dtype=float)
-    height = float(scene.table.height)
-    return _cached_grasp_map(
-        robot_model(scene),
-        tuple(map(tuple, np.asarray(scene.table.vertices, dtype=float))),
-        height,
-        scene.hand.grasp_link,
-        tuple(base_pose_matrix(scene.hand.grasp_offset).ravel()),
-        # As the core measures it (z_s is the cloud's mean height) and to the micrometre, as the map keeps
-        # it: clouds of one thickness differ in the last bits of their mean and must still share the map.
-        round(float(points[:, 2].mean()) - height, 6),
-        (config.grasp_standoff, config.u_star, config.grasp_lift, config.grasp_flip, config.lift_check),
-    )
+    return _grasp_map_and_file(scene, obj, config)[0]
 
 
 def core_task(scene: Scene, obj: ThinObject, config: PlannerConfig) -> dict[str, Any]:
@@ -722,15 +731,17 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
     config = config or PlannerConfig.for_scene(scene)
     robot = robot_model(scene)
     limits = robot_limits(robot, str(scene.urdf_path), robot.joint_names, timing)
+    shared_map, stored = _grasp_map_and_file(scene, obj, config)
     try:
         # A solved plan is timed in the same call, without the GIL.
         core_result = _core.plan_sliding(**core_task(scene, obj, config), seed=config.seed,
-                                         grasp_map=grasp_map(scene, obj, config), timing=core_limits(limits))
+                                         grasp_map=shared_map, timing=core_limits(limits))
     except ValueError as error:
         # The core judges scene, object and parameters together: name them, rather than blame the scene file.
         raise InputError(f"planner rejected the input (scene {scene.source}, object {obj.name or 'unnamed'}): {error}") from None
     except RuntimeError as error:
         raise InputError(str(error), field="timing") from None
+    grasp_cache.persist(shared_map, stored)
     result = _wrap_core_result(core_result, scene, obj, config, robot)
     if result.solved:
         result.timing = {**core_result.timing, "limits": limits}

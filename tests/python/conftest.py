@@ -1,10 +1,20 @@
 """Fixtures shared by the timing, export and view tests."""
 
+import os
+
 import pytest
 
 from slideplan.objects import load_object
 from slideplan.planning import PlannerConfig, plan
 from slideplan.scenes import load_scene
+
+
+@pytest.fixture(scope="session", autouse=True)
+def grasp_map_store(tmp_path_factory):
+    """Stored grasp maps go to a folder of this run (subprocesses inherit it), never the user's cache."""
+    folder = tmp_path_factory.mktemp("cache")
+    os.environ["SLIDEPLAN_CACHE_DIR"] = str(folder)
+    return folder
 
 
 @pytest.fixture(scope="session")

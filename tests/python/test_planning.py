@@ -52,8 +52,9 @@ def test_same_seed_gives_the_same_plan():
     assert first.object_motion == second.object_motion
 
 
-def test_a_warm_grasp_map_gives_the_plan_a_fresh_one_gives():
+def test_a_warm_grasp_map_gives_the_plan_a_fresh_one_gives(monkeypatch):
     # The triangle table: its far edges are where the map rules grasps out.
+    monkeypatch.setenv("SLIDEPLAN_NO_CACHE", "1")  # fresh means fresh: no stored map (test_grasp_cache.py)
     scene, obj = task("triangle", "crescent", pose_seed=3)
     config = PlannerConfig.for_scene(scene, seed=2, time_limit_s=30.0)
     _cached_grasp_map.cache_clear()

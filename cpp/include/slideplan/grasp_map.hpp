@@ -9,6 +9,7 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <vector>
 #include <random>
 #include <utility>
 
@@ -62,6 +63,25 @@ namespace slideplan
 
         /// Stretches probed so far (for statistics).
         std::size_t probed() const;
+
+        /// One probed stretch: its edge, its kStretch cell along the edge, and its grasp configuration
+        /// (empty: no reachable grasp).
+        struct Entry
+        {
+            int edge;
+            long cell;
+            Eigen::VectorXd grasp;
+        };
+
+        /// Every stretch probed so far, in (edge, cell) order: what a persisted map stores.
+        std::vector<Entry> entries() const;
+
+        /// Take the answers of an earlier map of the same inputs (a persisted one), so that their
+        /// stretches are not probed again; stretches already known keep their answer. Answers depend only
+        /// on the inputs, so a plan is the same with a remembered map or a fresh one.
+        /// \throws std::invalid_argument if an entry names no edge of the table, a negative cell, or a
+        ///         grasp that is not empty, not finite or not of the robot's joint count (nothing is taken).
+        void remember(const std::vector<Entry> &entries);
 
     private:
         static constexpr long kAnchor = 5;  ///< stretches: every kAnchor-th of an edge is probed on its own

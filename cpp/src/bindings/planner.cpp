@@ -239,7 +239,30 @@ namespace slideplan::bindings
                  "robot: the shared RobotModel; table: SupportSurface Q; grasp_link, grasp_offset (4x4): H_g; thickness: "
                  "the object's (m); params: PlannerParams (grasp_standoff, u_star, grasp_lift, grasp_flip are used). "
                  "Raises ValueError for an unknown grasp link or a negative thickness.")
-            .def_property_readonly("probed", &GraspMap::probed, "Stretches probed so far.");
+            .def_property_readonly("probed", &GraspMap::probed, "Stretches probed so far.")
+            .def(
+                "entries",
+                [](const GraspMap &map) {
+                    py::list out;
+                    for (const GraspMap::Entry &entry : map.entries())
+                        out.append(py::make_tuple(entry.edge, entry.cell, entry.grasp));
+                    return out;
+                },
+                "Every stretch probed so far as (edge, cell, grasp configuration; empty if unreachable), in (edge, cell) "
+                "order: what a persisted map stores.")
+            .def(
+                "remember",
+                [](GraspMap &map, const std::vector<std::tuple<int, long, Eigen::VectorXd>> &entries) {
+                    std::vector<GraspMap::Entry> taken;
+                    taken.reserve(entries.size());
+                    for (const auto &[edge, cell, grasp] : entries)
+                        taken.push_back({edge, cell, grasp});
+                    map.remember(taken);
+                },
+                py::arg("entries"),
+                "Take the entries() of an earlier map of the same inputs, so that their stretches are not probed "
+                "again (known stretches keep their answer). Raises ValueError, taking nothing, for an entry that names "
+                "no edge, a negative cell, or a grasp not empty and not of the robot's joint count.");
         module.def("plan_sliding", &plan, py::arg("robot"), py::arg("table"), py::arg("obstacles"), py::arg("contact_links"),
                    py::arg("object_points"), py::arg("object_com_xy"), py::arg("params"), py::arg("seed"),
                    py::arg("time_limit"), py::arg("grasp_link"), py::arg("grasp_offset") = Eigen::Matrix4d::Identity(),
