@@ -71,6 +71,7 @@ bench: install
 	  --variants "slideplan hand" --out docs/benchmarks/clutter.md
 	$(PYTHON) benchmarks/thread_bench.py
 	$(PYTHON) benchmarks/timing_bench.py
+	$(PYTHON) benchmarks/cli_bench.py
 	$(PYTHON) benchmarks/perceive_bench.py
 	$(PYTHON) benchmarks/execute_bench.py
 

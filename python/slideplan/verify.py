@@ -234,7 +234,8 @@ def _start_contact_violations(cloud_xy: np.ndarray, tip_xy: np.ndarray) -> list[
     tree = shapely.STRtree(shapely.points(cloud_xy))
     # Each point's nearest other point (exclusive: not itself, nor its duplicates).
     nearest = tree.query_nearest(tree.geometries, return_distance=True, exclusive=True, all_matches=False)[1]
-    spacing = float(np.median(nearest)) if len(nearest) else 0.0
+    ordered = np.sort(nearest)  # its median; np.median would import numpy.ma (16 ms of every CLI plan)
+    spacing = 0.5 * float(ordered[(len(ordered) - 1) // 2] + ordered[len(ordered) // 2]) if len(ordered) else 0.0
     gap = float(tree.query_nearest(shapely.Point(tip_xy), return_distance=True, all_matches=False)[1][0])
     if gap <= max(spacing, 1e-3):
         return []
