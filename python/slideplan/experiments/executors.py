@@ -31,10 +31,10 @@ class TaskExecutor(Protocol):
 class LocalPoolExecutor:
     """Run tasks in a pool of local worker processes or threads (``concurrent.futures``).
 
-    Plans are independent in threads (docs/design.md 9) and the C++ planner releases the GIL, so threads
-    share one parsed robot; but the Python timing step holds the GIL and takes most of a plan's time,
-    so processes plan more tasks per second (two threads 0.98x, two processes 1.7x one worker on 2
-    cores, docs/benchmarks/threads.md).
+    Plans are independent in threads (docs/design.md 9) and the C++ planner, its time parameterization
+    and the centre of mass release the GIL, so threads share one parsed robot and scale (two threads
+    1.86x one on 2 cores for plan() alone, docs/benchmarks/threads.md); a task also builds its scene and
+    object in Python, which holds the GIL.
     Processes are started with ``spawn``, not ``fork``: the parent runs a progress-bar
     thread, and forking a threaded process can deadlock the child. If a worker process dies
     (e.g. a crash in the C++ core) the pool breaks: every unfinished task comes back with
