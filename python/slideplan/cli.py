@@ -410,6 +410,31 @@ def view_command(
         pass
     finally:
         shown.server.stop()
+@contextlib.contextmanager
+def _progress_line(what: str, after_s: float = 2.0):
+    """A callback showing the simulated time on stderr once a run has taken ``after_s`` of wall time: one
+    line rewritten in place on a terminal, a line every 5 s in a log."""
+    import sys
+
+    terminal = sys.stderr.isatty()
+    started = time.perf_counter()
+    shown = [0.0]  # wall time of the last line; 0.0: none yet
+
+    def progress(simulated_s: float) -> None:
+        wall = time.perf_counter() - started
+        if wall < after_s or (shown[0] and wall - shown[0] < (0.25 if terminal else 5.0)):
+            return
+        shown[0] = wall
+        line = f"{what}: {simulated_s:.1f} s simulated in {wall:.0f} s"
+        typer.echo(f"\r{line}" if terminal else line, err=True, nl=not terminal)
+
+    try:
+        yield progress
+    finally:
+        if terminal and shown[0]:
+            typer.echo("\r\033[K", err=True, nl=False)  # clear the line before the summary
+
+
 @app.command("execute")
 def execute_command(
     plan_file: Path = typer.Argument(..., help="A solved plan JSON (slideplan.plan/1, or /2 with a timing block)."),
@@ -430,7 +455,9 @@ def execute_command(
         from .execute import ExecutionSettings, execute, read_plan
 
         result, timing = read_plan(plan_file)
-        execution = execute(result, ExecutionSettings(tip_speed=tip_speed), timing=timing, video=video)
+        with _progress_line("executing" + (f", rendering {video.name}" if video is not None else "")) as progress:
+            execution = execute(result, ExecutionSettings(tip_speed=tip_speed), timing=timing, video=video,
+                                progress=progress)
         if json_out is not None:
             json_out.parent.mkdir(parents=True, exist_ok=True)
             json_out.write_text(execution.to_json(indent=1))

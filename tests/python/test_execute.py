@@ -271,3 +271,20 @@ def test_object_boxes_cover_a_non_convex_outline_and_not_its_hollow():
     assert covered.difference(outline).area < 0.2 * outline.area  # overfill only along the edges
     hollow = outline.convex_hull.difference(outline.buffer(0.01))
     assert hollow.area > 0 and covered.intersection(hollow).area < 0.05 * hollow.area
+
+
+def test_progress_reports_the_simulated_time_as_it_goes(slide_plan):
+    seen = []
+    execution = execute(slide_plan, progress=seen.append)
+    assert len(seen) >= 10 and np.all(np.diff(seen) >= 0.1 - 1e-9)
+    assert 0.0 < seen[-1] <= execution.sim_time_s and execution.sim_time_s - seen[-1] < 0.2
+
+
+def test_cli_progress_line_is_one_line_per_interval_in_a_log(capsys):
+    from slideplan.cli import _progress_line
+
+    with _progress_line("executing", after_s=0.0) as progress:
+        progress(1.0)
+        progress(1.1)  # within 5 s of wall time of the first: not shown
+    err = capsys.readouterr().err
+    assert err.splitlines() == ["executing: 1.0 s simulated in 0 s"]
