@@ -731,11 +731,13 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
     config = config or PlannerConfig.for_scene(scene)
     robot = robot_model(scene)
     limits = robot_limits(robot, str(scene.urdf_path), robot.joint_names, timing)
-    shared_map, stored = _grasp_map_and_file(scene, obj, config)
     try:
+        shared_map, stored = _grasp_map_and_file(scene, obj, config)
         # A solved plan is timed in the same call, without the GIL.
         core_result = _core.plan_sliding(**core_task(scene, obj, config), seed=config.seed,
                                          grasp_map=shared_map, timing=core_limits(limits))
+    except InputError:
+        raise
     except ValueError as error:
         # The core judges scene, object and parameters together: name them, rather than blame the scene file.
         raise InputError(f"planner rejected the input (scene {scene.source}, object {obj.name or 'unnamed'}): {error}") from None

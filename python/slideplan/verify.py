@@ -20,7 +20,7 @@ import shapely
 from shapely.geometry import MultiPoint
 
 from .geometry import SupportSurface, area_centroid
-from .planning import build_robot, core_obstacles
+from .planning import core_obstacles
 from .scenes import obstacle_footprint
 from .transforms import move_planar, rotation_2d, rotation_angle_between, row_to_pose, wrap_angle
 
@@ -124,7 +124,7 @@ def _rebuild_world(result: PlanResult) -> _PlanWorld:
     """Load the plan's robot and build its table and collision world (sliding: no object)."""
     from . import _core
 
-    robot = build_robot(result.robot)
+    robot = result.robot_model()  # the parsed URDF, shared (immutable): a mesh robot takes 0.5 s to parse
     polygon = np.asarray(result.table["polygon"], dtype=float)
     height = float(result.table["height"])
     obstacles = core_obstacles(result.obstacles)
