@@ -27,7 +27,6 @@ from .scenes import Scene, load_scene
 from .verify import Verification, verify
 
 
-
 def __getattr__(name: str):
     # __version__ on demand: importlib.metadata costs every CLI call 40-80 ms to import.
     if name == "__version__":
@@ -38,6 +37,7 @@ def __getattr__(name: str):
         except PackageNotFoundError:  # running from a source checkout without installing
             return "0.1.0"
     raise AttributeError(f"module 'slideplan' has no attribute {name!r}")
+
 
 if "SLIDEPLAN_OMPL_LOG" not in os.environ:
     _core.set_ompl_log_level(4)  # warnings and errors only: Debian's OMPL logs debug output by default

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import os
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -410,28 +411,29 @@ def view_command(
         pass
     finally:
         shown.server.stop()
+
+
 @contextlib.contextmanager
 def _progress_line(what: str, after_s: float = 2.0):
     """A callback showing the simulated time on stderr once a run has taken ``after_s`` of wall time: one
     line rewritten in place on a terminal, a line every 5 s in a log."""
-    import sys
-
     terminal = sys.stderr.isatty()
     started = time.perf_counter()
-    shown = [0.0]  # wall time of the last line; 0.0: none yet
+    last_shown = None  # wall time of the last line
 
     def progress(simulated_s: float) -> None:
+        nonlocal last_shown
         wall = time.perf_counter() - started
-        if wall < after_s or (shown[0] and wall - shown[0] < (0.25 if terminal else 5.0)):
+        if wall < after_s or (last_shown is not None and wall - last_shown < (0.25 if terminal else 5.0)):
             return
-        shown[0] = wall
+        last_shown = wall
         line = f"{what}: {simulated_s:.1f} s simulated in {wall:.0f} s"
         typer.echo(f"\r{line}" if terminal else line, err=True, nl=not terminal)
 
     try:
         yield progress
     finally:
-        if terminal and shown[0]:
+        if terminal and last_shown is not None:
             typer.echo("\r\033[K", err=True, nl=False)  # clear the line before the summary
 
 

@@ -835,6 +835,9 @@ def execute(
     renderer, camera = None, None
     if video is not None:
         renderer = mujoco.Renderer(model, *video_size)
+        # Shadows and reflections are most of a software-rendered frame's cost (22 ms of 40 at 640x480).
+        for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION):
+            renderer.scene.flags[flag] = False
         camera = mujoco.MjvCamera()
         camera.lookat[:] = [*(com0 + np.asarray(table.polygon.centroid.coords[0])) / 2, table.height + 0.1]
         camera.distance, camera.azimuth, camera.elevation = 1.1, 210.0, -30.0
@@ -842,9 +845,6 @@ def execute(
     def after_step() -> None:
         if renderer is not None and data.time * video_fps >= len(frames):
             renderer.update_scene(data, camera)
-            # Shadows and reflections are most of a software-rendered frame's cost (22 ms of 40 at 640x480).
-            for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION):
-                renderer.scene.flags[flag] = False
             frames.append(renderer.render().copy())
         if progress is not None and data.time >= reported[0] + 0.1:
             reported[0] = data.time

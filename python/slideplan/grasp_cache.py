@@ -16,6 +16,7 @@ writers merge with what is on disk and the last rename wins (a lost entry is onl
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -42,6 +43,7 @@ def cache_dir() -> Path | None:
     return Path(root) / "grasp-maps"
 
 
+@functools.cache  # the loaded core does not change while the process runs
 def _core_identity() -> str:
     from . import _core
 
