@@ -187,6 +187,9 @@ def summarise(times: np.ndarray, limit: float) -> dict[str, str]:
 
 
 def main() -> None:
+    # No stored grasp maps (slideplan.grasp_cache): a cold run starts empty whatever an earlier run left on
+    # disk, and the other variants share a map within a worker process only (workers inherit this).
+    os.environ["SLIDEPLAN_NO_CACHE"] = "1"
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=20, help="seeded initial poses per object")
     parser.add_argument("--time-limit", type=float, default=60.0, help="planning budget per run (s)")
