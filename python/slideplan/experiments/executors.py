@@ -33,7 +33,7 @@ class LocalPoolExecutor:
 
     Plans are independent in threads (docs/design.md 9) and the C++ planner, its time parameterization
     and the centre of mass release the GIL, so threads share one parsed robot and scale (two threads
-    1.86x one on 2 cores for plan() alone, docs/benchmarks/threads.md); a task also builds its scene and
+    1.80-1.86x one on 2 cores for plan() alone, docs/benchmarks/threads.md); a task also builds its scene and
     object in Python, which holds the GIL.
     Processes are started with ``spawn``, not ``fork``: the parent runs a progress-bar
     thread, and forking a threaded process can deadlock the child. If a worker process dies
