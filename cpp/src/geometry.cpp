@@ -227,4 +227,17 @@ namespace slideplan
         return hull;
     }
 
+    bool pointInConvex(const std::vector<Eigen::Vector2d> &hull, const Eigen::Vector2d &point)
+    {
+        if (hull.size() < 3)
+            return false;
+        for (std::size_t i = 0; i < hull.size(); ++i)
+        {
+            const Eigen::Vector2d edge = hull[(i + 1) % hull.size()] - hull[i], offset = point - hull[i];
+            if (edge.x() * offset.y() - edge.y() * offset.x() < 0.0)
+                return false;
+        }
+        return true;
+    }
+
 }  // namespace slideplan

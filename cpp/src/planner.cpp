@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <ompl/base/PlannerData.h>
+#include <ompl/base/ScopedState.h>
 #include <ompl/base/SpaceInformation.h>
 #include <ompl/base/goals/GoalStates.h>
 #include <ompl/base/spaces/RealVectorStateSpace.h>
@@ -86,6 +87,8 @@ namespace slideplan
         verdicts_.clear();
         promising_.clear();
         pairedRoot_ = nullptr;
+        givenStart_ = false;
+        givenRootProblem_.clear();
         rng_.seed(seed_);
         result_ = PlanResult();
     }
@@ -453,7 +456,16 @@ namespace slideplan
             const auto *values = state->as<ob::RealVectorStateSpace::StateType>()->values;
             const Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(values, robot.dof());
             const Eigen::Isometry3d tip = robot.fk(q);
-            if (!robot.withinLimits(q) || !constraint_->satisfied(tip) || !validity_->isValid(q, tip))
+            givenRootProblem_ = validity_->problem(q, tip);
+            // A start root pushes the object: its fingertip must be on it (the hull of P_o; Eq. 3 draws from P_o).
+            if (givenRootProblem_.empty() && forest.isStart && !pointInConvex(task_->hullXY, tip.translation().head<2>()))
+            {
+                std::ostringstream message;
+                message << "puts the fingertip at (" << tip.translation().x() << ", " << tip.translation().y()
+                        << "), not on the object";
+                givenRootProblem_ = message.str();
+            }
+            if (!givenRootProblem_.empty())
                 return false;
             forest.add(q, tip, nullptr);
             return true;
@@ -463,6 +475,7 @@ namespace slideplan
         for (unsigned i = 0; pdef_ && i < pdef_->getStartStateCount(); ++i)
             if (!addValid(*startForest_, pdef_->getStartState(i)))
                 return startValid = false;
+        givenStart_ = !startForest_->roots.empty();
         if (const auto *goals = pdef_ ? dynamic_cast<const ob::GoalStates *>(pdef_->getGoal().get()) : nullptr)
             for (std::size_t i = 0; i < goals->getStateCount(); ++i)
                 if (!addValid(*goalForest_, goals->getState(i)))
@@ -520,7 +533,9 @@ namespace slideplan
         while (ready && !ptc)
         {
             ++result_.stats.iterations;
-            const bool mayAddRoot = params_.policy == RootPolicy::Sampled || (params_.policy == RootPolicy::FixedStart && !a->isStart);
+            // Given start states are where the arm is (planning from a state): the start forest draws no more.
+            const bool mayAddRoot = !(a->isStart && givenStart_) &&
+                                    (params_.policy == RootPolicy::Sampled || (params_.policy == RootPolicy::FixedStart && !a->isStart));
             if (mayAddRoot && canAddRoot(static_cast<int>(startForest_->roots.size()), static_cast<int>(goalForest_->roots.size()),
                                          params_.nStar, rng_))
                 addRoot(*a, ptc);
@@ -582,7 +597,8 @@ namespace slideplan
     }  // namespace
 
     PlanResult planSliding(std::shared_ptr<const SlidingTask> task, const PlannerParams &params, std::uint64_t seed,
-                           const ob::PlannerTerminationCondition &ptc, std::shared_ptr<const GraspMap> graspMap)
+                           const ob::PlannerTerminationCondition &ptc, std::shared_ptr<const GraspMap> graspMap,
+                           const std::optional<Eigen::VectorXd> &startConfig)
     {
         const auto started = std::chrono::steady_clock::now();
         params.validate();
@@ -613,9 +629,21 @@ namespace slideplan
         auto si = std::make_shared<ob::SpaceInformation>(space);
         auto planner = std::make_shared<SlidingPlanner>(si, task, params, seed, std::move(graspMap));
         si->setup();
-        planner->setProblemDefinition(std::make_shared<ob::ProblemDefinition>(si));
+        auto pdef = std::make_shared<ob::ProblemDefinition>(si);
+        if (startConfig)
+        {
+            if (startConfig->size() != robot.dof())
+                throw InvalidStartConfig("start configuration has " + std::to_string(startConfig->size()) + " joints, the robot " +
+                                         std::to_string(robot.dof()));
+            ob::ScopedState<> start(space);
+            std::copy(startConfig->data(), startConfig->data() + startConfig->size(),
+                      start->as<ob::RealVectorStateSpace::StateType>()->values);
+            pdef->addStartState(start);
+        }
+        planner->setProblemDefinition(pdef);
         planner->setup();
-        planner->solve(ptc);
+        if (planner->solve(ptc) == ob::PlannerStatus::INVALID_START)
+            throw InvalidStartConfig("start configuration " + planner->givenRootProblem());
         PlanResult result = planner->result();
         result.planningTime = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
         return result;

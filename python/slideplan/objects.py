@@ -124,6 +124,26 @@ class ThinObject:
         """
         return area_centroid(self.points[:, :2])
 
+    def moved(self, motion) -> ThinObject:
+        """The same object moved on the table by a planar motion in the world frame (Eq. 2's form).
+
+        Args:
+            motion: (x, y, yaw): ``p' = R(yaw) p + (x, y)``, e.g. a plan's ``object_motion`` values
+                or the difference between a tracked pose and the planned one.
+
+        Returns:
+            A new object (points, outline) at the moved pose, same thickness and name.
+
+        Raises:
+            InputError: a motion that is not 3 finite numbers (field ``motion``).
+        """
+        motion = as_numbers(motion, 3, source="", field="motion")
+        xy = move_planar(self.points[:, :2], motion)
+        points = np.column_stack([xy, self.points[:, 2]])
+        points.setflags(write=False)
+        outline = None if self.outline is None else place_outline(self.outline, motion)
+        return ThinObject(points, self.thickness, self.name, outline)
+
 
 def place_outline(outline: Polygon, pose) -> Polygon:
     """Apply a planar pose ``R(yaw) p + (x, y)`` to an outline (same map as :func:`~slideplan.transforms.move_planar`).

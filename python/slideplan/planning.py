@@ -20,7 +20,7 @@ from xml.etree import ElementTree
 import numpy as np
 
 from . import _core, grasp_cache
-from ._fields import is_number
+from ._fields import as_numbers, is_number
 from .errors import InputError
 from .objects import ThinObject
 from .scenes import Scene
@@ -706,16 +706,20 @@ def core_task(scene: Scene, obj: ThinObject, config: PlannerConfig) -> dict[str,
     }
 
 
-def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, timing: TimingOptions | None = None) -> PlanResult:
+def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, timing: TimingOptions | None = None, *,
+         start_config=None) -> PlanResult:
     """Plan a pre-grasp sliding motion (paper Algorithm 1 with IsPairValid).
 
     Args:
         scene: table, robot and obstacles.
-        obj: the thin object, lying on the scene's table.
+        obj: the thin object, lying on the scene's table (for re-planning: at its observed pose).
         config: planner parameters, seed, time limit and planner (default:
             :meth:`PlannerConfig.for_scene`, the hand's defaults).
         timing: limits of the time parameterization, a :class:`slideplan.timing.TimingOptions`
             (default: URDF velocity limits and the documented defaults).
+        start_config: planning from a state (beyond the paper, for re-planning during a slide): the
+            ``(dof,)`` configuration the arm is in, its finger in contact with ``obj``. The plan
+            starts there (no start configuration is drawn); ``None`` draws them from Eq. 3.
 
     Returns:
         The result; ``status`` is ``"solved"`` or ``"timeout"``. A solved plan carries its
@@ -723,21 +727,28 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
 
     Raises:
         InputError: the object is not on the table, the robot cannot be loaded, the core
-            rejects the input (message from the core), or the timing limits are malformed.
+            rejects the input (message from the core), the timing limits are malformed, or
+            ``start_config`` (field ``start_config``) is not a valid sliding configuration with
+            its fingertip on the object: the message names the joint, the band and by how much,
+            or the colliding links.
         KeyboardInterrupt: Ctrl-C during planning.
     """
     from . import _core
 
     config = config or PlannerConfig.for_scene(scene)
     robot = robot_model(scene)
+    if start_config is not None:
+        start_config = as_numbers(start_config, robot.dof, source="", field="start_config")
     limits = robot_limits(robot, str(scene.urdf_path), robot.joint_names, timing)
     try:
         shared_map, stored = _grasp_map_and_file(scene, obj, config)
         # A solved plan is timed in the same call, without the GIL.
         core_result = _core.plan_sliding(**core_task(scene, obj, config), seed=config.seed,
-                                         grasp_map=shared_map, timing=core_limits(limits))
+                                         grasp_map=shared_map, timing=core_limits(limits), start_config=start_config)
     except InputError:
         raise
+    except _core.InvalidStartConfig as error:
+        raise InputError(str(error), field="start_config") from None
     except ValueError as error:
         # The core judges scene, object and parameters together: name them, rather than blame the scene file.
         raise InputError(f"planner rejected the input (scene {scene.source}, object {obj.name or 'unnamed'}): {error}") from None

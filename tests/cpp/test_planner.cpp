@@ -633,6 +633,71 @@ TEST(SlidingPlanner, StartsFromTheProblemDefinitionsStartStates)
     EXPECT_EQ(off.planner->solve(afterCalls(10)), ompl::base::PlannerStatus::INVALID_START);
 }
 
+TEST(PlanSliding, PlansFromAStateDuringTheSlide)
+{
+    // Re-planning during a slide: from a waypoint a third of the way along a solved plan, with the object
+    // where Eq. 2 puts it there, the new plan starts at that configuration exactly, draws no other start
+    // root, passes every check, and is the same plan again for the same seed.
+    const auto task = plateTask({0.6, 0.0});
+    PlannerParams params;
+    const PlanResult first = planSliding(task, params, 3, within(30.0));
+    ASSERT_EQ(first.status, "solved");
+    const std::size_t k = first.trajectory.size() / 3;
+    ASSERT_GT(k, 0u);
+    const PlanarMotion moved = objectMotion(first.fingertipPoses.front(), first.fingertipPoses[k]);
+    Eigen::Matrix<double, Eigen::Dynamic, 3> points = squarePlate({0.6, 0.0});
+    for (Eigen::Index i = 0; i < points.rows(); ++i)
+        points.row(i).head<2>() = moved.apply(points.row(i).head<2>().transpose()).transpose();
+    const auto there = std::make_shared<SlidingTask>(SlidingTask::make(
+        wamT42(), std::make_shared<SupportSurface>(squareTable()), {}, kContactLinks, kGraspLink, Eigen::Isometry3d::Identity(),
+        points, moved.apply({0.6, 0.0})));
+    const Eigen::VectorXd from = first.trajectory[k];
+    const PlanResult again = planSliding(there, params, 11, within(30.0), nullptr, from);
+    expectValidPlan(*there, params, again);
+    EXPECT_EQ(again.startConfig, from);
+    EXPECT_EQ(again.trajectory.front(), from);
+    EXPECT_EQ(again.stats.startRoots, 1);
+    const PlanResult twin = planSliding(there, params, 11, within(30.0), nullptr, from);
+    EXPECT_EQ(twin.trajectory, again.trajectory);
+    EXPECT_EQ(twin.graspConfig, again.graspConfig);
+}
+
+TEST(PlanSliding, RefusesAStartStateSayingWhyAndByHowMuch)
+{
+    const auto task = plateTask({0.6, 0.0});
+    PlannerParams params;
+    const Eigen::VectorXd onObject = contactConfig(*task, params, 0.6, 0.0);
+    const auto message = [&](const Eigen::VectorXd &q) {
+        try
+        {
+            planSliding(task, params, 1, afterCalls(100), nullptr, q);
+        }
+        catch (const InvalidStartConfig &error)
+        {
+            return std::string(error.what());
+        }
+        return std::string("accepted");
+    };
+    // The fingertip 2 cm above its depth band, found by IK so the rest of the pose is on the manifold.
+    Eigen::Isometry3d raised = task->robot->fk(onObject);
+    raised.translation().z() += 0.02 + 0.5 * (params.dzMax - params.dzMin);
+    Eigen::VectorXd high;
+    std::mt19937_64 rng(1);
+    ASSERT_TRUE(task->robot->ik(raised, onObject, rng, high));
+    const std::string text = message(high);
+    const std::size_t at = text.find("the fingertip is ");
+    ASSERT_NE(at, std::string::npos) << text;
+    EXPECT_NEAR(std::stod(text.substr(at + 17)), 0.02, 1e-4) << text;
+    EXPECT_NE(text.find("m above its depth band"), std::string::npos) << text;
+    // On the manifold, but the fingertip 10 cm beside the plate.
+    EXPECT_NE(message(contactConfig(*task, params, 0.6, 0.16)).find("not on the object"), std::string::npos);
+    Eigen::VectorXd beyond = onObject;
+    beyond(1) = task->robot->upperLimits()(1) + 0.1;
+    EXPECT_NE(message(beyond).find("outside its limits"), std::string::npos) << message(beyond);
+    EXPECT_NE(message(onObject.head(3)).find("has 3 joints, the robot 7"), std::string::npos);
+    EXPECT_EQ(message(onObject), "accepted");
+}
+
 TEST(SlidingPlanner, CachedVerdictsCheckEachRootPairOnce)
 {
     // Two tasks where connections repeat a root pair: with the cache every pair is checked once.

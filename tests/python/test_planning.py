@@ -12,6 +12,8 @@ from slideplan import InputError, PlannerConfig, PlanResult, load_object, load_s
 from slideplan.cli import app
 from slideplan.objects import load_outline, sample_pose_on_table
 from slideplan.planning import _cached_grasp_map, grasp_map, robot_model
+from slideplan.transforms import row_to_pose
+from slideplan.verify import planar_motion
 
 TABLES = ["square", "round", "triangle", "long"]
 OBJECTS = ["crescent", "square", "L"]
@@ -124,9 +126,6 @@ def test_cli_demo(tmp_path):
 
 
 def test_stats_report_the_fingertip_path_length_and_yaw_travel():
-    from slideplan.transforms import row_to_pose
-    from slideplan.verify import planar_motion
-
     scene, obj = task("square", "crescent", pose_seed=4)
     result = plan(scene, obj, PlannerConfig(seed=2, time_limit_s=20.0))
     assert result.solved
@@ -236,3 +235,34 @@ def test_area_centroid_refuses_what_is_not_a_cloud(bad):
 
     with pytest.raises(InputError, match="xy"):
         area_centroid(bad)
+
+
+def test_planning_from_a_state_starts_there_and_verifies():
+    # Re-planning during a slide: the arm a third of the way along a plan, the object where Eq. 2 puts it.
+    scene, obj = task("square", "crescent", pose_seed=3)
+    config = PlannerConfig.for_scene(scene, seed=4, time_limit_s=30.0)
+    first = plan(scene, obj, config)
+    assert first.solved
+    k = len(first.trajectory) // 3
+    there = obj.moved(planar_motion(row_to_pose(first.fingertip_poses[0]), row_to_pose(first.fingertip_poses[k])))  # Eq. 2
+    again = plan(scene, there, PlannerConfig.for_scene(scene, seed=8, time_limit_s=30.0), start_config=first.trajectory[k])
+    assert again.solved, again.stats
+    np.testing.assert_array_equal(again.trajectory[0], first.trajectory[k])
+    assert again.stats["start_roots"] == 1
+    assert_verified(again)
+    twin = plan(scene, there, PlannerConfig.for_scene(scene, seed=8, time_limit_s=30.0), start_config=first.trajectory[k])
+    np.testing.assert_array_equal(twin.trajectory, again.trajectory)
+
+
+@pytest.mark.parametrize("bad, message", [
+    (lambda q: q[:3], "expected a list of 7 numbers"),
+    (lambda q: np.where(np.arange(7) == 2, np.nan, q), "must be finite"),
+    (lambda q: q + np.where(np.arange(7) == 1, 0.3, 0.0), "off the sliding contact constraint"),
+])
+def test_a_start_config_off_the_manifold_is_an_input_error_naming_the_field(bad, message):
+    scene, obj = task("square", "crescent", pose_seed=3)
+    config = PlannerConfig.for_scene(scene, seed=4, time_limit_s=30.0)
+    start = plan(scene, obj, config).trajectory[0]
+    with pytest.raises(InputError, match=message) as error:
+        plan(scene, obj, config, start_config=bad(start))
+    assert error.value.field == "start_config"

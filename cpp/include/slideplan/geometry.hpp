@@ -66,4 +66,7 @@ namespace slideplan
     /// Counter-clockwise convex hull (no collinear vertices); fewer than 3 points for a degenerate set.
     std::vector<Eigen::Vector2d> convexHull(std::vector<Eigen::Vector2d> points);
 
+    /// True if `point` lies in the counter-clockwise convex polygon `hull` (boundary included).
+    bool pointInConvex(const std::vector<Eigen::Vector2d> &hull, const Eigen::Vector2d &point);
+
 }  // namespace slideplan

@@ -13,6 +13,8 @@
 #include "slideplan/task.hpp"
 
 #include <map>
+#include <optional>
+#include <stdexcept>
 #include <ompl/base/Planner.h>
 #include <ompl/datastructures/NearestNeighbors.h>
 #include <random>
@@ -31,9 +33,11 @@ namespace slideplan
                        const PlannerParams &params, std::uint64_t seed, std::shared_ptr<const GraspMap> graspMap = nullptr);
         ~SlidingPlanner() override;
 
-        /// Algorithm 1 until a valid pair connects or `ptc`. Start states of the problem definition, and
-        /// the states of a GoalStates goal, join the forests as roots before any drawn one (INVALID_START /
-        /// INVALID_GOAL if one violates the contact constraint or collides), when the forests are empty. A
+        /// Algorithm 1 until a valid pair connects or `ptc`. Start states of the problem definition are
+        /// where the arm is (planning from a state): they are the start forest's roots and no other is
+        /// drawn. The states of a GoalStates goal join the goal forest before any drawn root. Both are
+        /// taken when the forests are empty; INVALID_START / INVALID_GOAL if one is not a valid sliding
+        /// state (a start state also with its fingertip on the object), givenRootProblem() says why. A
         /// second call grows the same forests further and reports only itself in result().
         ompl::base::PlannerStatus solve(const ompl::base::PlannerTerminationCondition &ptc) override;
         void clear() override;
@@ -42,6 +46,8 @@ namespace slideplan
 
         /// The plan of the last solve(): trajectory, object motion, grasp and statistics.
         const PlanResult &result() const { return result_; }
+        /// Why the last given start or goal state was refused, in words (SlidingValidity::problem).
+        const std::string &givenRootProblem() const { return givenRootProblem_; }
 
     private:
         struct Node
@@ -109,17 +115,29 @@ namespace slideplan
         /// The cheap part of IsPairValid per root pair, and whether the hand at its H_g is clear of the table
         /// (-1: not asked yet).
         std::map<std::pair<int, int>, std::pair<Overhang, signed char>> promising_;
-        const Node *pairedRoot_{nullptr};  ///< a goal root just drawn for a start root: the next sample of the start forest
+        const Node *pairedRoot_{nullptr};
+        bool givenStart_{false};  ///< the start forest is the problem definition's start states
+        std::string givenRootProblem_;  ///< a goal root just drawn for a start root: the next sample of the start forest
         PlanResult result_;
+    };
+
+    /// A start configuration handed to planSliding that is not a valid contact configuration.
+    class InvalidStartConfig : public std::invalid_argument
+    {
+    public:
+        using std::invalid_argument::invalid_argument;
     };
 
     /// Plan one sliding task: sets up the OMPL space, runs SlidingPlanner::solve(ptc) and returns the
     /// result; planning time counts everything from here, including the baselines' precomputation.
-    /// `graspMap` as for SlidingPlanner.
+    /// `graspMap` as for SlidingPlanner. `startConfig` (beyond the paper: re-planning during a slide):
+    /// the arm is there, in contact with the object at its pose in `task`; the plan starts from it.
     /// \throws std::invalid_argument for invalid parameters, an unreachable object, u* beyond the object
     ///         (on a convex table: beyond what it can overhang with its centre of mass com_margin inside)
-    ///         or a grasp map that does not fit.
+    ///         or a grasp map that does not fit; InvalidStartConfig, saying why, for a start configuration
+    ///         that is not a valid sliding state with its fingertip on the object.
     PlanResult planSliding(std::shared_ptr<const SlidingTask> task, const PlannerParams &params, std::uint64_t seed,
-                           const ompl::base::PlannerTerminationCondition &ptc, std::shared_ptr<const GraspMap> graspMap = nullptr);
+                           const ompl::base::PlannerTerminationCondition &ptc, std::shared_ptr<const GraspMap> graspMap = nullptr,
+                           const std::optional<Eigen::VectorXd> &startConfig = std::nullopt);
 
 }  // namespace slideplan

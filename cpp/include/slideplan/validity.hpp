@@ -27,6 +27,10 @@ namespace slideplan
         /// The same check with the fingertip pose `tip = Gamma(q)` already known.
         bool isValid(const JointsRef &q, const Eigen::Isometry3d &tip) const;
 
+        /// Why isValid(q, tip) is false, in words with the amounts (empty if it is true): a caller that hands
+        /// the planner its own configuration must hear which joint, band or link is at fault, and by how much.
+        std::string problem(const JointsRef &q, const Eigen::Isometry3d &tip) const;
+
         const SlidingTask &task() const { return *task_; }
         const SlidingConstraint &constraint() const { return *constraint_; }
         const CollisionWorld &world() const { return *world_; }

@@ -82,7 +82,7 @@ namespace slideplan::bindings
                         const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints, const Eigen::Vector2d &objectCom,
                         const PlannerParams &params, std::uint64_t seed, double timeLimit, const std::string &graspLink,
                         const Eigen::Matrix4d &graspOffset, std::shared_ptr<const GraspMap> graspMap,
-                        const std::optional<TimingLimits> &timing)
+                        const std::optional<TimingLimits> &timing, const std::optional<Eigen::VectorXd> &startConfig)
         {
             const auto task = makeTask(robot, table, obstacles, contactLinks, objectPoints, objectCom, graspLink, graspOffset,
                                        timeLimit);
@@ -109,7 +109,7 @@ namespace slideplan::bindings
             PlanResult result;
             {
                 py::gil_scoped_release release;
-                result = planSliding(task, params, seed, ptc, std::move(graspMap));
+                result = planSliding(task, params, seed, ptc, std::move(graspMap), startConfig);
                 if (timing && result.status == "solved")
                     result.timing = timePlan(*robot, stack(result.trajectory, robot->dof()), tipPositions(result.fingertipPoses),
                                              stack(result.approach, robot->dof()), task->surfaceZ, *timing);
@@ -122,6 +122,7 @@ namespace slideplan::bindings
 
     void bindPlanner(py::module_ &module)
     {
+        py::register_exception<InvalidStartConfig>(module, "InvalidStartConfig", PyExc_ValueError);
         py::class_<PlannerParams>(module, "PlannerParams", "Every planner parameter, declared once (params.hpp).")
             .def(py::init<>())
             .def_readwrite("beta0", &PlannerParams::beta0, "Contact pitch beta_0 (rad), Eqs. 3-4.")
@@ -266,7 +267,7 @@ namespace slideplan::bindings
         module.def("plan_sliding", &plan, py::arg("robot"), py::arg("table"), py::arg("obstacles"), py::arg("contact_links"),
                    py::arg("object_points"), py::arg("object_com_xy"), py::arg("params"), py::arg("seed"),
                    py::arg("time_limit"), py::arg("grasp_link"), py::arg("grasp_offset") = Eigen::Matrix4d::Identity(),
-                   py::arg("grasp_map") = nullptr, py::arg("timing") = py::none(),
+                   py::arg("grasp_map") = nullptr, py::arg("timing") = py::none(), py::arg("start_config") = py::none(),
                    "Plan a pre-grasp sliding motion (Algorithm 1). Releases the GIL; Ctrl-C raises KeyboardInterrupt.\n\n"
                    "robot: the shared, immutable RobotModel; table: SupportSurface Q; obstacles: BoxObstacle list; "
                    "contact_links: links that may touch table and object while sliding; object_points: (N, 3) top-surface "
@@ -274,8 +275,10 @@ namespace slideplan::bindings
                    "time_limit: seconds; grasp_link, grasp_offset (4x4): the grasp frame H_g = link * offset; grasp_map: "
                    "a GraspMap shared with other plans of the same robot, table, grasp frame, thickness and grasp "
                    "parameters (None: one of its own; the plan is the same either way); timing: TimingLimits to time "
-                   "a solved plan with (time_plan), still without the GIL, or None.\n"
-                   "Raises ValueError for bad input (object off the table or degenerate, bad parameters, non-positive "
+                   "a solved plan with (time_plan), still without the GIL, or None; start_config: (dof,) configuration "
+                   "the arm is in, in contact with the object (planning from a state: the plan starts there), or None.\n"
+                   "Raises InvalidStartConfig (a ValueError) saying why a start_config is not a valid sliding state with "
+                   "its fingertip on the object; ValueError for other bad input (object off the table or degenerate, bad parameters, non-positive "
                    "time limit, unknown grasp link, a grasp map made for other geometry, malformed timing limits); "
                    "RuntimeError when a solved path has no rest-to-rest time parameterization.");
 
