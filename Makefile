@@ -74,6 +74,7 @@ bench: install
 	$(PYTHON) benchmarks/cli_bench.py
 	$(PYTHON) benchmarks/perceive_bench.py
 	$(PYTHON) benchmarks/execute_bench.py
+	$(PYTHON) benchmarks/tracking_bench.py
 
 clean:
 	rm -rf build out $(VENV)

@@ -78,6 +78,19 @@ class Camera:
     width: int = 320
     height: int = 240
 
+    @property
+    def focal_px(self) -> float:
+        """Focal length in pixels (square pixels)."""
+        return 0.5 * self.height / math.tan(math.radians(self.fovy_deg) / 2)
+
+    def pixels(self, points) -> np.ndarray:
+        """Where world points appear in the image: (N, 2) (row, column), fractional, pixel centres at
+        +0.5 (the inverse of :func:`pixel_points`)."""
+        local = (np.asarray(points, dtype=float) - np.asarray(self.position)) @ self.axes()
+        depth = -local[:, 2]
+        return np.column_stack([0.5 * self.height - local[:, 1] / depth * self.focal_px,
+                                0.5 * self.width + local[:, 0] / depth * self.focal_px]) - 0.5
+
     def axes(self) -> np.ndarray:
         """Camera frame axes as the columns of a 3x3 matrix: image right, image up, backwards.
 
@@ -218,16 +231,29 @@ def back_project(depth: np.ndarray, camera: Camera) -> np.ndarray:
     Returns:
         (N, 3) points, one per valid pixel, row by row.
     """
+    return pixel_points(depth, camera)[np.isfinite(depth) & (depth > 0)]
+
+
+def pixel_points(depth: np.ndarray, camera: Camera, corner: tuple[int, int] = (0, 0)) -> np.ndarray:
+    """The world point each pixel of a depth image (or of a window of it) sees, in the image's layout.
+
+    Args:
+        depth: (rows, columns) distances along the optical axis (m): the camera's whole image, or a
+            window of it whose top-left pixel is ``corner``.
+        camera: the camera that took it.
+        corner: (row, column) of the window's first pixel in the camera's image.
+
+    Returns:
+        (rows, columns, 3) array; NaN where the depth is NaN.
+    """
     rows, cols = depth.shape
-    focal = 0.5 * rows / math.tan(math.radians(camera.fovy_deg) / 2)  # pixels; square pixels
-    v, u = np.mgrid[0:rows, 0:cols]
-    valid = np.isfinite(depth) & (depth > 0)
-    d = depth[valid]
+    focal = camera.focal_px
+    v, u = np.mgrid[corner[0]:corner[0] + rows, corner[1]:corner[1] + cols]
     # Camera frame: x right, y up, looking along -z; pixel centres at +0.5.
-    camera_points = np.column_stack(
-        [(u[valid] + 0.5 - 0.5 * cols) / focal * d, -(v[valid] + 0.5 - 0.5 * rows) / focal * d, -d]
-    )
-    return camera_points @ camera.axes().T + np.asarray(camera.position)
+    camera_points = np.stack([(u + 0.5 - 0.5 * camera.width) / focal * depth,
+                              -(v + 0.5 - 0.5 * camera.height) / focal * depth, -depth], axis=-1)
+    with np.errstate(invalid="ignore"):  # NaN depths stay NaN
+        return camera_points @ camera.axes().T + np.asarray(camera.position)
 
 
 def noisy_depth(depth: np.ndarray, noise_at_1m: float, dropout: float, rng: np.random.Generator) -> np.ndarray:

@@ -1,0 +1,227 @@
+"""Tracking the sliding object in depth frames of a fixed camera (beyond the paper: the closed loop).
+
+The object's outline is known (from the scene or :mod:`slideplan.perception`) and so is roughly
+where it is (the last estimate, or where Eq. 2 puts it); a new depth frame says where it is now.
+Rather than segment the scene again, the tracker registers the known outline to the object's
+*edges with the table* in the frame:
+
+1. a 3 x 3 median filter of the depth image (sensor noise shrinks, a step between two surfaces
+   stays where it is), back-projected pixel by pixel;
+2. near the expected pose each pixel is *object* (its height above the table between half the
+   thickness and the thickness plus ``hand_clearance``), *table* (within half the thickness of
+   the table top) or neither (the arm and hand above it, dropouts, the floor);
+3. the edge points are the object pixels next to a table pixel and the table pixels next to an
+   object pixel (the two sides of the edge, so the half-pixel offsets cancel); where the arm hides
+   the object there is no object-table edge, so occlusion removes points instead of adding wrong
+   ones;
+4. a trimmed 2-D ICP of those points to the outline (point to nearest outline point, the rigid
+   fit in closed form, pairs beyond three times the median distance dropped).
+
+Needs SciPy (``perception`` extra).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import MultiPoint, Polygon
+
+from .errors import InputError
+from .objects import ThinObject
+from .rendering import Camera, pixel_points
+from .transforms import move_planar, rotation_2d, wrap_angle
+
+OUTLINE_SPACING_M = 0.0005  # the outline is matched as points this far apart
+MIN_EDGE_POINTS = 20  # fewer edge pixels than this is no evidence of where the object is
+START_YAW = 0.12  # rad: the second and third starts of the fit turn the guess by this much either way
+SCOUT_ITERATIONS = 8  # ICP iterations from each start before the best one is refined
+EXPLAINED = 0.85  # a fit from the guess explaining this fraction of the edge points, NEAR_GUESS, is taken
+NEAR_GUESS = (0.01, 0.1)  # m (the centre of mass), rad
+INLIER_M = 0.003  # an edge point this near the fitted outline is explained by it (about a pixel at 0.75 m)
+
+
+@dataclass(frozen=True)
+class TrackedPose:
+    """One frame's estimate.
+
+    Attributes:
+        ok: the frame showed enough of the object's edge and the fit converged.
+        motion: (x, y, yaw) taking the reference object (the ``obj`` given to :func:`track`) to where
+            the frame shows it: ``obj.moved(motion)`` is the object now. The guess when not ``ok``.
+        edge_points: edge points within ``INLIER_M`` of the fitted outline.
+        rmse_m: their root mean square distance to it (m).
+        reason: why not ``ok`` ("" when ok).
+    """
+
+    ok: bool
+    motion: tuple[float, float, float]
+    edge_points: int
+    rmse_m: float
+    reason: str = ""
+
+
+class Tracker:
+    """Registers one object's outline in depth frames of one camera.
+
+    Args:
+        obj: the object as perceived at the start (its pose is the reference of every motion).
+        camera: the fixed camera that takes the frames.
+        table_height: z of the table top (m).
+        hand_clearance: pixels higher than the object's top by more than this are not the object
+            (the finger, hand and arm over it), m.
+        window_margin: pixels further than this from the object's expected footprint are ignored, m.
+        iterations: ICP iterations at most per frame.
+
+    Raises:
+        InputError: a non-positive clearance, margin or iteration count, or an object with fewer than
+            3 distinct points.
+    """
+
+    def __init__(self, obj: ThinObject, camera: Camera, *, table_height: float, hand_clearance: float = 0.01,
+                 window_margin: float = 0.05, iterations: int = 40) -> None:
+        from scipy.spatial import cKDTree
+
+        for name, value in (("hand_clearance", hand_clearance), ("window_margin", window_margin), ("iterations", iterations)):
+            if not value > 0:
+                raise InputError(f"must be > 0, got {value!r}", field=name)
+        self.obj, self.camera, self.table_height = obj, camera, float(table_height)
+        self.hand_clearance, self.window_margin, self.iterations = float(hand_clearance), float(window_margin), int(iterations)
+        outline = obj.outline if obj.outline is not None else _cloud_outline(obj.points[:, :2])
+        self._outline = outline
+        self._model = _densify(outline, OUTLINE_SPACING_M)
+        self._tree = cKDTree(self._model)
+        self._centre = np.asarray(obj.centroid_xy, dtype=float)
+        self._radius = float(np.max(np.linalg.norm(obj.points[:, :2] - self._centre, axis=1)))
+
+    def classify(self, depth: np.ndarray, guess) -> tuple[np.ndarray, np.ndarray]:
+        """The object-table edge points and the object points of a frame near the guessed pose (steps
+        1-3 of the module).
+
+        Args:
+            depth: (height, width) depth image of the tracker's camera (m), NaN for no return.
+            guess: (x, y, yaw) motion of the reference object expected now.
+
+        Returns:
+            (K, 2) world xy of the edge points, (L, 2) of the object's pixels.
+        """
+        from scipy.ndimage import binary_dilation, median_filter
+
+        centre = move_planar(self._centre[None, :], guess)[0]
+        reach = self._radius + self.window_margin
+        # Only the pixels that can see the window around the expected footprint are filtered.
+        corners = np.array([[centre[0] + dx, centre[1] + dy, self.table_height] for dx in (-reach, reach) for dy in (-reach, reach)])
+        pixels = self.camera.pixels(corners)
+        low = np.clip(np.floor(pixels.min(axis=0)).astype(int) - 2, 0, None)
+        high = np.minimum(np.ceil(pixels.max(axis=0)).astype(int) + 3, depth.shape)
+        if np.any(high <= low):
+            return np.zeros((0, 2)), np.zeros((0, 2))
+        window = depth[low[0]:high[0], low[1]:high[1]]
+        filled = np.where(np.isfinite(window), window, np.inf)  # a dropout never wins the median unless most are
+        world = pixel_points(median_filter(filled, size=3, mode="nearest"), self.camera, (int(low[0]), int(low[1])))
+        height = world[..., 2] - self.table_height
+        with np.errstate(invalid="ignore"):
+            near = np.linalg.norm(world[..., :2] - centre, axis=-1) <= reach
+            half = 0.5 * self.obj.thickness
+            is_object = near & (height > half) & (height < self.obj.thickness + self.hand_clearance)
+            is_table = near & (np.abs(height) < half)
+        cross = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
+        edge = (is_object & binary_dilation(is_table, cross)) | (is_table & binary_dilation(is_object, cross))
+        return world[edge][:, :2], world[is_object][:, :2]
+
+    def track(self, depth: np.ndarray, guess=(0.0, 0.0, 0.0)) -> TrackedPose:
+        """Estimate where the object is in one frame.
+
+        Args:
+            depth: (height, width) depth image of the tracker's camera (m), NaN for no return.
+            guess: (x, y, yaw) motion of the reference object expected now (the last estimate, or the
+                pose Eq. 2 predicts); the fit starts there.
+
+        Returns:
+            The estimate; ``ok`` False (with the reason) when the frame shows too little edge.
+
+        Raises:
+            InputError: a depth image that is not 2-D or of another size than the camera's.
+        """
+        depth = np.asarray(depth, dtype=float)
+        if depth.shape != (self.camera.height, self.camera.width):
+            raise InputError(f"expected a ({self.camera.height}, {self.camera.width}) depth image, got shape {depth.shape}",
+                             field="depth")
+        guess = tuple(float(value) for value in guess)
+        points, inside = self.classify(depth, guess)
+        if len(points) < MIN_EDGE_POINTS:
+            return TrackedPose(False, guess, len(points), math.nan, f"{len(points)} edge points in view (< {MIN_EDGE_POINTS})")
+        # A disturbed object may lie centimetres from the guess, where the nearest outline points pull
+        # ICP into a wrong fit. When the fit from the guess leaves edge points unexplained or lands far
+        # from the guess (a slide moves the object a few millimetres between frames), more starts:
+        # the guess moved by the shift of the object pixels' mean (biased where the hand hides part of
+        # it, but near), both turned either way. The fit that explains more edge points wins.
+        fit = self._icp(points, np.array(guess), self.iterations)
+        shifted = np.linalg.norm(move_planar(self._centre[None, :], fit[0]) - move_planar(self._centre[None, :], guess))
+        turned = abs(wrap_angle(float(fit[0][2]) - guess[2]))
+        if fit[1] < EXPLAINED * len(points) or shifted > NEAR_GUESS[0] or turned > NEAR_GUESS[1]:
+            shift = inside.mean(axis=0) - move_planar(self._centre[None, :], guess)[0] if len(inside) else np.zeros(2)
+            offsets = [np.zeros(2)] + ([shift] if np.linalg.norm(shift) > 0.003 else [])
+            # Short fits from the guess and the shifted guess, each also turned by +-START_YAW; the best goes on.
+            starts = [np.array(guess) + [dx, dy, turn] for dx, dy in offsets for turn in (0.0, -START_YAW, START_YAW)]
+            scouts = [self._icp(points, start, SCOUT_ITERATIONS) for start in starts]
+            refined = self._icp(points, max(scouts, key=_score)[0], self.iterations)
+            fit = max(fit, refined, key=_score)
+        motion, inliers, rmse = fit
+        if inliers < MIN_EDGE_POINTS:
+            return TrackedPose(False, guess, inliers, math.nan, "the fit lost the edge")
+        return TrackedPose(True, (float(motion[0]), float(motion[1]), wrap_angle(float(motion[2]))), inliers, rmse)
+
+    def _icp(self, points: np.ndarray, motion: np.ndarray, iterations: int) -> tuple[np.ndarray, int, float]:
+        """Trimmed ICP from ``motion``: the fit, the edge points within ``INLIER_M`` of the outline, and
+        their root mean square distance."""
+        gate = self._radius  # no gate at first: the start may be centimetres off
+        for _ in range(iterations):
+            # Edge points into the reference frame, matched to the nearest outline point.
+            local = (points - motion[:2]) @ rotation_2d(motion[2])
+            distance, index = self._tree.query(local)
+            keep = distance <= gate
+            if keep.sum() < 3:
+                break
+            step = _rigid_fit(self._model[index[keep]], points[keep])
+            change = np.abs(step - motion)
+            motion = step
+            gate = max(3.0 * float(np.median(distance[keep])), INLIER_M)
+            if change[:2].max() < 1e-5 and change[2] < 1e-4:  # a hundredth of a millimetre
+                break
+        distance, _ = self._tree.query((points - motion[:2]) @ rotation_2d(motion[2]))
+        inliers = distance <= INLIER_M
+        return motion, int(inliers.sum()), float(np.sqrt(np.mean(distance[inliers] ** 2))) if inliers.any() else math.inf
+
+
+def _score(fit: tuple[np.ndarray, int, float]) -> tuple[int, float]:
+    """Order of fits: more edge points explained, then a smaller residual."""
+    return fit[1], -fit[2]
+
+
+def _rigid_fit(source: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """The planar rigid motion (x, y, yaw) that best maps ``source`` onto ``target`` (least squares,
+    closed form: the 2-D Kabsch solution)."""
+    source_mean, target_mean = source.mean(axis=0), target.mean(axis=0)
+    a, b = source - source_mean, target - target_mean
+    yaw = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])), float(np.sum(a * b)))
+    x, y = target_mean - rotation_2d(yaw) @ source_mean
+    return np.array([x, y, yaw])
+
+
+def _densify(outline: Polygon, spacing: float) -> np.ndarray:
+    """Points every ``spacing`` along every ring of the outline."""
+    rings = [outline.exterior, *outline.interiors]
+    points = [np.asarray(shapely.segmentize(ring, spacing).coords)[:-1] for ring in rings]
+    return np.concatenate(points)
+
+
+def _cloud_outline(xy: np.ndarray) -> Polygon:
+    """An outline for an object known only as a cloud: its concave hull (shapely), the points'
+    spacing as the detail it keeps."""
+    outline = shapely.concave_hull(MultiPoint(xy), ratio=0.05)
+    if not isinstance(outline, Polygon) or outline.area <= 0:
+        raise InputError("the object's cloud has no area to track", field="obj")
+    return outline

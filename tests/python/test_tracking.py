@@ -1,0 +1,73 @@
+"""Tracking the object in rendered depth frames (slideplan.tracking)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from slideplan import InputError, load_object, load_scene
+from slideplan.rendering import Box, Camera, depth_image, noisy_depth, place_objects, scene_mjcf
+from slideplan.tracking import Tracker
+from slideplan.transforms import wrap_angle
+
+
+@pytest.fixture(scope="module")
+def square():
+    table = load_scene("square").table
+    centre = table.polygon.centroid
+    return table, Camera((centre.x - 0.15, centre.y, table.height + 0.75), (centre.x, centre.y, table.height))
+
+
+def frame(table, camera, name, pose, hand, rng):
+    """A noisy depth frame of one object at `pose` with a box (`hand`) above part of it."""
+    mjcf = scene_mjcf(table, place_objects([(name, pose)]), hand, camera)
+    return noisy_depth(depth_image(mjcf, camera), 0.002, 0.05, rng)
+
+
+def pose_error(tracker, estimate, truth, turn):
+    """Distance between the estimated and the true centre of mass (m), and between the estimated and
+    the true turn (rad)."""
+    moved = tracker.obj.moved(estimate.motion)
+    return float(np.linalg.norm(moved.centroid_xy - truth.centroid_xy)), abs(wrap_angle(estimate.motion[2] - turn))
+
+
+@pytest.mark.parametrize("name", ["crescent", "L", "irregular"])
+def test_a_moved_object_is_found_within_2_mm_and_1_degree_median_with_the_hand_over_it(square, name):
+    table, camera = square
+    rng = np.random.default_rng(7)
+    errors = []
+    for _ in range(5):
+        # Where the tracker last saw it, and where it is now: up to 3 cm and 10 degrees away (a disturbance).
+        last = (rng.uniform(0.5, 0.6), rng.uniform(-0.1, 0.1), rng.uniform(-math.pi, math.pi))
+        step = (rng.uniform(-0.03, 0.03), rng.uniform(-0.03, 0.03), rng.uniform(-0.17, 0.17))
+        now = tuple(a + b for a, b in zip(last, step))
+        hand = [Box((now[0] + 0.02, now[1], table.height + 0.06), (0.05, 0.04, 0.03))]  # hides about a third
+        reference = load_object(name, table_height=table.height, pose=last)
+        truth = load_object(name, table_height=table.height, pose=now)
+        tracker = Tracker(reference, camera, table_height=table.height)
+        estimate = tracker.track(frame(table, camera, name, now, hand, rng))
+        assert estimate.ok, estimate.reason
+        errors.append(pose_error(tracker, estimate, truth, step[2]))
+    errors = np.array(errors)
+    # The issue's target (median 2 mm / 1 degree), and no frame far off it; the crescent's near-circular
+    # outer arc leaves its turn the least certain.
+    assert np.median(errors[:, 0]) <= 0.002 and errors[:, 0].max() <= 0.003, errors
+    assert np.degrees(np.median(errors[:, 1])) <= 1.0 and np.degrees(errors[:, 1]).max() <= 2.0, np.degrees(errors[:, 1])
+
+
+def test_an_object_hidden_under_the_hand_is_reported_lost_not_guessed(square):
+    table, camera = square
+    pose = (0.55, 0.0, 0.3)
+    hand = [Box((0.55, 0.0, table.height + 0.05), (0.2, 0.2, 0.03))]
+    tracker = Tracker(load_object("L", table_height=table.height, pose=pose), camera, table_height=table.height)
+    estimate = tracker.track(frame(table, camera, "L", pose, hand, np.random.default_rng(1)))
+    assert not estimate.ok
+    assert "edge points" in estimate.reason
+    assert estimate.motion == (0.0, 0.0, 0.0)
+
+
+def test_a_depth_image_of_another_size_is_an_input_error(square):
+    table, camera = square
+    tracker = Tracker(load_object("L", table_height=table.height, pose=(0.55, 0.0, 0.0)), camera, table_height=table.height)
+    with pytest.raises(InputError, match="depth"):
+        tracker.track(np.zeros((10, 10)))
