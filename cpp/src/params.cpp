@@ -30,7 +30,10 @@ namespace slideplan
         require(finite(transferTime) && transferTime >= 0.0, "transfer_time must be >= 0");
         require(finite(maxJointStep) && maxJointStep > 0.0, "max_joint_step must be > 0");
         require(finite(maxTipStep) && maxTipStep > 0.0, "max_tip_step must be > 0");
-        require(finite(projectionTolerance) && projectionTolerance > 0.0, "projection_tolerance must be > 0");
+        // Projected states must land inside the slack slideplan.verify allows on the constraint rows (1e-3 m of
+        // depth, 1e-3 rad of roll and pitch): a sin residual of 5e-4 is under 1e-3 rad at any pitch up to 60 deg.
+        require(finite(projectionTolerance) && projectionTolerance > 0.0 && projectionTolerance <= 5e-4,
+                "projection_tolerance must be in (0, 5e-4]: the verifier allows 1e-3 m / 1e-3 rad off the constraint");
         require(projectionIterations > 0, "projection_iterations must be > 0");
         require(rootIkAttempts > 0, "root_ik_attempts must be > 0");
         require(shortcutAttempts >= 0, "shortcut_attempts must be >= 0");

@@ -194,6 +194,8 @@ def checked_cloud(points, *, source: str) -> np.ndarray:
     def fail(problem: str) -> InputError:
         return InputError(problem, source=source, field="" if source else "points")
 
+    if np.iscomplexobj(points):  # np.array(..., dtype=float) would drop the imaginary parts with a warning
+        raise fail("expected an (N, 3) array of real numbers, got complex values")
     try:
         cloud = np.array(points, dtype=float)
     except (TypeError, ValueError):

@@ -190,6 +190,7 @@ BAD_CLOUDS = {
     "nan.npy": (lambda path: np.save(path, np.array([[0, 0, 1], [0, np.nan, 1], [1, 1, 1]])), "NaN"),
     "inf.csv": (lambda path: path.write_text("0,0,1\n1,0,inf\n0,1,1\n"), "NaN or inf"),
     "two_columns.npy": (lambda path: np.save(path, np.zeros((5, 2))), "shape"),
+    "complex.npy": (lambda path: np.save(path, np.eye(3) + 1j), "complex"),  # once read with the imaginary parts dropped
     "ragged.csv": (lambda path: path.write_text("0,0,1\n1,0\n"), "cannot read"),
     "two_points.csv": (lambda path: path.write_text("0,0,1\n1,0,1\n"), "at least 3"),
     "no_z.ply": (lambda path: plyfile.PlyData(

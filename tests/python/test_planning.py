@@ -156,7 +156,9 @@ def test_the_planned_grasp_can_lift_the_object():
     ("field", "value", "accepted"),
     [("beta0", 2.0, False), ("beta0", 0.0, False), ("delta_beta", 1.5, False),  # Python once accepted these
      ("delta_beta", 0.0, True), ("transfer_time", 0.0, True), ("grasp_backoff", 0.0, True),  # and refused these
-     ("paired_goals", 1.5, False), ("projection_iterations", 0, False)],
+     ("paired_goals", 1.5, False), ("projection_iterations", 0, False),
+     # The verifier's slack on the constraint rows is 1e-3: a coarser projection gave plans it refused.
+     ("projection_tolerance", 5e-4, True), ("projection_tolerance", 1.5e-3, False)],
 )
 def test_python_and_the_core_validate_parameters_alike(field, value, accepted):
     core = PlannerConfig().to_params()
@@ -266,3 +268,11 @@ def test_a_start_config_off_the_manifold_is_an_input_error_naming_the_field(bad,
     with pytest.raises(InputError, match=message) as error:
         plan(scene, obj, config, start_config=bad(start))
     assert error.value.field == "start_config"
+
+
+@pytest.mark.parametrize("limit", [1e10, 1e300])
+def test_a_huge_time_limit_is_no_limit_rather_than_an_overflowed_deadline(limit):
+    # Once: a deadline past the clock's range wrapped into the past, and the plan "timed out after 0.00 s".
+    scene, obj = task("square", "crescent", pose_seed=3)
+    result = plan(scene, obj, PlannerConfig.for_scene(scene, seed=4, time_limit_s=limit))
+    assert result.solved, result.stats

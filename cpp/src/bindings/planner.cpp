@@ -90,7 +90,9 @@ namespace slideplan::bindings
             // The GIL is released while planning; every 100 ms the termination condition takes it back
             // briefly to let Python run its signal handlers, so Ctrl-C stops planning promptly.
             using Clock = std::chrono::steady_clock;
-            const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeLimit));
+            // A limit beyond what the clock can add (about 9e9 s in nanoseconds) is no limit, not an overflow.
+            const double seconds = std::min(timeLimit, 1e9);
+            const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
             auto lastSignalCheck = Clock::now();
             std::atomic<bool> interrupted{false};
             const ompl::base::PlannerTerminationCondition ptc([&] {
