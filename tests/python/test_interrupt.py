@@ -6,6 +6,8 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 # An impossible task: a 10 cm square turned by at most 0.2 rad overhangs an edge by at most 5.4 cm
 # with its centre of mass 5 mm inside, so the planner would run to its 60 s limit unless interrupted.
 SCRIPT = """
@@ -41,3 +43,27 @@ def test_ctrl_c_stops_planning_within_half_a_second():
         process.kill()
     assert output.startswith("interrupted after"), output
     assert latency < 0.5, f"planning stopped {latency:.3f} s after Ctrl-C"
+
+
+DAEMON = """
+import sys, threading, time
+from slideplan import PlannerConfig, load_object, load_scene, plan
+scene = load_scene("square")
+obj = load_object("square", table_height=0.0, pose=(0.5, 0.0, 0.0))
+thread = threading.Thread(target=plan, args=(scene, obj, PlannerConfig(u_star=0.055, max_object_yaw=0.2, time_limit_s=60.0)),
+                          daemon=True)
+thread.start()
+time.sleep(1.0)  # inside the solve
+print("exiting", flush=True)
+{exit}
+"""
+
+
+@pytest.mark.parametrize("exit_call", ["sys.exit(0)", "pass", "raise SystemExit(0)"])
+def test_the_interpreter_exits_cleanly_while_a_daemon_thread_plans(exit_call):
+    # Once: SIGABRT, "terminate called without an active exception", when the planning thread took the GIL
+    # back during shutdown.
+    done = subprocess.run([sys.executable, "-c", DAEMON.format(exit=exit_call)], capture_output=True, text=True, timeout=60)
+    assert done.stdout.strip() == "exiting"
+    assert done.returncode == 0, done.stderr
+    assert "terminate" not in done.stderr

@@ -10,6 +10,7 @@
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
+#include <thread>
 
 namespace py = pybind11;
 
@@ -77,6 +78,21 @@ namespace slideplan::bindings
                                                                    objectPoints, objectCom));
         }
 
+        /// A thread that takes the GIL while the interpreter shuts down is ended by pthread_exit, whose
+        /// unwinding through C++ frames aborts the process ("terminate called without an active
+        /// exception"): a plan in a daemon thread at exit. Such a thread waits here instead, for the
+        /// process to end around it.
+        void parkIfFinalizing()
+        {
+#if PY_VERSION_HEX >= 0x030D0000
+            const bool finalizing = Py_IsFinalizing();
+#else
+            const bool finalizing = _Py_IsFinalizing();
+#endif
+            while (finalizing)
+                std::this_thread::sleep_for(std::chrono::hours(1));
+        }
+
         PlanResult plan(std::shared_ptr<const RobotModel> robot, const SupportSurface &table,
                         const std::vector<Obstacle> &obstacles, const std::vector<std::string> &contactLinks,
                         const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints, const Eigen::Vector2d &objectCom,
@@ -102,6 +118,7 @@ namespace slideplan::bindings
                 if (now - lastSignalCheck > std::chrono::milliseconds(100))
                 {
                     lastSignalCheck = now;
+                    parkIfFinalizing();
                     py::gil_scoped_acquire gil;
                     if (PyErr_CheckSignals() != 0)
                         interrupted = true;
@@ -115,6 +132,7 @@ namespace slideplan::bindings
                 if (timing && result.status == "solved")
                     result.timing = timePlan(*robot, stack(result.trajectory, robot->dof()), tipPositions(result.fingertipPoses),
                                              stack(result.approach, robot->dof()), task->surfaceZ, *timing);
+                parkIfFinalizing();  // before the release's destructor takes the GIL back
             }
             if (interrupted)
                 throw py::error_already_set();  // the KeyboardInterrupt raised by the signal handler
