@@ -28,8 +28,10 @@ namespace slideplan
         require(finite(graspBackoff) && graspBackoff >= 0.0, "grasp_backoff must be >= 0");
         require(finite(graspStandoff) && graspStandoff >= 0.0, "grasp_standoff must be >= 0");
         require(finite(transferTime) && transferTime >= 0.0, "transfer_time must be >= 0");
-        require(finite(maxJointStep) && maxJointStep > 0.0, "max_joint_step must be > 0");
-        require(finite(maxTipStep) && maxTipStep > 0.0, "max_tip_step must be > 0");
+        // The dense path has a state per step: finer steps than these make paths of millions of states
+        // (gigabytes, minutes past the time limit) for no better plan.
+        require(finite(maxJointStep) && maxJointStep >= 1e-3, "max_joint_step must be >= 1e-3 rad");
+        require(finite(maxTipStep) && maxTipStep >= 1e-4, "max_tip_step must be >= 1e-4 m");
         // Projected states must land inside the slack slideplan.verify allows on the constraint rows (1e-3 m of
         // depth, 1e-3 rad of roll and pitch): a sin residual of 5e-4 is under 1e-3 rad at any pitch up to 60 deg.
         require(finite(projectionTolerance) && projectionTolerance > 0.0 && projectionTolerance <= 5e-4,

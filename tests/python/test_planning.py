@@ -158,7 +158,9 @@ def test_the_planned_grasp_can_lift_the_object():
      ("delta_beta", 0.0, True), ("transfer_time", 0.0, True), ("grasp_backoff", 0.0, True),  # and refused these
      ("paired_goals", 1.5, False), ("projection_iterations", 0, False),
      # The verifier's slack on the constraint rows is 1e-3: a coarser projection gave plans it refused.
-     ("projection_tolerance", 5e-4, True), ("projection_tolerance", 1.5e-3, False)],
+     ("projection_tolerance", 5e-4, True), ("projection_tolerance", 1.5e-3, False),
+     # A state per step: 1e-9 once ran 225 s and 4.8 GB past a 2 s limit.
+     ("max_tip_step", 1e-4, True), ("max_tip_step", 1e-9, False), ("max_joint_step", 1e-3, True), ("max_joint_step", 1e-6, False)],
 )
 def test_python_and_the_core_validate_parameters_alike(field, value, accepted):
     core = PlannerConfig().to_params()
