@@ -75,6 +75,7 @@ bench: install
 	$(PYTHON) benchmarks/perceive_bench.py
 	$(PYTHON) benchmarks/execute_bench.py
 	$(PYTHON) benchmarks/tracking_bench.py
+	$(PYTHON) benchmarks/replan_bench.py
 
 clean:
 	rm -rf build out $(VENV)
