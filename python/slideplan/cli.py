@@ -78,22 +78,6 @@ def _warnings_as_lines():
                     typer.echo(f"slideplan: warning: {' '.join(str(warning.message).split())}", err=True)
 
 
-def _load_plan(path: Path) -> PlanResult:
-    """Read a plan JSON file (``slideplan.plan/1`` or ``/2``), naming the file in errors.
-
-    Raises:
-        InputError: the file cannot be read or is not a valid plan.
-    """
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as error:
-        raise InputError(f"cannot read the plan ({error})", source=str(path)) from None
-    try:
-        return PlanResult.from_json(text)
-    except InputError as error:
-        raise InputError(error.problem, source=str(path), field=error.field) from None
-
-
 def _parse_params(items: list[str]) -> dict:
     """``NAME=VALUE`` strings as PlannerConfig fields, each value typed like the field's default.
 
@@ -360,7 +344,7 @@ def export_command(
     from .export import export_plan
 
     try:
-        result = _load_plan(plan_file)
+        result = PlanResult.load(plan_file)
         with _warnings_as_lines():
             export_plan(result, fmt, out)
     except InputError as error:
@@ -388,7 +372,7 @@ def view_command(
     try:
         from . import view
 
-        result = _load_plan(plan_file)
+        result = PlanResult.load(plan_file)
         if not 0 <= port < 65536:
             raise InputError(f"must be in [0, 65536), got {port}", field="--port")
         with _warnings_as_lines():
@@ -454,11 +438,11 @@ def execute_command(
     execution failed (the report says where), 2 bad input. Needs the ``execution`` extra.
     """
     try:
-        from .execute import ExecutionSettings, execute, read_plan
+        from .execute import ExecutionSettings, execute
 
-        result, timing = read_plan(plan_file)
+        result = PlanResult.load(plan_file)
         with _progress_line("executing" + (f", rendering {video.name}" if video is not None else "")) as progress:
-            execution = execute(result, ExecutionSettings(tip_speed=tip_speed), timing=timing, video=video,
+            execution = execute(result, ExecutionSettings(tip_speed=tip_speed), video=video,
                                 progress=progress)
         if json_out is not None:
             json_out.parent.mkdir(parents=True, exist_ok=True)

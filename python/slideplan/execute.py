@@ -207,29 +207,6 @@ class _Unstable(Exception):
     """The simulation produced NaN or MuJoCo reset it (bad accelerations)."""
 
 
-def read_plan(path: str | Path) -> tuple[PlanResult, dict[str, Any] | None]:
-    """Read a plan JSON for execution: ``slideplan.plan/1``, or ``/2`` with its ``timing`` block.
-
-    Args:
-        path: the plan file.
-
-    Returns:
-        ``(plan, timing)``; timing is None for ``/1`` plans.
-
-    Raises:
-        InputError: unreadable file, not JSON, another schema, or a malformed plan (naming the file).
-    """
-    try:
-        text = Path(path).read_text()
-    except (OSError, UnicodeDecodeError) as error:
-        raise InputError(f"cannot read plan ({error})", source=str(path)) from None
-    try:
-        result = PlanResult.from_json(text)
-    except InputError as error:
-        raise InputError(error.problem, source=str(path), field=error.field) from None
-    return result, result.timing
-
-
 # ----------------------------------------------------------------------------- timing
 
 

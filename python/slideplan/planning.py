@@ -388,6 +388,7 @@ class PlanResult:
             raise InputError(f"unknown status {data['status']!r} (expected one of {STATUSES})", field="status")
         dof = len(data["joint_names"])
         try:
+            _require_finite(data)
             return cls(
                 status=data["status"],
                 planner=data["planner"],
@@ -424,6 +425,24 @@ class PlanResult:
             raise InputError(f"malformed plan ({type(error).__name__}: {error})", field="plan") from None
 
     @classmethod
+    def load(cls, path: str | Path) -> PlanResult:
+        """Read a plan file (``slideplan.plan/1``, or ``/2`` with its ``timing`` block as ``.timing``):
+        the one reader of saved plans; what it returns goes wherever :func:`plan`'s result goes.
+
+        Raises:
+            InputError: naming the file (and the field): unreadable, not JSON, another schema, a
+                malformed plan, or a number that is NaN or infinite.
+        """
+        try:
+            text = Path(path).read_text()
+        except (OSError, UnicodeDecodeError) as error:
+            raise InputError(f"cannot read the plan ({error})", source=str(path)) from None
+        try:
+            return cls.from_json(text)
+        except InputError as error:
+            raise InputError(error.problem, source=str(path), field=error.field) from None
+
+    @classmethod
     def from_json(cls, text: str) -> PlanResult:
         """Parse plan JSON text (see :meth:`from_dict`).
 
@@ -434,7 +453,27 @@ class PlanResult:
             data = json.loads(text)
         except json.JSONDecodeError as error:
             raise InputError(f"invalid JSON ({error})") from None
+        except RecursionError:
+            raise InputError("invalid JSON (nested too deeply)") from None
         return cls.from_dict(data)
+
+
+def _require_finite(data: dict[str, Any]) -> None:
+    """Refuse a plan dict holding a NaN or infinite number anywhere (JSON parsers accept ``NaN`` and
+    ``1e999``; a trajectory with one would be executed or exported as it is), naming where.
+
+    Raises:
+        InputError: the dotted field of the first such number.
+    """
+    stack: list[tuple[str, Any]] = [("", data)]
+    while stack:  # not recursive: a deeply nested file must not overflow Python's stack
+        name, value = stack.pop()
+        if isinstance(value, dict):
+            stack.extend((f"{name}.{key}" if name else str(key), item) for key, item in value.items())
+        elif isinstance(value, list):
+            stack.extend((f"{name}[{index}]", item) for index, item in enumerate(value))
+        elif isinstance(value, float) and not math.isfinite(value):
+            raise InputError(f"{value} is not a finite number", field=name)
 
 
 def _obstacle_entry(entry: dict[str, Any]) -> dict[str, Any]:

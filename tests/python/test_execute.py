@@ -11,8 +11,9 @@ import pytest
 from typer.testing import CliRunner
 
 from handmade_plan import DEPTH_M, build_grasp_plan, build_plan
+from slideplan import PlanResult
 from slideplan.cli import app
-from slideplan.execute import ExecutionSettings, execute, read_plan
+from slideplan.execute import ExecutionSettings, execute
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +57,7 @@ def test_grasp_of_a_far_overhanging_plate_lifts_it():
 def test_the_demo_plan_slides_and_lifts_its_crescent(tmp_path):
     # The planner's T42 grasp lies grasp_standoff beyond the edge, so the lower finger passes the table.
     assert CliRunner().invoke(app, ["demo", "--out", str(tmp_path)]).exit_code == 0
-    plan, _ = read_plan(tmp_path / "demo-plan.json")
+    plan = PlanResult.load(tmp_path / "demo-plan.json")
     execution = execute(plan)
     assert execution.position_error_m <= 0.005 and abs(execution.yaw_error_deg) <= 3.0
     assert execution.lifted, execution.failure
@@ -190,9 +191,9 @@ def test_timed_plan_uses_its_timing_block(tmp_path, slide_plan):
     from slideplan.timing import TimingOptions, parameterize
 
     slow = dataclasses.replace(slide_plan, timing=parameterize(slide_plan, TimingOptions(fingertip_speed=0.005)))
-    result, timing = read_plan(_write(tmp_path, slow.to_dict()))
-    assert timing is not None
-    execution = execute(result, timing=timing)
+    result = PlanResult.load(_write(tmp_path, slow.to_dict()))
+    assert result.timing is not None
+    execution = execute(result)  # a loaded plan goes where plan()'s goes, its timing block with it
     # 3.5 cm at 5 mm/s (the own parameterization slides at 5 cm/s): the slide lasts seconds longer.
     assert execution.sim_time_s > execute(dataclasses.replace(result, timing=None)).sim_time_s + 3.0
 

@@ -192,3 +192,38 @@ def test_planner_config_rejects_bad_values(changes, field, message):
 def test_negative_reconfiguration_range_is_rejected():
     with pytest.raises(InputError, match="reconfiguration_range"):
         PlannerConfig().with_reconfiguration_range(-0.01)
+
+
+@pytest.mark.parametrize("where, field", [
+    (lambda data: data["trajectory"][1].__setitem__(2, math.nan), "trajectory[1][2]"),
+    (lambda data: data["grasp"]["approach"][0].__setitem__(0, math.inf), "grasp.approach[0][0]"),
+    (lambda data: data.update(overhang_m=-math.inf), "overhang_m"),
+    (lambda data: data["object_motion"].update(yaw=math.nan), "object_motion.yaw"),
+])
+def test_a_plan_file_with_a_nan_or_inf_is_refused_naming_the_file_and_field(tmp_path, where, field):
+    # Once: exported with a bare NaN in the ROS JSON, and executed ("Nan, Inf or huge value in CTRL").
+    data = make_plan().to_dict()
+    where(data)
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(data))  # Python writes NaN and Infinity; other writers do too
+    with pytest.raises(InputError, match="not a finite number") as error:
+        PlanResult.load(path)
+    assert error.value.field == field
+    assert error.value.source == str(path)
+
+
+def test_load_round_trips_and_names_an_unreadable_file(tmp_path):
+    plan = make_plan()
+    path = tmp_path / "plan.json"
+    path.write_text(plan.to_json())
+    assert_same_plan(plan, PlanResult.load(path))
+    with pytest.raises(InputError, match="cannot read the plan") as error:
+        PlanResult.load(tmp_path / "missing.json")
+    assert error.value.source == str(tmp_path / "missing.json")
+
+
+def test_a_deeply_nested_plan_is_an_input_error_not_a_recursion_error(tmp_path):
+    path = tmp_path / "deep.json"
+    path.write_text('{"schema": "slideplan.plan/2", "status": "solved", "stats": ' + "[" * 100000 + "]" * 100000 + "}")
+    with pytest.raises(InputError):
+        PlanResult.load(path)
