@@ -29,7 +29,7 @@ from slideplan import InputError, PlannerConfig, load_object, load_scene, plan, 
 from slideplan.objects import load_outline, sample_pose_on_table
 from slideplan.rendering import Box, Camera, PlacedObject, depth_image, noisy_depth, scene_mjcf
 from slideplan.tracking import Tracker
-from slideplan.transforms import row_to_pose
+from slideplan.transforms import rotation_2d, row_to_pose
 from slideplan.verify import planar_motion
 
 OBJECTS = ("crescent", "L", "E", "triangle", "irregular")
@@ -64,8 +64,7 @@ def main() -> None:
             # and shifted by up to 1 mm.
             tip = row_to_pose(first.fingertip_poses[k])[:3, 3]
             turn, shift = rng.uniform(-math.radians(2), math.radians(2)), rng.uniform(-0.001, 0.001, 2)
-            c, s = math.cos(turn), math.sin(turn)
-            about = (tip[0] - (c * tip[0] - s * tip[1]) + shift[0], tip[1] - (s * tip[0] + c * tip[1]) + shift[1], turn)
+            about = (*(tip[:2] - rotation_2d(turn) @ tip[:2] + shift), turn)
             truth = obj.moved(predicted).moved(about)
             hand = [Box((tip[0], tip[1], table.height + 0.06), (0.05, 0.04, 0.03))]
             depth = noisy_depth(depth_image(scene_mjcf(table, [PlacedObject(name, pose, obj.thickness, truth.outline)], hand, camera),

@@ -51,13 +51,14 @@ namespace slideplan
             out << "has " << q.size() << " joints, the robot " << robot.dof();
             return out.str();
         }
-        for (unsigned i = 0; !robot.withinLimits(q) && i < robot.dof(); ++i)
-            if (q(i) < robot.lowerLimits()(i) || q(i) > robot.upperLimits()(i))
-            {
-                out << "joint " << robot.jointNames()[i] << " = " << q(i) << " is outside its limits [" << robot.lowerLimits()(i)
-                    << ", " << robot.upperLimits()(i) << "]";
-                return out.str();
-            }
+        if (!robot.withinLimits(q))
+            for (unsigned i = 0; i < robot.dof(); ++i)
+                if (q(i) < robot.lowerLimits()(i) || q(i) > robot.upperLimits()(i))
+                {
+                    out << "joint " << robot.jointNames()[i] << " = " << q(i) << " is outside its limits ["
+                        << robot.lowerLimits()(i) << ", " << robot.upperLimits()(i) << "]";
+                    return out.str();
+                }
         const Eigen::Vector3d residual = constraint_->residual(tip);
         if (residual.cwiseAbs().maxCoeff() > constraint_->getTolerance())
         {

@@ -471,9 +471,24 @@ def _require_finite(data: dict[str, Any]) -> None:
         if isinstance(value, dict):
             stack.extend((f"{name}.{key}" if name else str(key), item) for key, item in value.items())
         elif isinstance(value, list):
-            stack.extend((f"{name}[{index}]", item) for index, item in enumerate(value))
+            # A rectangular list of numbers (a path, a cloud) is checked at once, not number by number.
+            numbers = _numbers_or_none(value)
+            if numbers is None:
+                stack.extend((f"{name}[{index}]", item) for index, item in enumerate(value))
+            elif not np.isfinite(numbers).all():
+                first = np.argwhere(~np.isfinite(numbers))[0]
+                raise InputError(f"{numbers[tuple(first)]} is not a finite number",
+                                 field=name + "".join(f"[{index}]" for index in first))
         elif isinstance(value, float) and not math.isfinite(value):
             raise InputError(f"{value} is not a finite number", field=name)
+
+
+def _numbers_or_none(value: list) -> np.ndarray | None:
+    """``value`` as a float array if it is a rectangular list of numbers, else None."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return None
 
 
 def _obstacle_entry(entry: dict[str, Any]) -> dict[str, Any]:

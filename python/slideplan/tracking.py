@@ -29,6 +29,7 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiPoint, Polygon
 
+from ._fields import as_number, as_numbers
 from .errors import InputError
 from .objects import ThinObject
 from .rendering import Camera, pixel_points
@@ -76,21 +77,22 @@ class Tracker:
         iterations: ICP iterations at most per frame.
 
     Raises:
-        InputError: a non-positive clearance, margin or iteration count, or an object with fewer than
-            3 distinct points.
+        InputError: a clearance or margin that is not a positive number, an iteration count that is
+            not a positive integer, a table height that is not a number, or an object known only as a
+            cloud whose concave hull has no area.
     """
 
     def __init__(self, obj: ThinObject, camera: Camera, *, table_height: float, hand_clearance: float = 0.01,
                  window_margin: float = 0.05, iterations: int = 40) -> None:
         from scipy.spatial import cKDTree
 
-        for name, value in (("hand_clearance", hand_clearance), ("window_margin", window_margin), ("iterations", iterations)):
-            if not value > 0:
-                raise InputError(f"must be > 0, got {value!r}", field=name)
-        self.obj, self.camera, self.table_height = obj, camera, float(table_height)
-        self.hand_clearance, self.window_margin, self.iterations = float(hand_clearance), float(window_margin), int(iterations)
+        self.hand_clearance = as_number(hand_clearance, source="", field="hand_clearance", positive=True)
+        self.window_margin = as_number(window_margin, source="", field="window_margin", positive=True)
+        if not isinstance(iterations, int) or isinstance(iterations, bool) or iterations <= 0:
+            raise InputError(f"expected a positive integer, got {iterations!r}", field="iterations")
+        self.obj, self.camera, self.iterations = obj, camera, iterations
+        self.table_height = as_number(table_height, source="", field="table_height")
         outline = obj.outline if obj.outline is not None else _cloud_outline(obj.points[:, :2])
-        self._outline = outline
         self._model = _densify(outline, OUTLINE_SPACING_M)
         self._tree = cKDTree(self._model)
         self._centre = np.asarray(obj.centroid_xy, dtype=float)
@@ -143,13 +145,14 @@ class Tracker:
             The estimate; ``ok`` False (with the reason) when the frame shows too little edge.
 
         Raises:
-            InputError: a depth image that is not 2-D or of another size than the camera's.
+            InputError: a depth image of another shape than the camera's, or a guess that is not 3
+                finite numbers.
         """
         depth = np.asarray(depth, dtype=float)
         if depth.shape != (self.camera.height, self.camera.width):
             raise InputError(f"expected a ({self.camera.height}, {self.camera.width}) depth image, got shape {depth.shape}",
                              field="depth")
-        guess = tuple(float(value) for value in guess)
+        guess = tuple(float(value) for value in as_numbers(guess, 3, source="", field="guess"))
         points, inside = self.classify(depth, guess)
         if len(points) < MIN_EDGE_POINTS:
             return TrackedPose(False, guess, len(points), math.nan, f"{len(points)} edge points in view (< {MIN_EDGE_POINTS})")
@@ -159,10 +162,11 @@ class Tracker:
         # the guess moved by the shift of the object pixels' mean (biased where the hand hides part of
         # it, but near), both turned either way. The fit that explains more edge points wins.
         fit = self._icp(points, np.array(guess), self.iterations)
-        shifted = np.linalg.norm(move_planar(self._centre[None, :], fit[0]) - move_planar(self._centre[None, :], guess))
+        expected = move_planar(self._centre[None, :], guess)[0]
+        shifted = np.linalg.norm(move_planar(self._centre[None, :], fit[0])[0] - expected)
         turned = abs(wrap_angle(float(fit[0][2]) - guess[2]))
         if fit[1] < EXPLAINED * len(points) or shifted > NEAR_GUESS[0] or turned > NEAR_GUESS[1]:
-            shift = inside.mean(axis=0) - move_planar(self._centre[None, :], guess)[0] if len(inside) else np.zeros(2)
+            shift = inside.mean(axis=0) - expected if len(inside) else np.zeros(2)
             offsets = [np.zeros(2)] + ([shift] if np.linalg.norm(shift) > 0.003 else [])
             # Short fits from the guess and the shifted guess, each also turned by +-START_YAW; the best goes on.
             starts = [np.array(guess) + [dx, dy, turn] for dx, dy in offsets for turn in (0.0, -START_YAW, START_YAW)]

@@ -71,3 +71,23 @@ def test_a_depth_image_of_another_size_is_an_input_error(square):
     tracker = Tracker(load_object("L", table_height=table.height, pose=(0.55, 0.0, 0.0)), camera, table_height=table.height)
     with pytest.raises(InputError, match="depth"):
         tracker.track(np.zeros((10, 10)))
+
+
+@pytest.mark.parametrize("arguments, field", [
+    ({"hand_clearance": 0.0}, "hand_clearance"), ({"window_margin": "wide"}, "window_margin"),
+    ({"iterations": 2.5}, "iterations"), ({"table_height": None}, "table_height"),
+])
+def test_bad_tracker_settings_name_the_field(square, arguments, field):
+    table, camera = square
+    obj = load_object("L", table_height=table.height, pose=(0.55, 0.0, 0.0))
+    with pytest.raises(InputError) as error:
+        Tracker(obj, camera, **{"table_height": table.height, **arguments})
+    assert error.value.field == field
+
+
+def test_a_guess_that_is_not_a_pose_is_an_input_error(square):
+    table, camera = square
+    tracker = Tracker(load_object("L", table_height=table.height, pose=(0.55, 0.0, 0.0)), camera, table_height=table.height)
+    with pytest.raises(InputError) as error:
+        tracker.track(np.zeros((camera.height, camera.width)), guess=(0.0, 0.0))
+    assert error.value.field == "guess"
