@@ -83,18 +83,18 @@ def _largest_acceleration(path, times):
 
 
 def test_untimed_plan_is_executed_under_the_limits_of_its_settings(slide_plan, monkeypatch):
-    from slideplan import execute as execute_module
+    from slideplan.execute import runner as runner_module
     from slideplan.planning import build_robot
     from slideplan.timing import NEAR_TABLE_M
 
     followed = []
-    follow = execute_module._Runner.follow
+    follow = runner_module.Runner.follow
 
     def recording(runner, path, times, *args, **kwargs):
         followed.append((np.array(path), np.array(times)))
         return follow(runner, path, times, *args, **kwargs)
 
-    monkeypatch.setattr(execute_module._Runner, "follow", recording)
+    monkeypatch.setattr(runner_module.Runner, "follow", recording)
     # Below the defaults (5 cm/s, 1 rad/s, 2 rad/s^2) and the URDF's 2 rad/s: defaults would break them.
     settings = ExecutionSettings(tip_speed=0.02, joint_velocity=0.06, joint_acceleration=0.1)
     execution = execute(slide_plan, settings)
@@ -247,14 +247,14 @@ def test_non_convex_table_is_a_union_of_triangles_covering_it():
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
-    from slideplan.execute import _table_pieces
+    from slideplan.execute.model import table_pieces
 
     ell = Polygon([(0.3, -0.3), (0.9, -0.3), (0.9, 0.0), (0.6, 0.0), (0.6, 0.3), (0.3, 0.3)])
-    pieces = [Polygon(piece) for piece in _table_pieces(ell)]
+    pieces = [Polygon(piece) for piece in table_pieces(ell)]
     assert len(pieces) > 1 and all(piece.convex_hull.area - piece.area < 1e-12 for piece in pieces)
     assert abs(unary_union(pieces).area - ell.area) < 1e-9 and unary_union(pieces).symmetric_difference(ell).area < 1e-9
     square = Polygon([(0.3, -0.2), (0.7, -0.2), (0.7, 0.2), (0.3, 0.2)])
-    assert len(_table_pieces(square)) == 1
+    assert len(table_pieces(square)) == 1
 
 
 def test_object_boxes_cover_a_non_convex_outline_and_not_its_hollow():

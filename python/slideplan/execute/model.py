@@ -1,0 +1,448 @@
+"""The MuJoCo model of a plan: the robot from its URDF with a compliant finger and closing fingers,
+the table, and the object as boxes on a grid (the package docstring says why each is so)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+from xml.etree import ElementTree
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+
+from ..errors import InputError
+from ..geometry import SupportSurface
+from ..planning import PlanResult, merge_urdf
+from ..transforms import quaternion_from_matrix
+from .settings import ExecutionSettings
+
+MESH_SUFFIXES = (".stl", ".obj")  # what MuJoCo reads from a URDF
+DEPTH_CAMERA = "slideplan_depth"
+
+_ROBOT_CONTYPE, _ROBOT_CONAFFINITY = 2, 1  # robot geoms touch the world, not each other
+_WORLD_CONTYPE, _WORLD_CONAFFINITY = 1, 3  # table and object touch everything
+_TABLE_THICKNESS = 0.05
+_PAD_RADIUS = 0.006
+_FINGER_RANGE = (-0.2, 1.6)  # closing hinges (rad): open a little, closed well past the grasp plane
+_ARENA_BYTES = 128 << 20  # a 20 cm plate has ~500 contacts with the table; MuJoCo's default arena drops them
+
+
+def _urdf_for_mujoco(robot: dict[str, Any]) -> str:
+    """The plan's URDF (with attachments), mesh paths made absolute and MuJoCo's compiler options set.
+
+    Raises:
+        InputError: unreadable URDF, a mesh that does not exist or that MuJoCo cannot read.
+    """
+    from .. import _core
+
+    urdf = Path(robot["urdf"])
+    try:
+        text = merge_urdf(urdf, [Path(path) for path in robot["attach"]])
+        root = ElementTree.fromstring(text)
+    except (ValueError, ElementTree.ParseError) as error:
+        raise InputError(str(error), field="robot.urdf") from None
+    for link in root.iter("link"):
+        for kind in ("collision", "visual"):
+            for element in link.iter(kind):
+                for mesh in element.iter("mesh"):
+                    uri = mesh.get("filename", "")
+                    try:
+                        path = _core.resolve_uri(uri, str(urdf.parent), list(robot["package_dirs"]))
+                    except ValueError as error:
+                        raise InputError(
+                            f"link {link.get('name')!r}: {kind} mesh {uri!r} not found ({error})", source=str(urdf)
+                        ) from None
+                    if kind == "collision" and Path(path).suffix.lower() not in MESH_SUFFIXES:
+                        raise InputError(
+                            f"link {link.get('name')!r}: collision mesh {uri!r} is {Path(path).suffix or 'untyped'}; "
+                            f"MuJoCo reads {' and '.join(MESH_SUFFIXES)}",
+                            source=str(urdf),
+                        )
+                    mesh.set("filename", path)
+    # Keep fixed-joint links as bodies: the contact links and fingers get joints of their own.
+    extension = ElementTree.SubElement(root, "mujoco")
+    ElementTree.SubElement(extension, "compiler", fusestatic="false", strippath="false", discardvisual="true")
+    return ElementTree.tostring(root, encoding="unicode")
+
+
+def table_pieces(polygon: Polygon) -> list[np.ndarray]:
+    """Convex pieces of the table polygon: itself if convex, else its constrained Delaunay triangles."""
+    if polygon.convex_hull.area - polygon.area <= 1e-9 * polygon.area:
+        return [np.asarray(polygon.exterior.coords)[:-1]]
+    triangles = shapely.constrained_delaunay_triangles(polygon)
+    return [np.asarray(piece.exterior.coords)[:-1] for piece in triangles.geoms]
+
+
+def cloud_footprint(points: np.ndarray) -> Polygon | shapely.MultiPolygon:
+    """The outline of a top-surface point cloud: a morphological closing of its points.
+
+    Each point is widened by the cloud's spacing (90th percentile of the nearest-neighbour
+    distances of up to 500 of its points; boundary samples are denser than the grid inside), which
+    joins neighbours on a grid, and the union is shrunk back by the same amount, so concavities and
+    holes wider than 2 spacings stay open.
+
+    Args:
+        points: (N, 3) cloud.
+
+    Returns:
+        The footprint polygon(s), world frame.
+    """
+    xy = np.asarray(points, dtype=float)[:, :2]
+    sample = xy[:: max(1, len(xy) // 500)]
+    distances = np.linalg.norm(sample[:, None, :] - xy[None, :, :], axis=2)
+    distances[distances == 0] = np.inf
+    radius = max(float(np.percentile(distances.min(axis=1), 90)), 1e-4)
+    return shapely.unary_union(shapely.buffer(shapely.points(xy), radius, quad_segs=4)).buffer(-radius, quad_segs=4)
+
+
+def object_boxes(points: np.ndarray, cell_size: float) -> np.ndarray:
+    """Boxes tiling the footprint of a top-surface point cloud on a square grid.
+
+    Each grid cell that meets the footprint (:func:`cloud_footprint`) becomes the bounding box of
+    its part of the footprint, so the boxes cover the whole outline (the fingertip finds the object
+    wherever the plan touches it) and overfill only where an edge crosses a cell diagonally.
+
+    Args:
+        points: (N, 3) cloud.
+        cell_size: grid spacing (m).
+
+    Returns:
+        (K, 4) boxes ``[centre x, centre y, half width x, half width y]``, K >= 1.
+    """
+    xy = np.asarray(points, dtype=float)[:, :2]
+    footprint = cloud_footprint(points)
+    low, high = xy.min(axis=0), xy.max(axis=0)
+    counts = np.maximum(np.ceil((high - low) / cell_size).astype(int), 1)
+    corner = (low + high) / 2 - counts * cell_size / 2
+    cells = shapely.box(*np.stack(np.meshgrid(
+        *(corner[axis] + cell_size * np.arange(counts[axis]) for axis in (0, 1))), axis=-1).reshape(-1, 2).T,
+        *(np.stack(np.meshgrid(*(corner[axis] + cell_size * np.arange(1, counts[axis] + 1) for axis in (0, 1))),
+                   axis=-1).reshape(-1, 2).T))
+    parts = shapely.intersection(cells, footprint)
+    parts = parts[shapely.area(parts) > 1e-3 * cell_size**2]
+    bounds = shapely.bounds(parts)  # (K, 4): xmin, ymin, xmax, ymax
+    boxes = np.column_stack([(bounds[:, :2] + bounds[:, 2:]) / 2, (bounds[:, 2:] - bounds[:, :2]) / 2])
+    if len(boxes):
+        return boxes
+    return np.array([[*((low + high) / 2), *np.maximum((high - low) / 2, 1e-3)]])
+
+
+@dataclass
+class Model:
+    """The compiled model and the indices the run needs."""
+
+    model: Any
+    data: Any
+    arm_qpos: np.ndarray  # qpos addresses of the plan's joints
+    arm_dofs: np.ndarray
+    arm_actuators: np.ndarray
+    spring_qpos: int
+    spring_joint: int
+    finger_actuators: list[int]
+    finger_meet: np.ndarray  # closing angle at which each finger's far end reaches the grasp plane (rad)
+    hand_geoms: np.ndarray  # contact-link geoms that only touch things once the finger is lifted
+    pad_geom: int
+    tip_body: int
+    object_body: int
+    object_geoms: set
+    table_geoms: set
+
+
+def build_model(result: PlanResult, settings: ExecutionSettings, *, world_object=None, camera=None) -> Model:
+    """Build the MuJoCo model of a plan (the package docstring).
+
+    Args:
+        result: the plan (robot, table; the object too unless ``world_object`` is given).
+        settings: physical parameters.
+        world_object: the object as it really is (a :class:`~slideplan.objects.ThinObject`), when the
+            plan's is a perception of it; None: the plan's.
+        camera: a :class:`~slideplan.rendering.Camera` to add as the fixed camera ``slideplan_depth``
+            (the closed loop's depth camera), or None.
+
+    Raises:
+        InputError: the URDF cannot be imported, naming what MuJoCo complained about.
+    """
+    import mujoco
+
+    robot = result.robot
+    urdf_source = str(robot["urdf"])
+    try:
+        spec = mujoco.MjSpec.from_string(_urdf_for_mujoco(robot))
+        spec.compile()
+    except ValueError as error:
+        raise InputError(f"MuJoCo cannot import the URDF: {' '.join(str(error).split())}", source=urdf_source) from None
+    names = {body.name for body in spec.bodies}
+    for key in ("tip_link", "grasp_link"):
+        if robot[key] not in names:
+            raise InputError(f"link {robot[key]!r} not in the URDF", field=f"robot.{key}")
+    for link in robot["contact_links"]:
+        if link not in names:
+            raise InputError(f"link {link!r} not in the URDF", field="robot.contact_links")
+    joint_names = {joint.name for joint in spec.joints}
+    for joint in result.joint_names:
+        if joint not in joint_names:
+            raise InputError(f"joint {joint!r} not in the URDF", field="joint_names")
+
+    # Kinematics at qpos0 (every joint 0) give the fixed transforms the new joints need.
+    model0 = spec.compile()
+    data0 = mujoco.MjData(model0)
+    mujoco.mj_kinematics(model0, data0)
+
+    def pose0(name: str) -> np.ndarray:
+        body = model0.body(name).id
+        pose = np.eye(4)
+        pose[:3, :3] = data0.xmat[body].reshape(3, 3)
+        pose[:3, 3] = data0.xpos[body]
+        return pose
+
+    # Mount: the planned chain's base link (default: the URDF root) at base_pose.
+    root_body = spec.worldbody.first_body()
+    base_link = robot["base_link"] or root_body.name
+    mount = np.asarray(robot["base_pose"]) @ np.linalg.inv(pose0(base_link)) @ pose0(root_body.name)
+    root_body.pos = mount[:3, 3]
+    root_body.quat = _wxyz(mount[:3, :3])
+
+    robot_bodies = [body for body in spec.bodies if body.name != "world"]
+    for body in robot_bodies:
+        body.gravcomp = 1.0  # the arm controller's gravity compensation
+        for geom in body.geoms:
+            geom.contype, geom.conaffinity = _ROBOT_CONTYPE, _ROBOT_CONAFFINITY
+            # Soft finger pads: a contact patch resists twisting and tilting (torsional and rolling friction).
+            geom.friction = [settings.pad_friction, settings.torsional_friction, settings.torsional_friction]
+            geom.condim = 6
+
+    # Finger compliance: a slide joint on the first contact link, along the world vertical seen from
+    # the contact frame at pitch beta0, and a pad whose lowest point is the contact frame.
+    from .. import _core
+
+    contact = set(robot["contact_links"])
+    contact_root = next(
+        name for name in robot["contact_links"] if spec.body(name).parent.name not in contact
+    )
+    tip_frame = pose0(robot["tip_link"]) @ np.asarray(robot["tip_offset"])
+    up_in_tip = _core.contact_rotation(0.0, float(result.params["beta0"])).T @ np.array([0.0, 0.0, 1.0])
+    up_world0 = tip_frame[:3, :3] @ up_in_tip
+    root_pose = pose0(contact_root)
+    spring = spec.body(contact_root).add_joint(
+        name="slideplan_finger_compliance",
+        type=mujoco.mjtJoint.mjJNT_SLIDE,
+        axis=root_pose[:3, :3].T @ up_world0,
+        damping=settings.finger_damping,
+        armature=0.002,
+        limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+        range=[-0.01, float(result.params["dz_max"]) + 0.03],
+    )
+    spring.stiffness = [settings.finger_stiffness, 0.0, 0.0]
+    tip_body_pose = pose0(robot["tip_link"])
+    pad_world = tip_frame[:3, 3] + _PAD_RADIUS * up_world0
+    pad = spec.body(robot["tip_link"]).add_geom(
+        name="slideplan_pad",
+        type=mujoco.mjtGeom.mjGEOM_SPHERE,
+        size=[_PAD_RADIUS, 0, 0],
+        pos=tip_body_pose[:3, :3].T @ (pad_world - tip_body_pose[:3, 3]),
+        contype=_ROBOT_CONTYPE,
+        conaffinity=_ROBOT_CONAFFINITY,
+        condim=6,
+        priority=1,
+        friction=[settings.pad_friction, settings.torsional_friction, 0.0001],
+        solref=[0.004, 1],
+        solimp=[0.3, 0.95, 0.001, 0.5, 2],
+        mass=0.001,
+        rgba=[0.9, 0.3, 0.2, 1],
+    )
+
+    # Fingers: the other bodies on the grasp link's parent with mass and geometry close about grasp x.
+    grasp_frame = pose0(robot["grasp_link"]) @ np.asarray(robot["grasp_offset"])
+    palm = spec.body(robot["grasp_link"]).parent
+    fingers, meet = [], []
+    for child in palm.bodies:
+        tip = _subtree_far_point(model0, data0, child.name, pose0(child.name)[:3, 3])
+        if tip is None or child.name == robot["grasp_link"] or model0.body(child.name).subtreemass[0] <= 1e-6:
+            continue
+        pivot = pose0(child.name)[:3, 3]
+        axis_world = grasp_frame[:3, 0]
+        # closing moves the far point towards the grasp frame's y = 0 plane
+        side = float((tip - grasp_frame[:3, 3]) @ grasp_frame[:3, 1])
+        motion = float(np.cross(axis_world, tip - pivot) @ grasp_frame[:3, 1])
+        sign = -1.0 if side * motion > 0 else 1.0
+        hinge = child.add_joint(
+            name=f"slideplan_close_{child.name}",
+            type=mujoco.mjtJoint.mjJNT_HINGE,
+            axis=pose0(child.name)[:3, :3].T @ (sign * axis_world),
+            armature=0.002,
+            limited=mujoco.mjtLimited.mjLIMITED_TRUE,
+            range=_FINGER_RANGE,
+        )
+        fingers.append(hinge.name)
+        meet.append(_meeting_angle(pivot, tip, sign * axis_world, grasp_frame))
+
+    # Arm servos (gains set after compiling, from the inertia) and the fingers' closing servos.
+    for joint in result.joint_names:
+        actuator = spec.add_actuator(name=f"servo_{joint}", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        actuator.set_to_position(kp=1.0, kv=0.1)
+    for joint, value in robot["fixed_joints"].items():
+        actuator = spec.add_actuator(name=f"hold_{joint}", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        actuator.set_to_position(kp=200.0, kv=5.0)
+    for joint in fingers:
+        actuator = spec.add_actuator(name=f"close_{joint}", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        actuator.set_to_position(kp=20.0, kv=0.2)
+        actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        actuator.forcerange = [-100.0, 100.0]  # stiff while sliding; capped to grip_torque when closing
+
+    if world_object is None:
+        points, com = np.asarray(result.object["points"]), np.asarray(result.object["com_xy"], dtype=float)
+    else:
+        points, com = world_object.points, np.asarray(world_object.centroid_xy, dtype=float)
+    _add_world(spec, result, settings, points, com)
+    if camera is not None:
+        # Camera.axes() are MuJoCo's camera frame (x right, y up, looking along -z).
+        spec.worldbody.add_camera(name=DEPTH_CAMERA, pos=list(camera.position), fovy=camera.fovy_deg,
+                                  quat=_wxyz(camera.axes()))
+        spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, camera.width)
+        spec.visual.global_.offheight = max(spec.visual.global_.offheight, camera.height)
+    spec.memory = _ARENA_BYTES
+    spec.option.timestep = settings.timestep
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.impratio = 10
+    spec.option.noslip_iterations = 10
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    try:
+        model = spec.compile()
+    except ValueError as error:
+        raise InputError(f"MuJoCo cannot build the execution model: {' '.join(str(error).split())}", source=urdf_source) from None
+    data = mujoco.MjData(model)
+
+    arm_joints = [model.joint(name).id for name in result.joint_names]
+    contact_bodies = {model.body(name).id for name in contact}
+    hand_geoms = np.array(
+        [index for index in range(model.ngeom) if model.geom_bodyid[index] in contact_bodies and index != model.geom(pad.name).id],
+        dtype=int,
+    )
+    object_body = model.body("slideplan_object").id
+    built = Model(
+        model=model,
+        data=data,
+        arm_qpos=np.array([model.jnt_qposadr[joint] for joint in arm_joints]),
+        arm_dofs=np.array([model.jnt_dofadr[joint] for joint in arm_joints]),
+        arm_actuators=np.array([model.actuator(f"servo_{name}").id for name in result.joint_names]),
+        spring_qpos=int(model.jnt_qposadr[model.joint(spring.name).id]),
+        spring_joint=model.joint(spring.name).id,
+        finger_actuators=[model.actuator(f"close_{joint}").id for joint in fingers],
+        finger_meet=np.array(meet),
+        hand_geoms=hand_geoms,
+        pad_geom=model.geom(pad.name).id,
+        tip_body=model.body(robot["tip_link"]).id,
+        object_body=object_body,
+        object_geoms={index for index in range(model.ngeom) if model.geom_bodyid[index] == object_body},
+        table_geoms={index for index in range(model.ngeom) if model.geom(index).name.startswith("slideplan_table_")},
+    )
+    for joint, value in robot["fixed_joints"].items():
+        data.qpos[model.jnt_qposadr[model.joint(joint).id]] = value
+        data.ctrl[model.actuator(f"hold_{joint}").id] = value
+    set_servo_gains(built, result.start_config, settings)
+    return built
+
+
+def _wxyz(rotation: np.ndarray) -> np.ndarray:
+    """MuJoCo's (w, x, y, z) quaternion of a rotation matrix."""
+    x, y, z, w = quaternion_from_matrix(rotation)
+    return np.array([w, x, y, z])
+
+
+def _meeting_angle(pivot: np.ndarray, tip: np.ndarray, axis: np.ndarray, grasp_frame: np.ndarray) -> float:
+    """Closing angle about ``axis`` through ``pivot`` at which ``tip`` reaches the grasp frame's y = 0 plane."""
+    axis = axis / np.linalg.norm(axis)
+    arm = tip - pivot
+    angles = np.linspace(0.0, _FINGER_RANGE[1], 321)
+    turned = (np.outer(np.cos(angles), arm) + np.outer(np.sin(angles), np.cross(axis, arm))
+              + np.outer(1.0 - np.cos(angles), axis * (axis @ arm)))  # Rodrigues
+    side = (pivot + turned - grasp_frame[:3, 3]) @ grasp_frame[:3, 1]
+    crossed = np.flatnonzero(np.sign(side) != np.sign(side[0]))
+    return float(angles[crossed[0]] if len(crossed) else angles[-1])
+
+
+def _subtree_far_point(model, data, body_name: str, pivot: np.ndarray) -> np.ndarray | None:
+    """The geom centre farthest from ``pivot`` in a body's subtree, or None if it has no geoms."""
+    root = model.body(body_name).id
+    far, best = None, -1.0
+    for geom in range(model.ngeom):
+        body = model.geom_bodyid[geom]
+        while body not in (root, 0):
+            body = model.body_parentid[body]
+        if body != root:
+            continue
+        centre = data.geom_xpos[geom]
+        distance = float(np.linalg.norm(centre - pivot))
+        if distance > best:
+            far, best = centre.copy(), distance
+    return far
+
+
+def _add_world(spec, result: PlanResult, settings: ExecutionSettings, points: np.ndarray, com: np.ndarray) -> None:
+    """Add the table prism and the object (boxes on a grid over the top cloud ``points``, one free body
+    with its origin at ``com``) to the spec."""
+    import mujoco
+
+    height = float(result.table["height"])
+    table = SupportSurface.from_vertices(result.table["polygon"], height, field="table.polygon")
+    for index, piece in enumerate(table_pieces(table.polygon)):
+        vertices = np.vstack([
+            np.column_stack([piece, np.full(len(piece), height)]),
+            np.column_stack([piece, np.full(len(piece), height - _TABLE_THICKNESS)]),
+        ])
+        spec.add_mesh(name=f"slideplan_table_{index}", uservert=vertices.ravel().tolist())
+        spec.worldbody.add_geom(
+            name=f"slideplan_table_{index}",
+            type=mujoco.mjtGeom.mjGEOM_MESH,
+            meshname=f"slideplan_table_{index}",
+            contype=_WORLD_CONTYPE,
+            conaffinity=_WORLD_CONAFFINITY,
+            friction=[settings.table_friction, 0.005, 0.0001],
+            rgba=[0.55, 0.45, 0.35, 1],
+        )
+    thickness = float(result.object["thickness"])
+    boxes = object_boxes(points, settings.cell_size)
+    body = spec.worldbody.add_body(name="slideplan_object", pos=[com[0], com[1], height + thickness / 2])
+    body.add_freejoint(name="slideplan_object_free")
+    for index, (x, y, half_x, half_y) in enumerate(boxes):
+        body.add_geom(
+            name=f"slideplan_object_{index}",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[half_x, half_y, thickness / 2],
+            pos=[x - com[0], y - com[1], 0.0],
+            density=settings.object_density,
+            contype=_WORLD_CONTYPE,
+            conaffinity=_WORLD_CONAFFINITY,
+            friction=[settings.table_friction, 0.005, 0.0001],
+            rgba=[0.2, 0.5, 0.8, 1],
+        )
+    spec.worldbody.add_light(pos=[0.5, 0, 2.0], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
+
+
+def set_servo_gains(built: Model, config: np.ndarray, settings: ExecutionSettings) -> None:
+    """PD gains giving every arm joint the same bandwidth at the configuration's inertia (critical damping)."""
+    import mujoco
+
+    model, data = built.model, built.data
+    data.qpos[built.arm_qpos] = config
+    mujoco.mj_forward(model, data)
+    inertia = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, inertia)
+    omega = 2 * math.pi * settings.servo_bandwidth_hz
+    for actuator, dof in zip(built.arm_actuators, built.arm_dofs):
+        mass = inertia[dof, dof]
+        kp, kv = mass * omega**2, 2 * mass * omega
+        model.actuator_gainprm[actuator, 0] = kp
+        model.actuator_biasprm[actuator, 1:3] = (-kp, -kv)
+
+
+
+def enable_hand_collisions(built: Model, enabled: bool) -> None:
+    """Let the contact links' own geoms touch the world (grasping) or not (sliding: the pad only)."""
+    model = built.model
+    model.geom_contype[built.hand_geoms] = _ROBOT_CONTYPE if enabled else 0
+    model.geom_conaffinity[built.hand_geoms] = _ROBOT_CONAFFINITY if enabled else 0
+

@@ -1,0 +1,142 @@
+"""Open-loop execution: the plan replayed as planned, then the grasp (:func:`execute`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from ..errors import InputError
+from ..geometry import SupportSurface
+from ..planning import PlanResult, build_robot
+from ..timing import parameterize, resolve_limits
+from ..transforms import move_planar, rotation_2d, wrap_angle
+from ..verify import overhang
+from .model import build_model
+from .report import Execution, path_features
+from .runner import SETTLE_S, Runner, Unstable, timing_of, timing_options
+from .settings import ExecutionSettings
+from .video import Recorder
+
+_NO_FORCE_N = 0.1  # below this mean normal force the finger does not press at all
+
+def execute(
+    result: PlanResult,
+    settings: ExecutionSettings | None = None,
+    *,
+    timing: dict[str, Any] | None = None,
+    video: str | Path | None = None,
+    video_fps: int = 20,
+    video_size: tuple[int, int] = (480, 640),
+    progress: Callable[[float], None] | None = None,
+) -> Execution:
+    """Execute a plan in MuJoCo: slide, let go, approach, grasp, lift and hold (module docstring).
+
+    Args:
+        result: a solved plan.
+        settings: physical parameters (default :class:`ExecutionSettings`).
+        timing: a ``slideplan.plan/2`` ``timing`` block; its ``trajectory`` and ``approach``
+            ``time_from_start`` are followed (default: the plan's own ``timing`` attribute). A
+            segment it lacks is timed by :func:`slideplan.timing.parameterize` under the limits
+            of ``settings`` (:class:`ExecutionSettings`).
+        video: write a rendering here: ``.mp4`` or ``.gif``, or ``.png`` for a strip of 6 frames.
+        video_fps: frames per simulated second of the video.
+        video_size: (height, width) of a frame in pixels.
+        progress: called with the simulated time (s) every simulated tenth of a second, e.g. to show
+            a progress line (the CLI's ``execute`` does, on runs longer than two seconds).
+
+    Returns:
+        The report. An unstable simulation is a report with ``failed_stage == "simulation"``.
+
+    Raises:
+        InputError: the plan is not solved, or its robot cannot be imported (naming the element),
+            or a mesh is missing, or the timing block does not fit the plan, or TOPP-RA finds no
+            timing of a segment this function times itself.
+    """
+    if result.status != "solved":
+        raise InputError(f"plan status is {result.status!r}: only solved plans can be executed", field="status")
+    settings = settings or ExecutionSettings()
+    timing = timing if timing is not None else getattr(result, "timing", None)
+    if video is not None and Path(video).suffix.lower() not in (".mp4", ".gif", ".png"):
+        raise InputError(f"expected a .mp4, .gif or .png file, got {str(video)!r}", field="--video")
+    os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering without a display
+
+    wall_start = time.perf_counter()
+    built = build_model(result, settings)
+    model, data = built.model, built.data
+    trajectory = np.asarray(result.trajectory, dtype=float)
+    approach = np.asarray(result.grasp["approach"], dtype=float)
+    slide_times = timing_of(timing, "trajectory", len(trajectory))
+    approach_times = timing_of(timing, "approach", len(approach))
+    core_robot = build_robot(result.robot)
+    options = timing_options(settings, core_robot.velocity_limits)
+    if slide_times is None or approach_times is None:
+        own = parameterize(result, options)
+        slide_times = own["trajectory"]["time_from_start"] if slide_times is None else slide_times
+        approach_times = own["approach"]["time_from_start"] if approach_times is None else approach_times
+    tips = np.asarray(result.fingertip_poses)[:, :3]
+
+    top = float(result.table["height"]) + float(result.object["thickness"])
+    depths = top - tips[:, 2]
+    table = SupportSurface.from_vertices(result.table["polygon"], float(result.table["height"]), field="table.polygon")
+    motion = result.object_motion
+    predicted = (float(motion["x"]), float(motion["y"]), float(motion["yaw"]))
+    com0 = np.asarray(result.object["com_xy"], dtype=float)
+    planned_com = move_planar(com0, predicted)
+    tip_path, yaw_travel = path_features(result)
+
+    recorder = Recorder(model, data, video, video_fps, video_size, look_at=[*(com0 + np.asarray(table.polygon.centroid.coords[0])) / 2,
+                                                                     table.height + 0.1], progress=progress)
+    runner = Runner(built, settings, recorder.after_step if recorder.active else None)
+    report = dict(
+        success=False, failed_stage=None, failure="", predicted_motion=dict(zip(("x", "y", "yaw"), predicted)),
+        actual_motion=None, position_error_m=None, yaw_error_deg=None, overhang_m=None, com_margin_m=None,
+        planned_com_margin_m=table.edge_margin(planned_com), normal_force_n={"mean": 0.0, "min": 0.0, "max": 0.0},
+        lifted=False, tip_path_m=tip_path, yaw_travel_deg=math.degrees(yaw_travel),
+        settings=dataclasses.asdict(settings),
+    )
+
+    def fail(stage: str, message: str) -> None:
+        if report["failed_stage"] is None:
+            report["failed_stage"], report["failure"] = stage, message
+
+    runner.press(trajectory[0], depths[0])
+    try:
+        runner.slide(trajectory, slide_times, depths, SETTLE_S)
+        forces = runner.forces
+        if forces:
+            report["normal_force_n"] = {"mean": float(np.mean(forces)), "min": float(np.min(forces)), "max": float(np.max(forces))}
+        com1, yaw1, _ = runner.object_pose()
+        actual = (*(com1 - rotation_2d(yaw1) @ com0), yaw1)
+        report["actual_motion"] = dict(zip(("x", "y", "yaw"), map(float, actual)))
+        report["position_error_m"] = float(np.linalg.norm(com1 - planned_com))
+        report["yaw_error_deg"] = math.degrees(wrap_angle(yaw1 - predicted[2]))
+        report["overhang_m"] = overhang(table, move_planar(np.asarray(result.object["points"])[:, :2], actual))[0]
+        report["com_margin_m"] = table.edge_margin(com1)
+        if report["normal_force_n"]["mean"] < _NO_FORCE_N:
+            fail("slide", f"no normal force at the fingertip (mean {report['normal_force_n']['mean']:.2f} N): "
+                          "the finger does not press, the object does not follow")
+        elif report["position_error_m"] > settings.position_tolerance or abs(report["yaw_error_deg"]) > math.degrees(settings.yaw_tolerance):
+            fail("slide", f"the object ends {1000 * report['position_error_m']:.1f} mm / {report['yaw_error_deg']:.1f} deg "
+                          "from Eq. 2's pose")
+        failure = runner.grasp(approach, approach_times, np.asarray(result.grasp["config"], dtype=float), core_robot,
+                               resolve_limits(result, options), top,
+                               float(result.table["height"]) + float(result.object["thickness"]) / 2)
+        report["lifted"] = runner.lifted
+        if failure is not None:
+            stage, message = failure
+            fail(stage, message + (f" (CoM {1000 * report['com_margin_m']:.1f} mm inside the edge)" if stage == "release" else ""))
+    except Unstable as error:
+        report.update(actual_motion=None, position_error_m=None, yaw_error_deg=None, overhang_m=None,
+                      com_margin_m=None, lifted=False, failed_stage="simulation", failure=str(error))
+    finally:
+        recorder.close()
+    report["success"] = report["failed_stage"] is None
+    execution = Execution(sim_time_s=float(data.time), wall_time_s=time.perf_counter() - wall_start, **report)
+    recorder.write()
+    return execution

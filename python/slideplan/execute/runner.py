@@ -1,0 +1,246 @@
+"""Stepping the model: the arm servoed along timed joint paths, checked for instability."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+import numpy as np
+
+from ..errors import InputError
+from ..timing import TimingOptions, time_path
+from .model import Model, enable_hand_collisions
+from .settings import ExecutionSettings
+
+SETTLE_S = 0.3  # held after the slide, and after the approach, for the object and the arm to come to rest
+_CLOSE_S = 0.8
+_LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
+_FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
+_SAMPLE_EVERY = 5  # steps between normal-force samples
+_CLOSE_TARGET_RAD = 1.5  # beyond any contact (hinge range [-0.2, 1.6]): the capped torque squeezes
+
+
+class Unstable(Exception):
+    """The simulation produced NaN or MuJoCo reset it (bad accelerations)."""
+
+
+# ----------------------------------------------------------------------------- timing
+
+
+def timing_options(settings: ExecutionSettings, urdf_velocity) -> TimingOptions:
+    """The limits under which :mod:`slideplan.timing` times what an execution times itself.
+
+    Args:
+        settings: its ``tip_speed``, ``joint_velocity`` and ``joint_acceleration`` are the limits.
+        urdf_velocity: (dof,) the URDF's ``<limit velocity>``; 0 or less (missing) sets no limit.
+
+    Returns:
+        The options, joint velocity ``min(URDF, settings.joint_velocity)`` per joint.
+    """
+    urdf_velocity = np.asarray(urdf_velocity, dtype=float)
+    velocity = np.minimum(np.where(urdf_velocity > 0, urdf_velocity, np.inf), settings.joint_velocity)
+    return TimingOptions(joint_acceleration=settings.joint_acceleration, fingertip_speed=settings.tip_speed,
+                         joint_velocity=velocity)
+
+
+def reference(path: np.ndarray, times: np.ndarray, t: float) -> np.ndarray:
+    """Joint reference at time ``t`` by linear interpolation (held at the ends)."""
+    if t >= times[-1]:
+        return path[-1]
+    index = int(np.searchsorted(times, t, side="right")) - 1
+    index = max(0, min(index, len(times) - 2))
+    span = times[index + 1] - times[index]
+    fraction = 0.0 if span <= 0 else (t - times[index]) / span
+    return path[index] + fraction * (path[index + 1] - path[index])
+
+
+
+class Runner:
+    """Steps the simulation with the arm servoed along joint paths, checking for instability."""
+
+    def __init__(self, built: Model, settings: ExecutionSettings, on_frame: Callable[[], None] | None):
+        self.built = built
+        self.settings = settings
+        self.on_frame = on_frame
+        self.forces: list[float] = []  # the pad's normal force while sliding (N), every few steps
+        self.lifted = False
+        # Reading the reference kv/kp ahead is velocity feed-forward to first order.
+        self.lead = 1.0 / (math.pi * settings.servo_bandwidth_hz)
+
+    def follow(self, path: np.ndarray, times: np.ndarray, extra_s: float = 0.0, on_step=None) -> float:
+        """Servo the arm along ``path`` at ``times`` (s from now), then hold its end for ``extra_s``.
+
+        Args:
+            path: (M, dof) joint path.
+            times: (M,) its times from now (s).
+            extra_s: hold the end this long (s).
+            on_step: called as ``on_step(elapsed, step)`` before each step; returning True stops
+                following there (the closed loop switches to a new trajectory).
+
+        Returns:
+            The time followed (s).
+
+        Raises:
+            Unstable: MuJoCo flagged bad accelerations or a state went non-finite.
+        """
+        import mujoco
+
+        model, data = self.built.model, self.built.data
+        start = data.time
+        end = float(times[-1]) + extra_s
+        step = 0
+        while data.time - start < end - 1e-9:
+            elapsed = data.time - start
+            data.ctrl[self.built.arm_actuators] = reference(path, times, elapsed + self.lead)
+            if on_step is not None and on_step(elapsed, step):
+                break
+            mujoco.mj_step(model, data)
+            step += 1
+            if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0 or not np.isfinite(data.qacc).all():
+                raise Unstable(f"simulation unstable (bad accelerations) at t = {data.time:.3f} s")
+            if data.warning[mujoco.mjtWarning.mjWARN_CNSTRFULL].number or data.warning[mujoco.mjtWarning.mjWARN_CONTACTFULL].number:
+                raise Unstable(f"simulation out of contact memory at t = {data.time:.3f} s (contacts were dropped)")
+            if self.on_frame is not None:
+                self.on_frame()
+        return float(data.time - start)
+
+    def commanded(self, path: np.ndarray, times: np.ndarray, elapsed: float) -> np.ndarray:
+        """The joint reference the servos hold ``elapsed`` s into ``path``: where a new path must start
+        for the reference not to jump."""
+        return reference(path, times, elapsed + self.lead)
+
+    def press(self, config: np.ndarray, depth: float) -> None:
+        """Start pressed: the arm at ``config``, the finger spring compressed by the planned ``depth``; only
+        the pad touches anything while sliding."""
+        import mujoco
+
+        enable_hand_collisions(self.built, False)
+        self.built.data.qpos[self.built.arm_qpos] = config
+        self.built.data.qpos[self.built.spring_qpos] = max(depth, 0.0)
+        mujoco.mj_forward(self.built.model, self.built.data)
+
+    def slide(self, path: np.ndarray, times: np.ndarray, depths: np.ndarray, extra_s: float = 0.0, on_step=None) -> float:
+        """Follow a sliding path, sampling the pad's normal force into :attr:`forces`.
+
+        With ``settings.contact_depth`` set, the spring's rest length follows the planned ``depths``
+        (m, per waypoint) so that the pad presses that deep instead. Arguments and return as :meth:`follow`.
+        """
+        model, spring = self.built.model, self.built.spring_qpos
+        depth_override = self.settings.contact_depth
+
+        def during(elapsed: float, step: int) -> bool:
+            if depth_override is not None:
+                model.qpos_spring[spring] = float(np.interp(elapsed, times, depths)) - depth_override
+            if step % _SAMPLE_EVERY == 0 and 0 < elapsed < times[-1]:
+                self.forces.append(self.pad_normal_force())
+            return on_step is not None and bool(on_step(elapsed, step))
+
+        if depth_override is not None:
+            model.qpos_spring[spring] = depths[0] - depth_override
+        return self.follow(path, times, extra_s, during)
+
+    def grasp(self, approach: np.ndarray, approach_times: np.ndarray, grasp_config: np.ndarray, robot, limits: dict[str, Any],
+              top: float, rest_z: float) -> tuple[str, str] | None:
+        """Let go, follow the approach, close the hand, lift and hold.
+
+        Args:
+            approach: (K, dof) the plan's approach, from the end of the slide to the grasp.
+            approach_times: (K,) its times (s).
+            grasp_config: (dof,) the grasp.
+            robot: the core robot model (fingertip frame and IK for the lift).
+            limits: timing limits of the lift (:func:`slideplan.timing.resolve_limits`).
+            top: the object's top surface height (m): the hand's own geoms touch things above it.
+            rest_z: the object's centre height at rest on the table (m).
+
+        Returns:
+            None if the object was lifted and held, else ``(stage, message)`` of the first failure
+            (``"release"``: it fell off the table when the finger let go; ``"grasp"``: not lifted).
+        """
+        model, data, built, settings = self.built.model, self.built.data, self.built, self.settings
+        model.qpos_spring[built.spring_qpos] = 0.0
+        failure = None
+
+        def during_approach(elapsed: float, step: int) -> None:
+            if step % _SAMPLE_EVERY == 0 and data.xpos[built.tip_body][2] > top + 0.02:
+                enable_hand_collisions(built, True)
+
+        if len(approach):
+            self.follow(approach, approach_times, SETTLE_S, during_approach)
+        enable_hand_collisions(built, True)
+        if self.object_pose()[2] < rest_z - _FELL_DROP_M:
+            failure = ("release", "the object fell off the table when the finger let go")
+        lift_target = np.asarray(robot.fk(grasp_config))
+        lift_target[2, 3] += settings.lift_height
+        lift_config = robot.ik(lift_target, seed=grasp_config, rng_seed=0)
+        # Close: the finger's flexure stiffens (the hand squeezes with the closing servos), torque capped.
+        model.jnt_stiffness[built.spring_joint] *= 50.0
+        for actuator in built.finger_actuators:
+            model.actuator_forcerange[actuator] = (-settings.grip_torque, settings.grip_torque)
+        # The fingers close at the hand's speed and meet at the grasp plane together: a step lets the light
+        # fingers strike a thin object so hard that it flies out, and a finger arriving first (the
+        # straight one under a splayed one) lifts the object off the table before the other holds it.
+        ramp_s = float(built.finger_meet.max()) / settings.close_speed
+
+        def closing(elapsed: float, step: int) -> None:
+            fraction = elapsed / ramp_s
+            data.ctrl[built.finger_actuators] = fraction * built.finger_meet if fraction < 1.0 else _CLOSE_TARGET_RAD
+
+        self.follow(grasp_config[None, :], np.zeros(1), ramp_s + _CLOSE_S, closing)
+        on_table = self.robot_bodies_on_table()
+        if lift_config is None:
+            return failure or ("grasp", f"no inverse kinematics for the {100 * settings.lift_height:.0f} cm lift")
+        lift = np.linspace(grasp_config, np.asarray(lift_config), 20)
+        lift_tips = np.array([np.asarray(robot.fk(config))[:3, 3] for config in lift])
+        # The lift is not in the plan: timed here, the fingertip capped all the way (it holds the object).
+        lift_times = time_path(lift, lift_tips, np.ones(len(lift), dtype=bool), limits, "lift")["time_from_start"]
+        self.follow(lift, lift_times, settings.hold_s)
+        self.lifted = self.object_pose()[2] >= rest_z + _LIFTED_FRACTION * settings.lift_height
+        if not self.lifted:
+            blocked = f" ({', '.join(on_table)} stopped by the table when closing)" if on_table else ""
+            failure = failure or ("grasp", f"the grasp did not lift the object{blocked}")
+        return failure
+
+    def object_pose(self) -> tuple[np.ndarray, float, float]:
+        """The object's centre of mass xy, yaw and height."""
+        data = self.built.data
+        body = self.built.object_body
+        rotation = data.xmat[body].reshape(3, 3)
+        return data.xpos[body][:2].copy(), math.atan2(rotation[1, 0], rotation[0, 0]), float(data.xpos[body][2])
+
+    def robot_bodies_on_table(self) -> list[str]:
+        """Names of the robot bodies touching the table now (e.g. a closing finger it stopped)."""
+        model, data = self.built.model, self.built.data
+        names = set()
+        for index in range(data.ncon):
+            geoms = (int(data.contact[index].geom1), int(data.contact[index].geom2))
+            for geom, other in (geoms, geoms[::-1]):
+                if other in self.built.table_geoms and model.geom_bodyid[geom] != self.built.object_body:
+                    names.add(model.body(model.geom_bodyid[geom]).name)
+        return sorted(names)
+
+    def pad_normal_force(self) -> float:
+        """Total normal force between the fingertip pad and the object (N)."""
+        import mujoco
+
+        model, data = self.built.model, self.built.data
+        total = 0.0
+        wrench = np.zeros(6)
+        pad, object_geoms = self.built.pad_geom, self.built.object_geoms
+        for index in range(data.ncon):
+            contact = data.contact[index]
+            pair = (int(contact.geom1), int(contact.geom2))
+            if pad in pair and (pair[0] in object_geoms or pair[1] in object_geoms):
+                mujoco.mj_contactForce(model, data, index, wrench)
+                total += abs(wrench[0])
+        return total
+
+
+def timing_of(timing: dict[str, Any] | None, key: str, length: int) -> np.ndarray | None:
+    """``timing[key].time_from_start`` of a ``slideplan.plan/2`` timing block, if it fits the path."""
+    if not timing or key not in timing:
+        return None
+    times = np.asarray(timing[key].get("time_from_start", []), dtype=float)
+    if times.shape != (length,) or not np.all(np.isfinite(times)) or np.any(np.diff(times) < 0):
+        raise InputError(f"expected {length} non-decreasing times", field=f"timing.{key}.time_from_start")
+    return times - times[0]
+

@@ -1,0 +1,72 @@
+"""Physical parameters of an execution (docs/execution.md gives the defaults and why)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from ..errors import InputError
+
+
+@dataclass(frozen=True)
+class ExecutionSettings:
+    """Physical parameters of an execution (defaults: docs/execution.md).
+
+    The three limits time, with :func:`slideplan.timing.parameterize` (TOPP-RA), the slide and the
+    approach of a plan without a ``timing`` block, and the lift of every plan.
+
+    Attributes:
+        tip_speed: fingertip speed cap (m/s) while sliding, on the approach within
+            :data:`slideplan.timing.NEAR_TABLE_M` of the object's top, and while lifting.
+        joint_velocity: joint speed cap (rad/s); the URDF's lower limits win.
+        joint_acceleration: joint acceleration cap (rad/s^2), every joint.
+        finger_stiffness: stiffness of the finger's vertical compliance (N/m).
+        finger_damping: damping of that compliance (N s/m).
+        contact_depth: None follows the plan's depths; a number presses this deep (m) at every
+            waypoint instead (the stress setting uses ``dz_min``; 0 does not press at all).
+        torsional_friction: torsional friction coefficient of the fingertip pad (m).
+        pad_friction: sliding friction coefficient between the pad (and the fingers) and the object.
+        table_friction: sliding friction coefficient between object and table.
+        object_density: density of the object (kg/m^3).
+        cell_size: side of the object's boxes (m).
+        servo_bandwidth_hz: closed-loop bandwidth of the arm's joint servos (Hz).
+        grip_torque: closing torque of each finger (N m).
+        close_speed: speed of the fingers' closing target (rad/s).
+        lift_height: lift of the hand after closing (m).
+        hold_s: hold time after the lift (s).
+        timestep: simulation step (s).
+        position_tolerance: a slide succeeds within this position error (m)...
+        yaw_tolerance: ... and this yaw error (rad) of Eq. 2.
+    """
+
+    tip_speed: float = 0.05
+    joint_velocity: float = 1.0
+    joint_acceleration: float = 2.0
+    finger_stiffness: float = 200.0
+    finger_damping: float = 4.0
+    contact_depth: float | None = None
+    torsional_friction: float = 0.01
+    pad_friction: float = 1.0
+    table_friction: float = 0.4
+    object_density: float = 1000.0
+    cell_size: float = 0.0125
+    servo_bandwidth_hz: float = 15.0
+    grip_torque: float = 0.5
+    close_speed: float = 1.5
+    lift_height: float = 0.05
+    hold_s: float = 1.0
+    timestep: float = 0.001
+    position_tolerance: float = 0.005
+    yaw_tolerance: float = math.radians(3.0)
+
+    def __post_init__(self) -> None:
+        for item in dataclasses.fields(self):
+            value = getattr(self, item.name)
+            if item.name == "contact_depth" and value is None:
+                continue
+            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+                raise InputError(f"expected a finite number, got {value!r}", field=item.name)
+            if item.name != "contact_depth" and value <= 0:
+                raise InputError(f"must be > 0, got {value!r}", field=item.name)
+
