@@ -523,6 +523,21 @@ namespace slideplan
             result_.status = startValid ? "invalid goal" : "invalid start";
             return startValid ? ob::PlannerStatus::INVALID_GOAL : ob::PlannerStatus::INVALID_START;
         }
+        // Planning from a state whose object already overhangs enough to be grasped (the end of a slide,
+        // seen again): the plan is that state and its grasp. A sampled goal root could only be a detour.
+        if (fresh && givenStart_)
+        {
+            Node *start = startForest_->roots.front();
+            ++result_.stats.pairsChecked;
+            const PairVerdict verdict = pairValidator_->check(start->q, start->q, rng_, ptc);
+            if (verdict.valid)
+            {
+                extractPath(start, start, verdict, ptc);
+                result_.planningTime = elapsed();
+                return ob::PlannerStatus::EXACT_SOLUTION;
+            }
+            ++result_.stats.pairsRejected;
+        }
         const bool ready = precomputeRoots(ptc);
         if (params_.policy != RootPolicy::Sampled)
             result_.stats.precomputeTime = elapsed();

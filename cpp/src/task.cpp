@@ -12,7 +12,7 @@ namespace slideplan
                                   std::vector<Obstacle> obstacles, std::vector<std::string> contactLinks,
                                   std::string graspLink, const Eigen::Isometry3d &graspOffset,
                                   const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
-                                  const Eigen::Vector2d &objectCom)
+                                  const Eigen::Vector2d &objectCom, bool mayOverhang)
     {
         if (!robot || !table)
             throw std::invalid_argument("a robot and a table are required");
@@ -41,7 +41,7 @@ namespace slideplan
         long outside = 0;
         for (int i = 0; i < task.objectXY.rows(); ++i)
             outside += !task.table->contains(task.objectXY.row(i).transpose());
-        if (outside > 0)
+        if (outside > 0 && !mayOverhang)
         {
             std::ostringstream message;
             message << "object is not on the table: " << outside << " of " << task.objectXY.rows()

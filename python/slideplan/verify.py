@@ -551,8 +551,12 @@ def check_timing(result: PlanResult, world: _PlanWorld) -> list[str]:
         velocities = np.asarray(block["velocities"], dtype=float)
         accelerations = np.asarray(block["accelerations"], dtype=float)
         label = f"timing.{name}"
-        if len(times) != len(path) or len(path) < 2:
+        if len(times) != len(path) or not len(path):
             violations.append(f"{label}: {len(times)} times for {len(path)} waypoints")
+            continue
+        if len(path) == 1:  # a plan from a state that grasps at once: one waypoint, at rest at t = 0
+            if abs(times[0]) > 1e-12 or np.abs(velocities).max() > 1e-9:
+                violations.append(f"{label}: its one waypoint must be at t = 0 and at rest")
             continue
         dt = np.diff(times)
         if abs(times[0]) > 1e-12 or np.any(dt <= 0):

@@ -66,7 +66,7 @@ namespace
     void expectValidPlan(const SlidingTask &task, const PlannerParams &params, const PlanResult &result)
     {
         ASSERT_EQ(result.status, "solved");
-        ASSERT_GE(result.trajectory.size(), 2u);
+        ASSERT_FALSE(result.trajectory.empty());
         const SlidingConstraint constraint(task.robot, task.surfaceZ, params);
         CollisionWorld world(task.robot, *task.table, task.obstacles, task.contactLinks);
         for (std::size_t i = 0; i < result.trajectory.size(); ++i)
@@ -633,6 +633,21 @@ TEST(SlidingPlanner, StartsFromTheProblemDefinitionsStartStates)
     EXPECT_EQ(off.planner->solve(afterCalls(10)), ompl::base::PlannerStatus::INVALID_START);
 }
 
+namespace
+{
+    /// plateTask's plate at `centre`, moved by `motion` (Eq. 2): the object where a plan has slid it, to
+    /// plan from a state (it may overhang an edge).
+    std::shared_ptr<const SlidingTask> plateTaskMoved(const Eigen::Vector2d &centre, const PlanarMotion &motion)
+    {
+        Eigen::Matrix<double, Eigen::Dynamic, 3> points = squarePlate(centre);
+        for (Eigen::Index i = 0; i < points.rows(); ++i)
+            points.row(i).head<2>() = motion.apply(points.row(i).head<2>().transpose()).transpose();
+        return std::make_shared<SlidingTask>(SlidingTask::make(wamT42(), std::make_shared<SupportSurface>(squareTable()), {},
+                                                               kContactLinks, kGraspLink, Eigen::Isometry3d::Identity(), points,
+                                                               motion.apply(centre), true));
+    }
+}  // namespace
+
 TEST(PlanSliding, PlansFromAStateDuringTheSlide)
 {
     // Re-planning during a slide: from a waypoint a third of the way along a solved plan, with the object
@@ -644,13 +659,7 @@ TEST(PlanSliding, PlansFromAStateDuringTheSlide)
     ASSERT_EQ(first.status, "solved");
     const std::size_t k = first.trajectory.size() / 3;
     ASSERT_GT(k, 0u);
-    const PlanarMotion moved = objectMotion(first.fingertipPoses.front(), first.fingertipPoses[k]);
-    Eigen::Matrix<double, Eigen::Dynamic, 3> points = squarePlate({0.6, 0.0});
-    for (Eigen::Index i = 0; i < points.rows(); ++i)
-        points.row(i).head<2>() = moved.apply(points.row(i).head<2>().transpose()).transpose();
-    const auto there = std::make_shared<SlidingTask>(SlidingTask::make(
-        wamT42(), std::make_shared<SupportSurface>(squareTable()), {}, kContactLinks, kGraspLink, Eigen::Isometry3d::Identity(),
-        points, moved.apply({0.6, 0.0})));
+    const auto there = plateTaskMoved({0.6, 0.0}, objectMotion(first.fingertipPoses.front(), first.fingertipPoses[k]));
     const Eigen::VectorXd from = first.trajectory[k];
     const PlanResult again = planSliding(there, params, 11, within(30.0), nullptr, from);
     expectValidPlan(*there, params, again);
@@ -660,6 +669,27 @@ TEST(PlanSliding, PlansFromAStateDuringTheSlide)
     const PlanResult twin = planSliding(there, params, 11, within(30.0), nullptr, from);
     EXPECT_EQ(twin.trajectory, again.trajectory);
     EXPECT_EQ(twin.graspConfig, again.graspConfig);
+}
+
+TEST(PlanSliding, GraspsAtOnceFromAStateWhoseObjectAlreadyOverhangs)
+{
+    // The end of a slide, seen again: from a solved plan's last configuration with the object where Eq. 2
+    // put it, the plan is that configuration and a grasp, no further slide; from its first it slides.
+    const auto task = plateTask({0.6, 0.0});
+    PlannerParams params;
+    const PlanResult first = planSliding(task, params, 3, within(30.0));
+    ASSERT_EQ(first.status, "solved");
+    const auto there = plateTaskMoved({0.6, 0.0}, first.objectMotion);
+    const PlanResult grasp = planSliding(there, params, 5, within(30.0), nullptr, first.goalConfig);
+    expectValidPlan(*there, params, grasp);
+    ASSERT_EQ(grasp.trajectory.size(), 1u);
+    EXPECT_EQ(grasp.trajectory.front(), first.goalConfig);
+    EXPECT_EQ(grasp.objectMotion.x, 0.0);
+    EXPECT_EQ(grasp.objectMotion.yaw, 0.0);
+    EXPECT_EQ(grasp.stats.iterations, 0);
+    const PlanResult slide = planSliding(task, params, 5, within(30.0), nullptr, first.startConfig);
+    expectValidPlan(*task, params, slide);
+    EXPECT_GT(slide.trajectory.size(), 1u);
 }
 
 TEST(PlanSliding, RefusesAStartStateSayingWhyAndByHowMuch)

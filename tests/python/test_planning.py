@@ -258,6 +258,24 @@ def test_planning_from_a_state_starts_there_and_verifies():
     np.testing.assert_array_equal(twin.trajectory, again.trajectory)
 
 
+def test_planning_from_a_state_whose_object_already_overhangs_grasps_at_once():
+    # The end of a slide, seen again: the plan is that configuration and a grasp; its timing is one waypoint
+    # at rest, which the verifier accepts, and refuses when it moves.
+    scene, obj = task("square", "crescent", pose_seed=3)
+    config = PlannerConfig.for_scene(scene, seed=4, time_limit_s=30.0)
+    first = plan(scene, obj, config)
+    assert first.solved
+    there = obj.moved([first.object_motion[key] for key in ("x", "y", "yaw")])
+    assert not scene.table.polygon.contains(there.outline)  # it overhangs
+    grasp = plan(scene, there, config, start_config=first.trajectory[-1])
+    assert grasp.solved and len(grasp.trajectory) == 1 and grasp.stats["iterations"] == 0
+    np.testing.assert_array_equal(grasp.trajectory[0], first.trajectory[-1])
+    assert grasp.object_motion == {"x": 0.0, "y": 0.0, "yaw": 0.0}
+    assert_verified(grasp)
+    grasp.timing["trajectory"]["velocities"] = np.full((1, 7), 0.1)
+    assert any("its one waypoint must be at t = 0 and at rest" in line for line in verify(grasp).violations)
+
+
 @pytest.mark.parametrize("bad, message", [
     (lambda q: q[:3], "expected a list of 7 numbers"),
     (lambda q: np.where(np.arange(7) == 2, np.nan, q), "must be finite"),

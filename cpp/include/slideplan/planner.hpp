@@ -35,7 +35,9 @@ namespace slideplan
 
         /// Algorithm 1 until a valid pair connects or `ptc`. Start states of the problem definition are
         /// where the arm is (planning from a state): they are the start forest's roots and no other is
-        /// drawn. The states of a GoalStates goal join the goal forest before any drawn root. Both are
+        /// drawn; when the first of them already leaves the object graspable (IsPairValid of it with
+        /// itself: the end of a slide, seen again), the plan is that state and its grasp, without search.
+        /// The states of a GoalStates goal join the goal forest before any drawn root. Both are
         /// taken when the forests are empty; INVALID_START / INVALID_GOAL if one is not a valid sliding
         /// state (a start state also with its fingertip on the object), givenRootProblem() says why. A
         /// second call grows the same forests further and reports only itself in result().
@@ -131,7 +133,8 @@ namespace slideplan
     /// Plan one sliding task: sets up the OMPL space, runs SlidingPlanner::solve(ptc) and returns the
     /// result; planning time counts everything from here, including the baselines' precomputation.
     /// `graspMap` as for SlidingPlanner. `startConfig` (beyond the paper: re-planning during a slide):
-    /// the arm is there, in contact with the object at its pose in `task`; the plan starts from it.
+    /// the arm is there, in contact with the object at its pose in `task`; the plan starts from it (and
+    /// is that one configuration and a grasp when the object already overhangs enough there).
     /// \throws std::invalid_argument for invalid parameters, an unreachable object, u* beyond the object
     ///         (on a convex table: beyond what it can overhang with its centre of mass com_margin inside)
     ///         or a grasp map that does not fit; InvalidStartConfig, saying why, for a start configuration

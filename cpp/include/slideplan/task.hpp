@@ -27,14 +27,15 @@ namespace slideplan
 
         /// Build from the N x 3 top-surface cloud; z_s is the mean z of the cloud.
         /// \throws std::invalid_argument for an unknown grasp link, an empty or non-finite cloud, a cloud below the table top,
-        ///         an object not wholly on the table, a centre of mass off the table, or a degenerate
+        ///         an object not wholly on the table (unless `mayOverhang`: planning from a state, where
+        ///         the object may already overhang an edge), a centre of mass off the table, or a degenerate
         ///         footprint (collinear or coincident points), an obstacle into the table top or off the
         ///         table, or an obstacle overlapping the object where it lies.
         static SlidingTask make(std::shared_ptr<const RobotModel> robot, std::shared_ptr<const SupportSurface> table,
                                 std::vector<Obstacle> obstacles, std::vector<std::string> contactLinks,
                                 std::string graspLink, const Eigen::Isometry3d &graspOffset,
                                 const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
-                                const Eigen::Vector2d &objectCom);
+                                const Eigen::Vector2d &objectCom, bool mayOverhang = false);
 
         double thickness() const { return surfaceZ - table->height(); }
 

@@ -69,13 +69,13 @@ namespace slideplan::bindings
                                                     const std::vector<std::string> &contactLinks,
                                                     const Eigen::Matrix<double, Eigen::Dynamic, 3> &objectPoints,
                                                     const Eigen::Vector2d &objectCom, const std::string &graspLink,
-                                                    const Eigen::Matrix4d &graspOffset, double timeLimit)
+                                                    const Eigen::Matrix4d &graspOffset, double timeLimit, bool mayOverhang)
         {
             if (!std::isfinite(timeLimit) || timeLimit <= 0.0)
                 throw std::invalid_argument("time limit must be a positive number of seconds, got " + std::to_string(timeLimit));
             return std::make_shared<SlidingTask>(SlidingTask::make(robot, std::make_shared<SupportSurface>(table), obstacles,
                                                                    contactLinks, graspLink, toIsometry(graspOffset),
-                                                                   objectPoints, objectCom));
+                                                                   objectPoints, objectCom, mayOverhang));
         }
 
         /// A thread that takes the GIL while the interpreter shuts down is ended by pthread_exit, whose
@@ -100,8 +100,9 @@ namespace slideplan::bindings
                         const Eigen::Matrix4d &graspOffset, std::shared_ptr<const GraspMap> graspMap,
                         const std::optional<TimingLimits> &timing, const std::optional<Eigen::VectorXd> &startConfig)
         {
+            // Planning from a state, the object may already overhang an edge (the end of a slide, seen again).
             const auto task = makeTask(robot, table, obstacles, contactLinks, objectPoints, objectCom, graspLink, graspOffset,
-                                       timeLimit);
+                                       timeLimit, startConfig.has_value());
 
             // The GIL is released while planning; every 100 ms the termination condition takes it back
             // briefly to let Python run its signal handlers, so Ctrl-C stops planning promptly.
@@ -356,7 +357,7 @@ namespace slideplan::bindings
                const Eigen::Matrix4d &graspOffset, const Eigen::VectorXd &start, const Eigen::VectorXd &goal) {
                 params.validate();
                 const auto task = makeTask(robot, table, obstacles, contactLinks, objectPoints, objectCom, graspLink,
-                                           graspOffset, timeLimit);
+                                           graspOffset, timeLimit, false);
                 PeerResult result;
                 {
                     py::gil_scoped_release release;
