@@ -1,5 +1,5 @@
-"""Command line: ``slideplan plan``, ``demo``, ``export``, ``view``, ``perceive``, ``execute``, ``experiment``
-and ``plot`` (docs/design.md 5).
+"""Command line: ``slideplan plan``, ``demo``, ``export``, ``view``, ``perceive``, ``execute``, ``run`` (the
+closed loop), ``experiment`` and ``plot`` (docs/design.md 5).
 
 Exit codes of ``plan``: 0 solved (and verified), 1 not solved within the time limit,
 2 bad input (one line ``slideplan: error: ...`` on stderr), 3 solved but the plan fails
@@ -45,6 +45,7 @@ _OPTION_OF_FIELD = {
     "workers": "--workers",
     "scheduler": "--scheduler",
     "tip_speed": "--tip-speed",
+    "setting": "--setting",
 }
 
 app = typer.Typer(
@@ -454,6 +455,53 @@ def execute_command(
         raise _fail(error) from None
     typer.echo(execution.summary())
     raise typer.Exit(EXIT_SOLVED if execution.success else EXIT_NOT_SOLVED)
+
+
+@app.command("run")
+def run_command(
+    scene_name: str = typer.Option("square", "--scene", help="Built-in scene name or scene TOML."),
+    object_name: str = typer.Option("crescent", "--object", help="Object outline: a name in data/objects or a TOML."),
+    pose: Optional[Tuple[float, float, float]] = typer.Option(
+        None, "--pose", help="X Y YAW where the object really lies (m, m, rad); default: drawn on the table from --seed."
+    ),
+    seed: int = typer.Option(1, "--seed", help="Seeds the camera noise, perception, the planner and the random setting."),
+    closed: bool = typer.Option(True, "--closed-loop/--open-loop", help="Re-plan from what the camera sees, or not."),
+    setting: str = typer.Option("nominal", "--setting", help="nominal, stress or random (physics drawn per --seed)."),
+    disturb: Optional[Tuple[float, float, float, float]] = typer.Option(
+        None, "--disturb", help="DX DY DYAW T: move the object by (DX, DY) m and turn it by DYAW rad, T s into the slide."
+    ),
+    video: Optional[Path] = typer.Option(None, "--video", help="Render the run to this .mp4 or .gif (or .png: a strip of 6 frames)."),
+    json_out: Optional[Path] = typer.Option(None, "--json", help="Write the run's report JSON here."),
+) -> None:
+    """The whole task in MuJoCo from a depth camera's view: perceive, plan, slide (re-planning when the
+    object drifts off the plan, with --closed-loop), grasp where the object is seen, lift and hold.
+
+    Exit codes: 0 the object was seen overhanging by u* with its centre of mass inside, and lifted;
+    1 it was not (the report says where it failed); 2 bad input. Needs the ``execution`` and
+    ``perception`` extras.
+    """
+    try:
+        from .closed_loop import Disturbance, run
+
+        scene = load_scene(scene_name)
+        if video is not None and video.suffix.lower() not in (".mp4", ".gif", ".png"):
+            raise InputError(f"expected a .mp4, .gif or .png file, got {str(video)!r}", field="--video")
+        if pose is None:
+            outline, _, _ = load_outline(object_name)
+            pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(seed))
+        disturbance = None if disturb is None else Disturbance(*disturb)
+        with _progress_line(f"running ({'closed' if closed else 'open'} loop)") as progress:
+            report = run(scene, object_name, pose, seed=seed, closed=closed, setting=setting, disturbance=disturbance,
+                         video=video, progress=progress)
+        if json_out is not None:
+            json_out.parent.mkdir(parents=True, exist_ok=True)
+            json_out.write_text(report.to_json(indent=1))
+    except InputError as error:
+        raise _fail(InputError(error.problem, source=error.source, field=_OPTION_OF_FIELD.get(error.field, error.field))) from None
+    except (ImportError, OSError, ValueError) as error:
+        raise _fail(error) from None
+    typer.echo(report.summary())
+    raise typer.Exit(EXIT_SOLVED if report.success else EXIT_NOT_SOLVED)
 
 
 def _experiment_executor(workers: int | None, scheduler: str | None, threads: bool = False):

@@ -215,9 +215,24 @@ def depth_image(mjcf: str, camera: Camera) -> np.ndarray:
     mujoco.mj_forward(model, data)
     with mujoco.Renderer(model, camera.height, camera.width) as renderer:
         renderer.enable_depth_rendering()
-        renderer.update_scene(data, camera="depth")
-        depth = renderer.render().copy()
-    depth[depth >= 0.99 * _FAR * model.stat.extent] = np.nan
+        return camera_depth(renderer, model, data, "depth")
+
+
+def camera_depth(renderer, model, data, camera_name: str) -> np.ndarray:
+    """Render the depth image of a model's named camera now (as :func:`depth_image`, for a model that
+    runs: the closed loop's camera over the arm).
+
+    Args:
+        renderer: a ``mujoco.Renderer`` of the camera's image size, depth rendering enabled.
+        model, data: the model and its current state.
+        camera_name: the camera.
+
+    Returns:
+        (height, width) distances along the optical axis (m); NaN where nothing is in view.
+    """
+    renderer.update_scene(data, camera=camera_name)
+    depth = renderer.render().copy()
+    depth[depth >= 0.99 * model.vis.map.zfar * model.stat.extent] = np.nan
     return depth
 
 

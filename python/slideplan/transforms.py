@@ -169,3 +169,10 @@ def move_planar(xy, motion) -> np.ndarray:
     """
     x, y, yaw = (float(value) for value in motion)
     return np.asarray(xy, dtype=float) @ rotation_2d(yaw).T + (x, y)
+
+
+def compose_planar(first, then) -> tuple[float, float, float]:
+    """The planar motion ``then`` after ``first`` (both Eq. 2's ``(x, y, yaw)``): ``move_planar(p, result)
+    == move_planar(move_planar(p, first), then)``."""
+    x, y = move_planar(np.asarray(first[:2], dtype=float), then)
+    return float(x), float(y), float(first[2]) + float(then[2])

@@ -37,8 +37,8 @@ happened; :mod:`slideplan.closed_loop` runs the same model and runner with a cam
 from .model import MESH_SUFFIXES, cloud_footprint, object_boxes
 from .replay import execute
 from .report import EXECUTION_SCHEMA, STAGES, Execution, path_features
-from .settings import ExecutionSettings
+from .settings import ExecutionSettings, stress_settings
 from .video import write_video
 
 __all__ = ["EXECUTION_SCHEMA", "MESH_SUFFIXES", "STAGES", "Execution", "ExecutionSettings", "cloud_footprint", "execute",
-           "object_boxes", "path_features", "write_video"]
+           "object_boxes", "path_features", "stress_settings", "write_video"]

@@ -70,3 +70,17 @@ class ExecutionSettings:
             if item.name != "contact_depth" and value <= 0:
                 raise InputError(f"must be > 0, got {value!r}", field=item.name)
 
+
+STRESS_TORSION_FACTOR = 0.5
+
+
+def stress_settings(dz_min: float) -> ExecutionSettings:
+    """The stress setting: torsional friction halved, the finger pressing ``dz_min`` deep throughout.
+
+    Args:
+        dz_min: the plan's `dz_min`, the shallowest depth of its band (m).
+    """
+    nominal = ExecutionSettings()
+    return dataclasses.replace(
+        nominal, torsional_friction=STRESS_TORSION_FACTOR * nominal.torsional_friction, contact_depth=dz_min
+    )

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from ..execute import ExecutionSettings, execute, path_features
+from ..execute import ExecutionSettings, execute, path_features, stress_settings
 from ..planning import plan
 from ..transforms import row_to_pose
 from ..verify import verify
@@ -28,7 +28,6 @@ from .results import ROW_SCHEMA, load_results
 from .tasks import Task, cached_scene
 
 SETTINGS = ("nominal", "stress")
-STRESS_TORSION_FACTOR = 0.5
 _PLAN_COLUMNS = [
     ("solved", pa.bool_()), ("status", pa.string()), ("planning_time_s", pa.float64()), ("overhang_m", pa.float64()),
     ("tip_path_m", pa.float64()), ("straight_m", pa.float64()), ("yaw_travel_deg", pa.float64()),
@@ -52,18 +51,6 @@ EXECUTION_ROW_SCHEMA = pa.schema(
 path length and the straight distance between its ends; ``yaw_travel_deg``: total turning of the
 fingertip), then ``nominal_*`` and ``stress_*`` outcomes (:class:`slideplan.execute.Execution`;
 ``normal_force_n`` is the mean while sliding). Outcomes are null when the plan was not solved."""
-
-
-def stress_settings(dz_min: float) -> ExecutionSettings:
-    """The stress setting: torsional friction halved, the finger pressing ``dz_min`` deep throughout.
-
-    Args:
-        dz_min: the plan's `dz_min`, the shallowest depth of its band (m).
-    """
-    nominal = ExecutionSettings()
-    return dataclasses.replace(
-        nominal, torsional_friction=STRESS_TORSION_FACTOR * nominal.torsional_friction, contact_depth=dz_min
-    )
 
 
 def run_execution_task(task: Task) -> dict:

@@ -1,0 +1,507 @@
+"""The closed loop (beyond the paper): watch the object while sliding, re-plan when it drifts, grasp it
+where it is seen.
+
+:func:`run` does a whole task in MuJoCo from a fixed depth camera's view:
+
+1. render the scene and :func:`~slideplan.perception.perceive` the object (the table is the scene's);
+   plan for the object as perceived;
+2. execute the slide (:mod:`slideplan.execute`'s model and runner, the object as it really is); every
+   ``replan_period`` of simulated time render a depth frame with the arm in view and track the object
+   (:class:`~slideplan.tracking.Tracker`); when it is further than ``threshold`` from the pose Eq. 2
+   predicts for the commanded configuration in two looks in a row, plan again from that configuration (where the servos'
+   reference is, so it does not jump) with the object where it was seen, and follow the new plan;
+3. when a slide ends, track the object and plan from the final configuration with the object where it
+   was seen: the plan is that configuration and its grasp when the object overhangs enough (else it
+   slides on, up to ``end_replans`` times); then approach, close, lift 5 cm and hold 1 s.
+
+The simulation waits while the loop tracks and plans; each re-plan's latency (track + plan with its
+timing) is measured on the wall clock and reported: a real arm would go on moving along the old plan
+meanwhile (at 5 cm/s, 1.3 mm in the median re-plan of docs/benchmarks/replan.md).
+
+A re-plan that is refused (the arm's state is not on the object as seen) or finds no plan within
+``replan_time_limit`` is reported as such, and the loop goes on with the plan it has.
+
+Open loop (``closed=False``): the first plan is executed as planned, its own grasp included; the
+camera only watches, for the verdict.
+
+Success, in both modes: the object as seen after the slide overhangs a table edge by at least ``u*``
+with its centre of mass ``com_margin`` inside the table, and the grasp lifts it and holds it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._fields import as_numbers
+from .errors import InputError
+from .execute.model import DEPTH_CAMERA, build_model
+from .execute.runner import SETTLE_S, Runner, Unstable, timing_of
+from .execute.settings import ExecutionSettings, stress_settings
+from .execute.video import Recorder
+from .objects import ThinObject, load_object, load_outline
+from .planning import PlannerConfig, PlanResult, build_robot, plan
+from .rendering import Camera, camera_depth, noisy_depth, place_objects, render_scene
+from .scenes import Scene, load_scene
+from .timing import resolve_limits
+from .tracking import Tracker
+from .transforms import compose_planar, move_planar, row_to_pose, wrap_angle
+from .verify import overhang, planar_motion
+
+CLOSED_LOOP_SCHEMA = "slideplan.closed_loop/1"
+SETTINGS = ("nominal", "stress", "random")
+RANDOM_RANGES = {  # the random setting draws each uniformly in its range, per run
+    "table_friction": (0.25, 0.6),
+    "pad_friction": (0.6, 1.2),
+    "torsional_friction": (0.002, 0.02),  # m
+    "mass_scale": (0.5, 2.0),
+    "depth_noise_at_1m": (0.001, 0.004),  # m
+}
+DEPTH_NOISE_AT_1M = 0.002  # m, nominal and stress (as slideplan.rendering)
+DEPTH_DROPOUT = 0.05
+CONFIRM = 2  # looks in a row off the predicted pose that make a drift
+
+
+@dataclass(frozen=True)
+class Disturbance:
+    """The object moved by someone ``after_s`` seconds into the slide: by ``(dx, dy)`` (m) and turned
+    by ``dyaw`` (rad) about its centre of mass."""
+
+    dx: float
+    dy: float
+    dyaw: float
+    after_s: float
+
+
+@dataclass
+class Replan:
+    """One look at the object that asked for a new plan.
+
+    Attributes:
+        time_s: simulated time since the slide started (s).
+        trigger: ``"drift"`` (off the predicted pose during a slide) or ``"end"`` (a slide ended).
+        position_error_m, yaw_error_deg: how far the seen pose was from the predicted one.
+        track_s, plan_s: wall time of tracking and of planning with timing (s).
+        outcome: ``"slide"`` (a new slide followed), ``"grasp"`` (grasped from there), ``"refused"``,
+            ``"timeout"`` or ``"lost"`` (the frame did not show the object); the last three keep the
+            plan there was.
+        detail: why refused or lost ("" otherwise).
+    """
+
+    time_s: float
+    trigger: str
+    position_error_m: float
+    yaw_error_deg: float
+    track_s: float
+    plan_s: float
+    outcome: str
+    detail: str = ""
+
+    @property
+    def latency_s(self) -> float:
+        """Track + plan (s)."""
+        return self.track_s + self.plan_s
+
+
+@dataclass
+class ClosedLoopRun:
+    """What happened in one :func:`run`.
+
+    Attributes:
+        success: the object as seen after the slide overhangs by >= u* with the centre of mass
+            com_margin inside the table, and it was lifted and held.
+        mode: ``"closed"`` or ``"open"``.
+        setting: ``"nominal"``, ``"stress"`` or ``"random"``.
+        failed_stage: None, ``"plan"`` (no first plan), ``"slide"`` (the object ends short), ``"grasp"``,
+            ``"release"`` or ``"simulation"``.
+        failure: one line saying what went wrong ("" on success).
+        replans: re-plans whose new plan was followed (slides and grasps from a seen pose).
+        replan_latency_s: median latency of the looks that planned (s), None if none did.
+        looks: depth frames tracked; lost_looks: of them, those that did not show the object.
+        events: every look that asked for a plan, and each end-of-slide look (:class:`Replan`).
+        seen_motion: the object's motion from its perceived pose to where it was last seen, ``{x, y, yaw}``.
+        overhang_m, com_margin_m: at the last seen pose.
+        true_overhang_m, true_com_margin_m: at the object's true pose then.
+        lifted: the grasp lifted the object and held it.
+        draws: the physical parameters of the run (the random setting's draws).
+        disturbance: the ``--disturb`` applied, or None.
+        sim_time_s, wall_time_s: simulated and wall time of the run (s).
+    """
+
+    success: bool
+    mode: str
+    setting: str
+    failed_stage: str | None
+    failure: str
+    replans: int
+    replan_latency_s: float | None
+    looks: int
+    lost_looks: int
+    events: list[Replan]
+    seen_motion: dict[str, float] | None
+    overhang_m: float | None
+    com_margin_m: float | None
+    true_overhang_m: float | None
+    true_com_margin_m: float | None
+    lifted: bool
+    draws: dict[str, float]
+    disturbance: dict[str, float] | None
+    sim_time_s: float
+    wall_time_s: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """The report as JSON-ready dicts, ``schema`` first, each event with its latency."""
+        report = {"schema": CLOSED_LOOP_SCHEMA, **dataclasses.asdict(self)}
+        for event, entry in zip(self.events, report["events"]):
+            entry["latency_s"] = event.latency_s
+        return report
+
+    def to_json(self, indent: int | None = None) -> str:
+        """The report as JSON text (no NaN)."""
+        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+
+    def summary(self) -> str:
+        """One line: the verdict and the numbers."""
+        verdict = "ok" if self.success else f"failed at {self.failed_stage}: {self.failure}"
+        seen = "" if self.overhang_m is None else (
+            f"; seen overhang {100 * self.overhang_m:.1f} cm, CoM {1000 * self.com_margin_m:.1f} mm inside")
+        latency = "" if self.replan_latency_s is None else f", median latency {1000 * self.replan_latency_s:.0f} ms"
+        return (f"{verdict} ({self.mode} loop, {self.setting}){seen}; {self.replans} re-plans{latency}; "
+                f"lifted {'yes' if self.lifted else 'no'} ({self.sim_time_s:.1f} s simulated in {self.wall_time_s:.1f} s)")
+
+
+def setting_draws(setting: str, seed: int) -> dict[str, float]:
+    """The physical parameters of a run: the defaults (nominal, stress) or the random setting's draws,
+    from a generator seeded by ``seed`` alone (the same for open and closed loop).
+
+    Raises:
+        InputError: an unknown setting (field ``setting``).
+    """
+    if setting not in SETTINGS:
+        raise InputError(f"expected one of {', '.join(SETTINGS)}, got {setting!r}", field="setting")
+    nominal = ExecutionSettings()
+    if setting != "random":
+        return {"table_friction": nominal.table_friction, "pad_friction": nominal.pad_friction,
+                "torsional_friction": nominal.torsional_friction * (0.5 if setting == "stress" else 1.0),
+                "mass_scale": 1.0, "depth_noise_at_1m": DEPTH_NOISE_AT_1M}
+    rng = np.random.default_rng([seed, 24])
+    return {name: float(rng.uniform(*bounds)) for name, bounds in RANDOM_RANGES.items()}
+
+
+def _execution_settings(setting: str, draws: dict[str, float], dz_min: float) -> ExecutionSettings:
+    base = stress_settings(dz_min) if setting == "stress" else ExecutionSettings()
+    return dataclasses.replace(base, table_friction=draws["table_friction"], pad_friction=draws["pad_friction"],
+                               torsional_friction=draws["torsional_friction"],
+                               object_density=base.object_density * draws["mass_scale"])
+
+
+def default_camera(scene: Scene) -> Camera:
+    """The closed loop's camera: 0.6 m above the table, 0.45 m from its centroid towards (-x, -y) (the
+    robot's side, to its right), looking at the centroid. Of 24 placements around the table (3 heights,
+    8 directions) it saw the most of three objects' edges with the table along their slides: the arm
+    hides less of the object from low and to the side than from above."""
+    centre = scene.table.polygon.centroid
+    offset = 0.45 / math.sqrt(2.0)
+    return Camera((centre.x - offset, centre.y - offset, scene.table.height + 0.6), (centre.x, centre.y, scene.table.height))
+
+
+def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: float, seed: int) -> ThinObject:
+    """The object as the camera sees it before the slide: its known outline registered to the object
+    :func:`~slideplan.perception.perceive` finds in a rendered frame (the table is the scene's)."""
+    from .perception import perceive, register_outline
+
+    placed = place_objects([(object_name, pose)])[0]
+    rendered = render_scene(scene.table, [placed], camera=camera, noise_at_1m=noise, dropout=DEPTH_DROPOUT, seed=seed)
+    perception = perceive(rendered.points, seed=seed, source="the rendered scene")
+    if not perception.objects:
+        raise InputError("the camera does not see the object", field="--pose")
+    outline, thickness, _ = load_outline(object_name)
+    seen_pose, _ = register_outline(perception.objects[0].points, outline)
+    return load_object(object_name, table_height=scene.table.height, pose=seen_pose)
+
+
+def _times(result: PlanResult, key: str, length: int) -> np.ndarray:
+    times = timing_of(result.timing, key, length)
+    if times is None:
+        raise InputError("the plan has no timing block", field="timing")
+    return times
+
+
+@dataclass
+class _Segment:
+    """A slide being followed: the plan, its times and depths, and the object's seen motion (from its
+    perceived pose) when the plan was made, which Eq. 2 moves along."""
+
+    result: PlanResult
+    times: np.ndarray
+    depths: np.ndarray
+    base: tuple[float, float, float]
+
+    def predicted(self, robot, runner: Runner, elapsed: float) -> tuple[float, float, float]:
+        """Where Eq. 2 puts the object (motion from its perceived pose) at the commanded configuration."""
+        path = np.asarray(self.result.trajectory)
+        now = np.asarray(robot.fk(runner.commanded(path, self.times, elapsed)))
+        return compose_planar(self.base, planar_motion(row_to_pose(self.result.fingertip_poses[0]), now))
+
+
+def _segment(result: PlanResult, top: float, base) -> _Segment:
+    """A plan to follow, from where the object was seen (``base``) when it was made."""
+    return _Segment(result, _times(result, "trajectory", len(result.trajectory)),
+                    top - np.asarray(result.fingertip_poses)[:, 2], tuple(float(value) for value in base))
+
+
+def _judge(report: dict[str, Any], table, perceived: ThinObject, truth: ThinObject, config: PlannerConfig, seen_motion,
+           runner: Runner) -> None:
+    """After the slide: the overhang and centre-of-mass margin as seen (the verdict) and as they are."""
+    seen = perceived.moved(seen_motion)
+    report["seen_motion"] = dict(zip(("x", "y", "yaw"), map(float, seen_motion)))
+    report["overhang_m"] = float(overhang(table, seen.points[:, :2])[0])
+    report["com_margin_m"] = float(table.edge_margin(seen.centroid_xy))
+    com, yaw, _ = runner.object_pose()  # the object's body starts unturned, its origin at the centre of mass
+    motion = (*(com - move_planar(np.asarray(truth.centroid_xy, dtype=float), (0.0, 0.0, yaw))), yaw)
+    report["true_overhang_m"] = float(overhang(table, move_planar(truth.points[:, :2], motion))[0])
+    report["true_com_margin_m"] = float(table.edge_margin(com))
+    if report["overhang_m"] < config.u_star or report["com_margin_m"] < config.com_margin:
+        report["failed_stage"] = "slide"
+        report["failure"] = (f"the object ends overhanging {100 * report['overhang_m']:.1f} cm (u* = {100 * config.u_star:.1f}) "
+                             f"with its centre of mass {1000 * report['com_margin_m']:.1f} mm inside the table "
+                             f"(com_margin = {1000 * config.com_margin:.1f}), as seen")
+
+
+def _pose_error(obj: ThinObject, first, second) -> tuple[float, float]:
+    """Distance (m) between the object's centre of mass under two motions, and their yaw difference (rad)."""
+    com = np.asarray(obj.centroid_xy, dtype=float)[None, :]
+    return (float(np.linalg.norm(move_planar(com, first) - move_planar(com, second))),
+            wrap_angle(float(first[2]) - float(second[2])))
+
+
+def run(
+    scene: Scene | str | Path,
+    object_name: str | Path,
+    pose,
+    *,
+    seed: int = 1,
+    closed: bool = True,
+    setting: str = "nominal",
+    disturbance: Disturbance | None = None,
+    config: PlannerConfig | None = None,
+    camera: Camera | None = None,
+    replan_period: float = 0.1,
+    threshold: tuple[float, float] = (0.003, math.radians(2.0)),
+    replan_time_limit: float = 1.0,
+    end_replans: int = 3,
+    video: str | Path | None = None,
+    video_fps: int = 20,
+    progress=None,
+) -> ClosedLoopRun:
+    """Perceive, plan, slide (re-planning when the object drifts, if ``closed``), grasp and lift in MuJoCo.
+
+    Args:
+        scene: a :class:`~slideplan.scenes.Scene`, a built-in scene name or a scene TOML.
+        object_name: the object's outline (a name in ``data/objects`` or a TOML path).
+        pose: (x, y, yaw) where the object really lies (m, m, rad).
+        seed: seeds the camera's noise, perception, the planner and the random setting's draws.
+        closed: re-plan from what the camera sees (True) or execute the first plan blind (False).
+        setting: ``"nominal"``, ``"stress"`` (torsional friction halved, the finger at ``dz_min``) or
+            ``"random"`` (frictions, mass and depth noise drawn per run: :data:`RANDOM_RANGES`).
+        disturbance: move the object during the slide (a test hook and a demo), or None.
+        config: planner parameters (default: the scene's hand, ``seed``).
+        camera: the fixed depth camera (default :func:`default_camera`).
+        replan_period: simulated time between looks (s).
+        threshold: (m, rad) a seen pose further than this from the predicted one asks for a re-plan.
+        replan_time_limit: planning time limit of each re-plan (s).
+        end_replans: slides re-planned at most this many times after the first slide ends.
+        video: write a rendering of the run here (``.mp4``, ``.gif``, or ``.png``: a strip of 6 frames).
+        video_fps: frames per simulated second.
+        progress: called with the simulated time (s) every simulated tenth of a second, or None.
+
+    Returns:
+        The report. A run that cannot plan at first, or whose simulation goes unstable, is a report
+        with that ``failed_stage``.
+
+    Raises:
+        InputError: an unknown setting, a pose that is not 3 numbers or puts the object off the table,
+            a disturbance after a negative time, a non-positive period, threshold or limit, or a scene
+            or object that cannot be read (each naming the field).
+    """
+    wall_start = time.perf_counter()
+    draws = setting_draws(setting, seed)
+    pose = tuple(float(value) for value in as_numbers(pose, 3, source="", field="--pose"))
+    for name, value in (("replan_period", replan_period), ("replan_time_limit", replan_time_limit)):
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise InputError(f"must be a positive number of seconds, got {value!r}", field=name)
+    if len(threshold) != 2 or not all(math.isfinite(value) and value > 0 for value in threshold):
+        raise InputError(f"expected (m, rad), both > 0, got {threshold!r}", field="threshold")
+    if disturbance is not None:
+        as_numbers([disturbance.dx, disturbance.dy, disturbance.dyaw, disturbance.after_s], 4, source="", field="--disturb")
+        if disturbance.after_s < 0:
+            raise InputError(f"the time must be >= 0 s after the slide starts, got {disturbance.after_s}", field="--disturb")
+    scene = scene if isinstance(scene, Scene) else load_scene(scene)
+    config = config or PlannerConfig.for_scene(scene, seed=seed)
+    camera = camera or default_camera(scene)
+    truth = load_object(object_name, table_height=scene.table.height, pose=pose)
+    if not scene.table.polygon.contains(truth.outline):
+        raise InputError(f"the object at {pose} is not wholly on the table", field="--pose")
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    perceived = _perceived_object(scene, object_name, camera, pose, draws["depth_noise_at_1m"], seed)
+
+    mode = "closed" if closed else "open"
+    report: dict[str, Any] = dict(
+        success=False, mode=mode, setting=setting, failed_stage=None, failure="", replans=0, replan_latency_s=None,
+        looks=0, lost_looks=0, events=[], seen_motion=None, overhang_m=None, com_margin_m=None, true_overhang_m=None, true_com_margin_m=None,
+        lifted=False, draws=draws, disturbance=None if disturbance is None else dataclasses.asdict(disturbance),
+    )
+    first = plan(scene, perceived, config)
+    if not first.solved:
+        return ClosedLoopRun(**{**report, "failed_stage": "plan", "failure": f"no plan for the object as perceived "
+                                f"({first.status})"}, sim_time_s=0.0, wall_time_s=time.perf_counter() - wall_start)
+
+    slide_s = float(_times(first, "trajectory", len(first.trajectory))[-1])
+    if disturbance is not None and disturbance.after_s > slide_s:
+        raise InputError(f"{disturbance.after_s} s is after the planned slide ends ({slide_s:.2f} s)", field="--disturb")
+    import mujoco
+
+    settings = _execution_settings(setting, draws, float(first.params["dz_min"]))
+    built = build_model(first, settings, world_object=truth, camera=camera)
+    model, data = built.model, built.data
+    depth_renderer = mujoco.Renderer(model, camera.height, camera.width)
+    depth_renderer.enable_depth_rendering()
+    noise_rng = np.random.default_rng([seed, 1])
+    tracker = Tracker(perceived, camera, table_height=scene.table.height)
+    robot = build_robot(first.robot)
+    top = scene.table.height + perceived.thickness
+    com0 = np.asarray(perceived.centroid_xy, dtype=float)
+    recorder = Recorder(model, data, video, video_fps, (480, 640), look_at=[*com0, scene.table.height + 0.1],
+                        progress=progress)
+    runner = Runner(built, settings, recorder.after_step if recorder.active else None)
+
+    def look(guess) -> tuple:
+        frame = noisy_depth(camera_depth(depth_renderer, model, data, DEPTH_CAMERA), draws["depth_noise_at_1m"],
+                            DEPTH_DROPOUT, noise_rng)
+        return tracker.track(frame, guess)
+
+    def replan(trigger: str, elapsed: float, start_config: np.ndarray, predicted) -> tuple[PlanResult | None, Replan, Any]:
+        started = time.perf_counter()
+        seen = look(predicted)
+        tracked = time.perf_counter()
+        error_m, error_yaw = _pose_error(perceived, seen.motion, predicted)
+        event = Replan(elapsed, trigger, error_m, math.degrees(error_yaw), tracked - started, 0.0, "lost", seen.reason)
+        report["looks"] += 1
+        if not seen.ok:
+            report["lost_looks"] += 1
+            return None, (event if trigger == "end" else None), seen
+        if trigger == "drift":
+            # A drift is a pose off the prediction in CONFIRM looks in a row: one look's error alone is
+            # mostly the tracker's, with the arm hiding much of the object.
+            beyond[0] = beyond[0] + 1 if error_m > threshold[0] or abs(error_yaw) > threshold[1] else 0
+            if beyond[0] < CONFIRM:
+                return None, None, seen
+        beyond[0] = 0
+        try:
+            again = plan(scene, perceived.moved(seen.motion),
+                         dataclasses.replace(config, time_limit_s=replan_time_limit), start_config=start_config)
+        except InputError as error:
+            event.plan_s, event.outcome, event.detail = time.perf_counter() - tracked, "refused", error.problem
+            return None, event, seen
+        event.plan_s = time.perf_counter() - tracked
+        if not again.solved:
+            event.outcome = "timeout"
+            return None, event, seen
+        event.outcome, event.detail = ("grasp" if len(again.trajectory) == 1 else "slide"), ""
+        return again, event, seen
+
+    beyond = [0]  # looks in a row off the predicted pose
+    disturbed = [disturbance is None]
+    slide_start = [0.0]
+
+    def disturb() -> None:
+        """Move the object's free joint by the disturbance (about its centre of mass), at rest."""
+        address = model.jnt_qposadr[model.body_jntadr[built.object_body]]
+        data.qpos[address:address + 2] += (disturbance.dx, disturbance.dy)
+        turn = np.array([math.cos(disturbance.dyaw / 2), 0.0, 0.0, math.sin(disturbance.dyaw / 2)])
+        quaternion = np.zeros(4)
+        mujoco.mju_mulQuat(quaternion, turn, data.qpos[address + 3:address + 7].copy())
+        data.qpos[address + 3:address + 7] = quaternion
+        data.qvel[model.jnt_dofadr[model.body_jntadr[built.object_body]]:][:6] = 0.0
+        disturbed[0] = True
+
+    segment = _segment(first, top, (0.0, 0.0, 0.0))
+    grasp_plan, seen_motion = first, None
+    try:
+        runner.press(first.trajectory[0], segment.depths[0])
+        slide_start[0] = float(data.time)
+        ends = 0
+        while True:
+            switch: list = []
+            next_look = [data.time - slide_start[0] + replan_period]
+
+            def during(elapsed: float, step: int) -> bool:
+                now = data.time - slide_start[0]
+                if not disturbed[0] and now >= disturbance.after_s:
+                    disturb()
+                if not closed or now < next_look[0] or elapsed >= segment.times[-1]:
+                    return False
+                next_look[0] += replan_period
+                path = np.asarray(segment.result.trajectory)
+                again, event, seen = replan("drift", now, runner.commanded(path, segment.times, elapsed),
+                                         segment.predicted(robot, runner, elapsed))
+                if event is not None:
+                    report["events"].append(event)
+                if again is None:
+                    return False
+                switch.append((again, seen.motion))
+                return True
+
+            runner.slide(np.asarray(segment.result.trajectory), segment.times, segment.depths, SETTLE_S, during)
+            if switch:
+                new, seen_motion = switch[0]
+                report["replans"] += 1
+                if len(new.trajectory) == 1:  # already graspable where it was seen: the slide ends here
+                    grasp_plan = new
+                    break
+                segment = _segment(new, top, seen_motion)
+                continue
+            end_config = np.asarray(segment.result.trajectory)[-1]
+            predicted_end = segment.predicted(robot, runner, float(segment.times[-1]))
+            if not closed:
+                seen_motion = look(predicted_end).motion
+                grasp_plan = segment.result
+                break
+            again, event, seen = replan("end", data.time - slide_start[0], end_config, predicted_end)
+            report["events"].append(event)
+            seen_motion = seen.motion
+            if again is None or ends >= end_replans:
+                grasp_plan = segment.result  # its own grasp, from where Eq. 2 put the object
+                break
+            report["replans"] += 1
+            if len(again.trajectory) == 1:
+                grasp_plan = again
+                break
+            ends += 1
+            segment = _segment(again, top, seen.motion)
+        _judge(report, scene.table, perceived, truth, config, seen_motion, runner)
+        failure = runner.grasp(np.asarray(grasp_plan.grasp["approach"], dtype=float),
+                               _times(grasp_plan, "approach", len(grasp_plan.grasp["approach"])),
+                               np.asarray(grasp_plan.grasp["config"], dtype=float), robot,
+                               resolve_limits(grasp_plan), top, scene.table.height + truth.thickness / 2)
+        report["lifted"] = runner.lifted
+        if failure is not None and report["failed_stage"] is None:
+            report["failed_stage"], report["failure"] = failure
+    except Unstable as error:
+        report.update(failed_stage="simulation", failure=str(error), lifted=False)
+    finally:
+        recorder.close()
+        depth_renderer.close()
+    planned = [event.latency_s for event in report["events"] if event.outcome in ("slide", "grasp", "refused", "timeout")]
+    report["replan_latency_s"] = float(np.median(planned)) if planned else None
+    report["success"] = report["failed_stage"] is None
+    recorder.write()
+    return ClosedLoopRun(**report, sim_time_s=float(data.time), wall_time_s=time.perf_counter() - wall_start)

@@ -1,0 +1,105 @@
+"""The closed loop (slideplan.closed_loop and ``slideplan run``): tracking with the arm in view, recovery
+from a disturbance that the open loop cannot recover from, determinism, bad input."""
+
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from slideplan import InputError, PlannerConfig, load_scene, plan
+from slideplan.cli import app
+from slideplan.closed_loop import Disturbance, default_camera, run
+from slideplan.objects import load_object
+from slideplan.transforms import row_to_pose, wrap_angle
+from slideplan.verify import planar_motion
+
+pytest.importorskip("mujoco")
+pytest.importorskip("scipy")
+
+DEMO = ("square", "crescent", (0.55, -0.08, 0.4))
+PUSHED = Disturbance(0.0, -0.03, 0.17, 2.0)  # 3 cm and 10 degrees, 2 s into the slide
+
+
+@pytest.fixture(scope="module")
+def disturbed_closed():
+    return run(*DEMO, seed=1, closed=True, disturbance=PUSHED)
+
+
+def test_the_closed_loop_recovers_from_a_push_the_open_loop_does_not(disturbed_closed):
+    opened = run(*DEMO, seed=1, closed=False, disturbance=PUSHED)
+    assert not opened.success and opened.replans == 0
+    assert disturbed_closed.success, disturbed_closed.summary()
+    assert disturbed_closed.replans >= 1 and disturbed_closed.lifted
+    assert disturbed_closed.overhang_m >= PlannerConfig.for_scene(load_scene("square")).u_star
+    # What it saw is where the object was: the verdict is not the tracker's fancy.
+    assert abs(disturbed_closed.true_overhang_m - disturbed_closed.overhang_m) < 0.01
+    assert all(event.latency_s > 0 for event in disturbed_closed.events)
+
+
+def test_the_same_seed_gives_the_same_run(disturbed_closed):
+    again = run(*DEMO, seed=1, closed=True, disturbance=PUSHED)
+    assert [(event.time_s, event.outcome) for event in again.events] == \
+        [(event.time_s, event.outcome) for event in disturbed_closed.events]
+    assert again.seen_motion == disturbed_closed.seen_motion and again.sim_time_s == disturbed_closed.sim_time_s
+
+
+def test_tracking_with_the_arm_in_view_finds_the_object_along_a_plan():
+    # Frames of the execution model (arm, hand, finger over the object) along a plan, the object where
+    # Eq. 2 puts it: the tracker, guessing 5 mm and 3 degrees off, finds it closer than the push the loop
+    # must see (3 cm, 10 degrees). (Measured on this task: a median 4 mm / 6 degrees, short of the 2 mm /
+    # 1 degree the tracker reaches with a box over the object: docs/benchmarks/tracking.md.)
+    import mujoco
+
+    from slideplan.execute import ExecutionSettings
+    from slideplan.execute.model import DEPTH_CAMERA, build_model
+    from slideplan.rendering import camera_depth, noisy_depth
+    from slideplan.tracking import Tracker
+
+    scene_name, name, pose = DEMO
+    scene = load_scene(scene_name)
+    obj = load_object(name, table_height=scene.table.height, pose=pose)
+    result = plan(scene, obj, PlannerConfig.for_scene(scene, seed=1))
+    camera = default_camera(scene)
+    built = build_model(result, ExecutionSettings(), camera=camera)
+    tracker = Tracker(obj, camera, table_height=scene.table.height)
+    rng = np.random.default_rng(0)
+    errors = []
+    with mujoco.Renderer(built.model, camera.height, camera.width) as renderer:
+        renderer.enable_depth_rendering()
+        for k in np.linspace(0, len(result.trajectory) - 1, 8).round().astype(int):
+            motion = planar_motion(row_to_pose(result.fingertip_poses[0]), row_to_pose(result.fingertip_poses[k]))
+            built.data.qpos[built.arm_qpos] = result.trajectory[k]
+            address = built.model.jnt_qposadr[built.model.body_jntadr[built.object_body]]
+            com = obj.moved(motion).centroid_xy
+            built.data.qpos[address:address + 2] = com
+            built.data.qpos[address + 3:address + 7] = [math.cos(motion[2] / 2), 0, 0, math.sin(motion[2] / 2)]
+            mujoco.mj_forward(built.model, built.data)
+            depth = noisy_depth(camera_depth(renderer, built.model, built.data, DEPTH_CAMERA), 0.002, 0.05, rng)
+            guess = (motion[0] + 0.005, motion[1], motion[2] + math.radians(3))
+            seen = tracker.track(depth, guess)
+            assert seen.ok, seen.reason
+            errors.append((np.linalg.norm(obj.moved(seen.motion).centroid_xy - com), abs(wrap_angle(seen.motion[2] - motion[2]))))
+    errors = np.array(errors)
+    assert np.median(errors[:, 0]) < 0.01 and np.median(errors[:, 1]) < math.radians(10), errors
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    (dict(setting="windy"), "setting"),
+    (dict(pose=(2.0, 0.0, 0.0)), "--pose"),
+    (dict(pose=(0.55, -0.08)), "--pose"),
+    (dict(disturbance=Disturbance(0.0, 0.0, 0.0, -1.0)), "--disturb"),
+    (dict(disturbance=Disturbance(0.0, 0.0, 0.0, 1000.0)), "--disturb"),
+    (dict(replan_period=0.0), "replan_period"),
+])
+def test_bad_input_names_the_field(kwargs, field):
+    args = dict(scene="square", object_name="crescent", pose=DEMO[2]) | kwargs
+    with pytest.raises(InputError) as error:
+        run(args.pop("scene"), args.pop("object_name"), args.pop("pose"), **args)
+    assert error.value.field == field
+
+
+def test_cli_bad_input_is_exit_2_with_one_line():
+    result = CliRunner().invoke(app, ["run", "--pose", "2", "0", "0"])
+    assert result.exit_code == 2
+    assert "--pose" in result.output and "not wholly on the table" in result.output
