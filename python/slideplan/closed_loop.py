@@ -44,7 +44,7 @@ import numpy as np
 from ._fields import as_numbers
 from .errors import InputError
 from .execute.model import DEPTH_CAMERA, build_model
-from .execute.runner import SETTLE_S, Runner, Unstable, timing_of
+from .execute.runner import SETTLE_S, Runner, Unstable, timing_of, timing_options
 from .execute.settings import ExecutionSettings, stress_settings
 from .execute.video import Recorder
 from .objects import ThinObject, load_object, load_outline
@@ -491,7 +491,8 @@ def run(
         failure = runner.grasp(np.asarray(grasp_plan.grasp["approach"], dtype=float),
                                _times(grasp_plan, "approach", len(grasp_plan.grasp["approach"])),
                                np.asarray(grasp_plan.grasp["config"], dtype=float), robot,
-                               resolve_limits(grasp_plan), top, scene.table.height + truth.thickness / 2)
+                               resolve_limits(grasp_plan, timing_options(settings, robot.velocity_limits)), top,
+                               scene.table.height + truth.thickness / 2)
         report["lifted"] = runner.lifted
         if failure is not None and report["failed_stage"] is None:
             report["failed_stage"], report["failure"] = failure
