@@ -338,8 +338,9 @@ def run(
     for name, value in (("replan_period", replan_period), ("replan_time_limit", replan_time_limit)):
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise InputError(f"must be a positive number of seconds, got {value!r}", field=name)
-    if len(threshold) != 2 or not all(math.isfinite(value) and value > 0 for value in threshold):
-        raise InputError(f"expected (m, rad), both > 0, got {threshold!r}", field="threshold")
+    threshold = as_numbers(threshold, 2, source="", field="threshold")
+    if not np.all(threshold > 0):
+        raise InputError(f"expected (m, rad), both > 0, got {tuple(threshold)}", field="threshold")
     if disturbance is not None:
         as_numbers([disturbance.dx, disturbance.dy, disturbance.dyaw, disturbance.after_s], 4, source="", field="--disturb")
         if disturbance.after_s < 0:
@@ -364,7 +365,9 @@ def run(
         return ClosedLoopRun(**{**report, "failed_stage": "plan", "failure": f"no plan for the object as perceived "
                                 f"({first.status})"}, sim_time_s=0.0, wall_time_s=time.perf_counter() - wall_start)
 
-    slide_s = float(_times(first, "trajectory", len(first.trajectory))[-1])
+    top = scene.table.height + perceived.thickness
+    segment = _segment(first, top, (0.0, 0.0, 0.0))
+    slide_s = float(segment.times[-1])
     if disturbance is not None and disturbance.after_s > slide_s:
         raise InputError(f"{disturbance.after_s} s is after the planned slide ends ({slide_s:.2f} s)", field="--disturb")
     import mujoco
@@ -377,7 +380,6 @@ def run(
     noise_rng = np.random.default_rng([seed, 1])
     tracker = Tracker(perceived, camera, table_height=scene.table.height)
     robot = build_robot(first.robot)
-    top = scene.table.height + perceived.thickness
     com0 = np.asarray(perceived.centroid_xy, dtype=float)
     recorder = Recorder(model, data, video, video_fps, (480, 640), look_at=[*com0, scene.table.height + 0.1],
                         progress=progress)
@@ -433,7 +435,6 @@ def run(
         data.qvel[model.jnt_dofadr[model.body_jntadr[built.object_body]]:][:6] = 0.0
         disturbed[0] = True
 
-    segment = _segment(first, top, (0.0, 0.0, 0.0))
     grasp_plan, seen_motion = first, None
     try:
         runner.press(first.trajectory[0], segment.depths[0])

@@ -90,6 +90,8 @@ def test_tracking_with_the_arm_in_view_finds_the_object_along_a_plan():
     (dict(disturbance=Disturbance(0.0, 0.0, 0.0, -1.0)), "--disturb"),
     (dict(disturbance=Disturbance(0.0, 0.0, 0.0, 1000.0)), "--disturb"),
     (dict(replan_period=0.0), "replan_period"),
+    (dict(threshold=("a", 0.1)), "threshold"),
+    (dict(threshold=(0.003, -1.0)), "threshold"),
 ])
 def test_bad_input_names_the_field(kwargs, field):
     args = dict(scene="square", object_name="crescent", pose=DEMO[2]) | kwargs
