@@ -150,7 +150,10 @@ def test_recording_opens_in_a_browser_without_a_server(page, tmp_path):
     # a short plan (about 2 s): the page replays the whole recording in software rendering
     out = record(build_plan(), tmp_path / "plan.html")
     visit(page, out.as_uri())
-    image = wait_for(page, lambda image: hue_mask(image, ROBOT_COLOR).sum() > DRAWN_PIXELS)
+    # The page adds the scene's meshes one by one: on a busy machine a frame can show the robot before
+    # the table, so wait for both.
+    image = wait_for(page, lambda image: hue_mask(image, ROBOT_COLOR).sum() > DRAWN_PIXELS
+                     and hue_mask(image, TABLE_COLOR).sum() > DRAWN_PIXELS)
     assert hue_mask(image, ROBOT_COLOR).sum() > DRAWN_PIXELS
     assert hue_mask(image, TABLE_COLOR).sum() > DRAWN_PIXELS
 
