@@ -31,7 +31,6 @@ with its centre of mass ``com_margin`` inside the table, and the grasp lifts it 
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 import time
@@ -41,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from . import jsontext
 from ._fields import as_numbers
 from .errors import InputError
 from .execute.model import DEPTH_CAMERA, build_model
@@ -165,8 +165,13 @@ class ClosedLoopRun:
         return report
 
     def to_json(self, indent: int | None = None) -> str:
-        """The report as JSON text (no NaN)."""
-        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+        """The report as JSON text (no NaN).
+
+        Args:
+            indent: None for one line; a number for one line per key and per waypoint
+                (:func:`slideplan.jsontext.dumps`).
+        """
+        return jsontext.dumps(self.to_dict(), indent=indent, allow_nan=False)
 
     def summary(self) -> str:
         """One line: the verdict and the numbers."""

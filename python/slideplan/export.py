@@ -19,12 +19,12 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from . import jsontext
 from .errors import InputError
 
 if TYPE_CHECKING:
@@ -97,7 +97,7 @@ def to_ros_json(result: PlanResult) -> str:
         ],
         "limits": {key: np.asarray(value).tolist() for key, value in result.timing["limits"].items()},
     }
-    return json.dumps(document, indent=1)
+    return jsontext.dumps(document, indent=1)
 
 
 def to_csv(result: PlanResult) -> str:

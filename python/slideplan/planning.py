@@ -19,7 +19,7 @@ from xml.etree import ElementTree
 
 import numpy as np
 
-from . import _core, grasp_cache
+from . import _core, grasp_cache, jsontext
 from ._fields import as_numbers, is_number
 from .errors import InputError
 from .objects import ThinObject
@@ -357,9 +357,10 @@ class PlanResult:
         """Return the plan JSON text.
 
         Args:
-            indent: passed to :func:`json.dumps` (None: one line).
+            indent: None for one line; a number for one line per key and per waypoint
+                (:func:`slideplan.jsontext.dumps`).
         """
-        return json.dumps(self.to_dict(), indent=indent)
+        return jsontext.dumps(self.to_dict(), indent=indent)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> PlanResult:

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from .. import jsontext
 from ..planning import PlanResult
 from ..transforms import row_to_pose, wrap_angle
 from ..verify import contact_angles
@@ -69,9 +69,10 @@ class Execution:
         """Return the report as JSON text.
 
         Args:
-            indent: passed to :func:`json.dumps`.
+            indent: None for one line; a number for one line per key and per waypoint
+                (:func:`slideplan.jsontext.dumps`).
         """
-        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+        return jsontext.dumps(self.to_dict(), indent=indent, allow_nan=False)
 
     def summary(self) -> str:
         """One line: the verdict and the numbers."""
