@@ -1,5 +1,7 @@
 #include "slideplan/mesh.hpp"
 
+#include <algorithm>
+#include <array>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -52,9 +54,9 @@ namespace slideplan
     {
         Assimp::Importer importer;
         // Keep the file's own units: URDF meshes are in metres times <mesh scale>; COLLADA's <unit>
-        // is applied by assimp to the root node transform, which the walk below includes.
-        const aiScene *scene = importer.ReadFile(file, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                                                           aiProcess_SortByPType);
+        // is applied by assimp to the root node transform, which the walk below includes. No vertex
+        // joining: only the convex hull is used, and joining took most of the load time.
+        const aiScene *scene = importer.ReadFile(file, aiProcess_Triangulate);
         if (!scene || !scene->mRootNode)
             throw std::invalid_argument(where + ": cannot read mesh '" + file + "' (" + importer.GetErrorString() + ")");
         auto mesh = std::make_shared<TriangleMesh>();
@@ -89,16 +91,24 @@ namespace slideplan
 
     std::shared_ptr<const TriangleMesh> convexHull(const TriangleMesh &mesh, const std::string &where)
     {
-        std::vector<double> coordinates;
-        coordinates.reserve(3 * mesh.vertices.size());
+        // Each distinct point once: meshes read without vertex joining repeat a point per triangle
+        // corner, and qhull's time grows with its input (a third of a Jaco2's load time).
+        std::vector<std::array<double, 3>> points;
+        points.reserve(mesh.vertices.size());
         for (const Eigen::Vector3d &v : mesh.vertices)
-            coordinates.insert(coordinates.end(), {v.x(), v.y(), v.z()});
+            points.push_back({v.x(), v.y(), v.z()});
+        std::sort(points.begin(), points.end());
+        points.erase(std::unique(points.begin(), points.end()), points.end());
+        std::vector<double> coordinates;
+        coordinates.reserve(3 * points.size());
+        for (const auto &p : points)
+            coordinates.insert(coordinates.end(), p.begin(), p.end());
         auto hull = std::make_shared<TriangleMesh>();
         try
         {
             // Qt: triangulated output, so every facet is a triangle FCL's Convex takes as a face.
             orgQhull::Qhull qhull;
-            qhull.runQhull("", 3, static_cast<int>(mesh.vertices.size()), coordinates.data(), "Qt");
+            qhull.runQhull("", 3, static_cast<int>(points.size()), coordinates.data(), "Qt");
             std::map<int, int> index;  // qhull point id -> hull vertex
             Eigen::Vector3d centre = Eigen::Vector3d::Zero();
             for (const orgQhull::QhullFacet &facet : qhull.facetList())
@@ -111,7 +121,7 @@ namespace slideplan
                     if (!index.count(id))
                     {
                         index[id] = static_cast<int>(hull->vertices.size());
-                        hull->vertices.push_back(mesh.vertices[static_cast<std::size_t>(id)]);
+                        hull->vertices.emplace_back(points[static_cast<std::size_t>(id)].data());
                         centre += hull->vertices.back();
                     }
                     if (corner < 3)
