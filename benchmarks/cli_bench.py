@@ -85,7 +85,7 @@ def robots(scenes: list[str], core: int, time_limit: float) -> list[str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5, help="runs per cache state of the first plan")
-    parser.add_argument("--scenes", nargs="+", default=["square", "panda_square", "ur5_square", "xarm7_square"],
+    parser.add_argument("--scenes", nargs="+", default=["square", "panda_square", "ur5_square", "xarm7_square", "kinova_square"],
                         help="robot scenes (built-in names or scene files) for part 2")
     parser.add_argument("--core", type=int, default=0, help="the core every run is pinned to")
     parser.add_argument("--time-limit", type=float, default=10.0, help="planning budget of part 2 (s)")
