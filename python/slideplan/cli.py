@@ -86,6 +86,7 @@ def _parse_params(items: list[str]) -> dict:
         InputError: naming ``--param NAME``: no ``=``, an unknown name, or a value of the wrong type.
     """
     fields = {item.name: item for item in dataclasses.fields(PlannerConfig)}
+    defaults = PlannerConfig().resolved()  # every field with its built-in value, hence its type
     params = {}
     for item in items:
         name, equals, text = item.partition("=")
@@ -94,7 +95,7 @@ def _parse_params(items: list[str]) -> dict:
             raise InputError(f"expected NAME=VALUE, got {item!r}", field="--param")
         if name not in fields:
             raise InputError(f"unknown parameter (expected one of: {', '.join(sorted(fields))})", field=f"--param {name}")
-        default = fields[name].default
+        default = getattr(defaults, name)
         try:
             if isinstance(default, bool):
                 if text.strip().lower() not in ("true", "false", "1", "0"):

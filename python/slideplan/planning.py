@@ -38,6 +38,8 @@ _BOOL_FIELDS = ("screen_pairs", "grasp_flip", "grasp_map", "goal_grasp_filter", 
 _NOT_PARAMS = ("planner", "seed", "time_limit_s", "preset")
 
 _CORE_DEFAULTS = _core.PlannerParams()
+# The bounds of the validator's cross-field rules: an unset partner at its most permissive value.
+_LENIENT_UNSET = {"beta0": math.pi / 2, "delta_beta": 0.0, "dz_min": 0.0, "dz_max": 1e9}
 _CORE_PUBLISHED = _core.PlannerParams.as_published()
 PRESETS = ("default", "paper")
 # What the "paper" preset fixes (PlannerParams::asPublished): every departure and the values section V
@@ -54,7 +56,11 @@ PAPER_FIELDS = (
 class PlannerConfig:
     """Planner parameters (defaults: paper section V where it gives them, docs otherwise).
 
-    Every field is checked on construction.
+    A parameter left unset (None) is filled when planning: from the scene's hand (its ``[hand]
+    params``), else the built-in default (:meth:`resolved`); the plan JSON records where each value
+    came from (``params.sources``: ``built-in``, ``hand``, ``paper`` or ``user``). So
+    ``PlannerConfig(seed=1)`` plans with the hand's contact depth band and grasp standoff, as
+    ``plan(scene, obj)`` does.
 
     Attributes:
         beta0: contact pitch ``beta_0`` of Eqs. 3-4 (rad).
@@ -114,41 +120,43 @@ class PlannerConfig:
             every departure off); fields set on top of a preset are recorded with it.
 
     Raises:
-        InputError: on construction, naming the field: a value of the wrong type, or one the C++
-            core's validator (``PlannerParams::validate``, the one rule for Python and C++) refuses,
-            an unknown planner or preset, a time limit that is not a positive number.
+        InputError: on construction, naming the field: a value of the wrong type, an unknown planner
+            or preset, a time limit that is not a positive number, or one the C++ core's validator
+            (``PlannerParams::validate``, the one rule for Python and C++) refuses; a pair with an
+            unset partner (``delta_beta < beta0``, ``dz_min <= dz_max``) by :meth:`resolved`.
     """
 
-    # Defaults come from the C++ PlannerParams: every parameter is declared once, in params.hpp.
-    beta0: float = _CORE_DEFAULTS.beta0
-    delta_beta: float = _CORE_DEFAULTS.delta_beta
-    dz_min: float = _CORE_DEFAULTS.dz_min
-    dz_max: float = _CORE_DEFAULTS.dz_max
-    n_star: float = _CORE_DEFAULTS.n_star
-    d_goal: float = _CORE_DEFAULTS.d_goal
-    u_star: float = _CORE_DEFAULTS.u_star
-    grasp_lift: float = _CORE_DEFAULTS.grasp_lift
-    grasp_backoff: float = _CORE_DEFAULTS.grasp_backoff
-    grasp_standoff: float = _CORE_DEFAULTS.grasp_standoff
-    transfer_time: float = _CORE_DEFAULTS.transfer_time
-    max_joint_step: float = _CORE_DEFAULTS.max_joint_step
-    max_tip_step: float = _CORE_DEFAULTS.max_tip_step
-    projection_tolerance: float = _CORE_DEFAULTS.projection_tolerance
-    projection_iterations: int = _CORE_DEFAULTS.projection_iterations
-    root_ik_attempts: int = _CORE_DEFAULTS.root_ik_attempts
-    screen_pairs: bool = _CORE_DEFAULTS.screen_pairs
-    goal_grasp_filter: bool = _CORE_DEFAULTS.goal_grasp_filter
-    lift_check: bool = _CORE_DEFAULTS.lift_check
-    cache_verdicts: bool = _CORE_DEFAULTS.cache_verdicts
-    grasp_flip: bool = _CORE_DEFAULTS.grasp_flip
-    grasp_map: bool = _CORE_DEFAULTS.grasp_map
-    paired_goals: float = _CORE_DEFAULTS.paired_goals
-    contact_radius: float = _CORE_DEFAULTS.contact_radius
-    shortcut_attempts: int = _CORE_DEFAULTS.shortcut_attempts
-    shortcut_yaw_weight: float = _CORE_DEFAULTS.shortcut_yaw_weight
-    max_object_yaw: float = _CORE_DEFAULTS.max_object_yaw
-    max_yaw_rate: float = _CORE_DEFAULTS.max_yaw_rate
-    com_margin: float = _CORE_DEFAULTS.com_margin
+    # Unset (None) until plan() fills it: the scene's hand's value, else the built-in one (the C++
+    # PlannerParams: every parameter is declared once, in params.hpp).
+    beta0: float | None = None
+    delta_beta: float | None = None
+    dz_min: float | None = None
+    dz_max: float | None = None
+    n_star: float | None = None
+    d_goal: float | None = None
+    u_star: float | None = None
+    grasp_lift: float | None = None
+    grasp_backoff: float | None = None
+    grasp_standoff: float | None = None
+    transfer_time: float | None = None
+    max_joint_step: float | None = None
+    max_tip_step: float | None = None
+    projection_tolerance: float | None = None
+    projection_iterations: int | None = None
+    root_ik_attempts: int | None = None
+    screen_pairs: bool | None = None
+    goal_grasp_filter: bool | None = None
+    lift_check: bool | None = None
+    cache_verdicts: bool | None = None
+    grasp_flip: bool | None = None
+    grasp_map: bool | None = None
+    paired_goals: float | None = None
+    contact_radius: float | None = None
+    shortcut_attempts: int | None = None
+    shortcut_yaw_weight: float | None = None
+    max_object_yaw: float | None = None
+    max_yaw_rate: float | None = None
+    com_margin: float | None = None
     planner: str = _CORE_DEFAULTS.policy
     seed: int = 0
     time_limit_s: float = 60.0
@@ -158,6 +166,8 @@ class PlannerConfig:
         # Types here; ranges and consistency in the C++ core's validator, the one rule for both languages.
         for item in dataclasses.fields(self):
             name, value = item.name, getattr(self, item.name)
+            if value is None and name in PARAMETERS:
+                continue
             if name == "planner":
                 if value not in PLANNERS:
                     raise InputError(f"unknown planner {value!r} (expected one of: {', '.join(PLANNERS)})", field=name)
@@ -177,8 +187,14 @@ class PlannerConfig:
                 raise InputError(f"expected a finite number, got {value!r}", field=name)
         if self.time_limit_s <= 0:
             raise InputError(f"must be > 0, got {self.time_limit_s!r}", field="time_limit_s")
+        # Unset parameters take, for this check only, the values no hand's could make stricter, so the
+        # set ones are judged now and the pairs (delta_beta < beta0, dz_min <= dz_max) again by resolved().
+        params = self.to_params()
+        for name, lenient in _LENIENT_UNSET.items():
+            if getattr(self, name) is None:
+                setattr(params, name, lenient)
         try:
-            self.to_params().validate()
+            params.validate()
         except ValueError as error:
             problem, name = _core_field_message(str(error))
             raise InputError(problem, field=name) from None
@@ -202,15 +218,50 @@ class PlannerConfig:
         if preset not in PRESETS:
             raise InputError(f"unknown preset {preset!r} (expected one of: {', '.join(PRESETS)})", field="preset")
         published = _published_fields() if preset == "paper" else {}
-        return cls(**{**scene.hand.params, **published, **overrides, "preset": preset})
+        return cls(**{**scene.hand.params, **published, **overrides, "preset": preset}).resolved(scene)
+
+    def resolved(self, scene: Scene | None = None) -> PlannerConfig:
+        """This config with every unset parameter filled: the scene's hand's value, else the built-in one.
+
+        Args:
+            scene: the scene whose hand gives defaults (None: built-in defaults only).
+
+        Raises:
+            InputError: a value the C++ core's validator refuses, naming the field.
+        """
+        hand = scene.hand.params if scene is not None else {}
+        fills = {name: hand.get(name, getattr(_CORE_DEFAULTS, name)) for name in PARAMETERS if getattr(self, name) is None}
+        return dataclasses.replace(self, **fills) if fills else self
+
+    def sources(self, scene: Scene | None = None) -> dict[str, str]:
+        """Where each parameter's value comes from when planning in ``scene``: ``"hand"`` (its
+        ``[hand] params``), ``"paper"`` (the paper preset's published value), ``"built-in"``, or
+        ``"user"``. A value set explicitly but equal to the hand's, the preset's or the built-in
+        default is named by that source."""
+        hand = scene.hand.params if scene is not None else {}
+        published = _published_fields() if self.preset == "paper" else {}
+        sources = {}
+        for name in PARAMETERS:
+            value = getattr(self, name)
+            if value is None:
+                sources[name] = "hand" if name in hand else "built-in"
+            elif name in published and value == published[name]:
+                sources[name] = "paper"
+            elif name in hand and value == hand[name]:
+                sources[name] = "hand"
+            elif value == getattr(_CORE_DEFAULTS, name):
+                sources[name] = "built-in"
+            else:
+                sources[name] = "user"
+        return sources
 
     @classmethod
     def as_published(cls, **overrides) -> PlannerConfig:
         """Algorithm 1 and IsPairValid as published (``preset="paper"``): every departure of
         docs/paper-to-code.md off, the paper's section V values (``Delta_beta`` = 0.1 rad,
         ``Delta_Z`` = [0.5, 2.5] cm, ``N*`` = 100); the rest built-in defaults. With
-        ``planner="cbirrt"`` or ``"cbirrt2"``, the baselines as published. For a scene's hand
-        (its ``beta0``, ``u_star``) use ``for_scene(scene, preset="paper")``.
+        ``planner="cbirrt"`` or ``"cbirrt2"``, the baselines as published. The fields the paper leaves
+        open (``beta0``, ``u_star``, ...) stay unset: ``plan`` takes them from the scene's hand.
 
         Args:
             **overrides: any field, e.g. ``seed=3, planner="cbirrt"``.
@@ -232,8 +283,11 @@ class PlannerConfig:
             The new config.
 
         Raises:
-            InputError: ``range_m`` is negative or not a finite number.
+            InputError: ``range_m`` is negative or not a finite number, or ``dz_min`` is unset
+                (call :meth:`resolved` first).
         """
+        if self.dz_min is None:
+            raise InputError("dz_min is unset: resolve the config for its scene first", field="dz_min")
         if not is_number(range_m) or not math.isfinite(range_m) or range_m < 0:
             raise InputError(f"must be a finite number >= 0 (m), got {range_m!r}", field="reconfiguration_range")
         return dataclasses.replace(self, dz_max=self.dz_min + float(range_m))
@@ -243,18 +297,22 @@ class PlannerConfig:
 
         Returns:
             ``_core.PlannerParams`` with every field but ``seed``, ``time_limit_s`` and ``preset``
-            (``planner`` becomes ``policy``).
+            (``planner`` becomes ``policy``); unset fields keep the built-in defaults.
         """
         params = _core.PlannerParams()
-        for item in dataclasses.fields(self):
-            if item.name not in _NOT_PARAMS:
-                setattr(params, item.name, getattr(self, item.name))
+        for name in PARAMETERS:
+            if getattr(self, name) is not None:
+                setattr(params, name, getattr(self, name))
         params.policy = self.planner
         return params
 
     def to_dict(self) -> dict[str, Any]:
         """Return the fields as a plain dict (JSON-ready)."""
         return dataclasses.asdict(self)
+
+
+# The parameters proper: the fields a hand may set and the plan JSON's ``params.sources`` names.
+PARAMETERS = tuple(item.name for item in dataclasses.fields(PlannerConfig) if item.name not in _NOT_PARAMS)
 
 
 def _published_fields() -> dict[str, Any]:
@@ -769,7 +827,8 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
         scene: table, robot and obstacles.
         obj: the thin object, lying on the scene's table (for re-planning: at its observed pose).
         config: planner parameters, seed, time limit and planner (default:
-            :meth:`PlannerConfig.for_scene`, the hand's defaults).
+            :meth:`PlannerConfig.for_scene`, the hand's defaults); its unset parameters are filled
+            from the scene's hand, then the built-in defaults (:meth:`PlannerConfig.resolved`).
         timing: limits of the time parameterization, a :class:`slideplan.timing.TimingOptions`
             (default: URDF velocity limits and the documented defaults).
         start_config: planning from a state (beyond the paper, for re-planning during a slide): the
@@ -791,6 +850,8 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
     from . import _core
 
     config = config or PlannerConfig.for_scene(scene)
+    sources = config.sources(scene)
+    config = config.resolved(scene)
     robot = robot_model(scene)
     if start_config is not None:
         start_config = as_numbers(start_config, robot.dof, source="", field="start_config")
@@ -811,6 +872,7 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
         raise InputError(str(error), field="timing") from None
     grasp_cache.persist(shared_map, stored)
     result = _wrap_core_result(core_result, scene, obj, config, robot)
+    result.params["sources"] = sources
     if result.solved:
         result.timing = {**core_result.timing, "limits": limits}
     return result

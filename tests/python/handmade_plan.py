@@ -72,7 +72,7 @@ def build_plan() -> PlanResult:
     """Return the valid hand-made plan described in the module docstring."""
     scene = load_scene("square")
     robot = robot_model(scene)
-    config = PlannerConfig()
+    config = PlannerConfig().resolved()
     tip_z = THICKNESS - DEPTH_M
     slide_xs = START_TIP_X + STEP_M * np.arange(SLIDE_STEPS + 1)
     elbow_up_seed = np.array([0.0, 1.0, 0.0, 1.5, 0.0, 0.5, 0.0])
@@ -173,7 +173,7 @@ def build_grasp_plan(grasp_y: float = GRASP_Y, slide_steps: int = 4) -> PlanResu
     motion_x = float(slide_xs[-1] - slide_xs[0])
     moved = points[:, :2] + (motion_x, 0.0)
     # Pressed 3.4 cm from the centre of mass: a hand-made slide, not drawn within contact_radius.
-    config = PlannerConfig(grasp_standoff=max(0.0, grasp_y - GRASP_TABLE_EDGE_Y), contact_radius=0.0)
+    config = PlannerConfig(grasp_standoff=max(0.0, grasp_y - GRASP_TABLE_EDGE_Y), contact_radius=0.0).resolved()
     params = {key: value for key, value in config.to_dict().items() if key not in ("planner", "seed")}
     return PlanResult(
         status="solved",

@@ -249,7 +249,7 @@ def test_planner_parameters_give_a_config_or_an_input_error(name, value):
     scale=st.sampled_from([1e-9, 1e-3, 0.5, 2.0, 1e3, 1e9]),
 )
 def test_planning_with_parameters_at_and_beyond_their_limits_is_clean(name, scale):
-    default = getattr(PlannerConfig(), name)
+    default = getattr(PlannerConfig().resolved(), name)
     value = type(default)(max(1, round(default * scale)) if isinstance(default, int) else default * scale)
     config = clean(lambda: PlannerConfig(seed=3, time_limit_s=0.2, **{name: value}))
     if config is None:

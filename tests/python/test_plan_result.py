@@ -24,7 +24,7 @@ def make_plan(status="solved", waypoints=5, approach=3):
         planner="slideplan",
         seed=3,
         planning_time_s=0.123456789,
-        params={key: value for key, value in PlannerConfig().to_dict().items() if key not in ("planner", "seed")},
+        params={key: value for key, value in PlannerConfig().resolved().to_dict().items() if key not in ("planner", "seed")},
         table={"polygon": np.array([[0.35, -0.25], [0.85, -0.25], [0.85, 0.25], [0.35, 0.25]]), "height": 0.0},
         object={"name": "x", "thickness": 0.004, "points": rng.uniform(0, 1, (10, 3)), "com_xy": np.array([0.5, 0.1])},
         robot={
@@ -155,16 +155,18 @@ def test_rpy_follows_urdf_convention():
 
 
 def test_planner_config_defaults_follow_the_paper():
-    config = PlannerConfig()
+    config = PlannerConfig().resolved()
     assert (config.delta_beta, config.dz_min, config.n_star, config.time_limit_s) == (0.1, 0.005, 100.0, 60.0)
     assert config.reconfiguration_range == pytest.approx(0.02)
     assert config.planner == "slideplan"
 
 
 def test_reconfiguration_range_sets_dz_max():
-    config = PlannerConfig().with_reconfiguration_range(0.005)
+    config = PlannerConfig().resolved().with_reconfiguration_range(0.005)
     assert config.dz_max == pytest.approx(0.01)
-    assert PlannerConfig().with_reconfiguration_range(0).dz_max == config.dz_min
+    assert PlannerConfig().resolved().with_reconfiguration_range(0).dz_max == config.dz_min
+    with pytest.raises(InputError, match="unset"):  # an unset dz_min has no value to add the range to
+        PlannerConfig().with_reconfiguration_range(0.005)
 
 
 @pytest.mark.parametrize(
@@ -174,7 +176,7 @@ def test_reconfiguration_range_sets_dz_max():
         ({"time_limit_s": math.inf}, "time_limit_s", "finite"),
         ({"time_limit_s": math.nan}, "time_limit_s", "finite"),
         ({"planner": "rrt"}, "planner", "unknown planner"),
-        ({"dz_min": 0.03}, "dz_max", "must be >= dz_min"),
+        ({"dz_min": 0.03, "dz_max": 0.02}, "dz_max", "must be >= dz_min"),
         ({"dz_min": -0.01}, "dz_min", "must be >= 0"),
         ({"u_star": 0.0}, "u_star", "must be > 0"),
         ({"projection_iterations": 2.5}, "projection_iterations", "integer"),
@@ -191,7 +193,7 @@ def test_planner_config_rejects_bad_values(changes, field, message):
 
 def test_negative_reconfiguration_range_is_rejected():
     with pytest.raises(InputError, match="reconfiguration_range"):
-        PlannerConfig().with_reconfiguration_range(-0.01)
+        PlannerConfig().resolved().with_reconfiguration_range(-0.01)
 
 
 @pytest.mark.parametrize("where, field", [

@@ -91,7 +91,7 @@ def test_as_published_and_the_baselines_solve_and_pass_verification(planner):
 
 
 def test_config_maps_onto_core_params():
-    params = PlannerConfig(planner="cbirrt2", n_star=50.0).with_reconfiguration_range(0.01).to_params()
+    params = PlannerConfig(planner="cbirrt2", n_star=50.0).resolved().with_reconfiguration_range(0.01).to_params()
     assert (params.policy, params.n_star, params.dz_max) == ("cbirrt2", 50.0, pytest.approx(0.015))
     params.validate()
     for bad in (-0.1, 1.5):
@@ -171,11 +171,11 @@ def test_python_and_the_core_validate_parameters_alike(field, value, accepted):
     except ValueError:
         core_accepts = False
     assert core_accepts == accepted
-    if accepted:
-        PlannerConfig(**{field: value})
+    if accepted:  # with the other parameters at the built-in defaults, as the core's are
+        PlannerConfig(**{field: value}).resolved()
     else:
         with pytest.raises(InputError) as error:
-            PlannerConfig(**{field: value})
+            PlannerConfig(**{field: value}).resolved()
         assert error.value.field == field
 
 
@@ -296,3 +296,36 @@ def test_a_huge_time_limit_is_no_limit_rather_than_an_overflowed_deadline(limit)
     scene, obj = task("square", "crescent", pose_seed=3)
     result = plan(scene, obj, PlannerConfig.for_scene(scene, seed=4, time_limit_s=limit))
     assert result.solved, result.stats
+
+
+def test_a_config_not_made_from_the_scene_still_gets_the_hands_parameters():
+    # PlannerConfig(seed=1) once planned with the built-in band [0.5, 2.5] cm, no standoff and no turn
+    # bound on the T42's scene, which wants [1, 3] cm, 3 cm and 7 rad/m.
+    scene, obj = task("square", "crescent", pose_seed=4)
+    bare = plan(scene, obj, PlannerConfig(seed=1, time_limit_s=30.0))
+    made = plan(scene, obj, PlannerConfig.for_scene(scene, seed=1, time_limit_s=30.0))
+    for name, value in scene.hand.params.items():
+        assert bare.params[name] == value, name
+        assert bare.params["sources"][name] == "hand"
+    assert bare.params["sources"]["n_star"] == "built-in"
+    assert bare.solved and made.solved
+    np.testing.assert_array_equal(bare.trajectory, made.trajectory)  # the same plan, whichever way the config came
+
+
+def test_a_value_the_user_sets_wins_over_the_hands_and_is_recorded_as_the_users():
+    scene, obj = task("square", "crescent", pose_seed=4)
+    result = plan(scene, obj, PlannerConfig(seed=1, time_limit_s=30.0, dz_max=0.022))
+    assert (result.params["dz_min"], result.params["dz_max"]) == (scene.hand.params["dz_min"], 0.022)
+    assert (result.params["sources"]["dz_min"], result.params["sources"]["dz_max"]) == ("hand", "user")
+    assert PlannerConfig.as_published(seed=1).sources(scene)["dz_min"] == "paper"
+
+
+def test_a_pair_with_an_unset_partner_is_judged_with_the_scenes_hand():
+    config = PlannerConfig(dz_max=0.008)  # below the T42's dz_min (1 cm), above the Panda's (2 mm)
+    assert config.resolved(load_scene("panda_square")).dz_min == 0.002  # the Panda's band starts at 2 mm
+    with pytest.raises(InputError) as error:
+        config.resolved(load_scene("square"))
+    assert error.value.field == "dz_max"
+    with pytest.raises(InputError) as error:
+        PlannerConfig(delta_beta=2.0)  # no beta0 in (0, pi/2] exceeds it: refused at once
+    assert error.value.field == "delta_beta"

@@ -356,7 +356,7 @@ def build_spec(
         raise InputError(f"unknown figure {figure!r} (expected one of: {', '.join(EXPERIMENTS)})", field="figure")
     if time_limit_s is None:
         time_limit_s = QUICK_TIME_LIMIT_S if quick else PAPER_TIME_LIMIT_S
-    base = PlannerConfig(seed=seed, time_limit_s=time_limit_s, preset=preset)  # validates them, naming the field
+    base = PlannerConfig(seed=seed, time_limit_s=time_limit_s, preset=preset).resolved()  # validates them, naming the field
     if poses is not None and (isinstance(poses, bool) or not isinstance(poses, int) or poses < 1):
         raise InputError(f"must be a whole number >= 1, got {poses!r}", field="poses")
     tasks = _SPEC_BUILDERS[figure](base, quick, poses)
