@@ -10,13 +10,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+import shapely
 from matplotlib.figure import Figure
 from matplotlib.patches import Polygon as PolygonPatch
 
 from .geometry import SupportSurface
 from .scenes import obstacle_footprint
-from .transforms import row_to_pose
-from .verify import moved_object_xy, overhang
+from .transforms import move_planar, row_to_pose
+from .verify import moved_object_xy, overhang, planar_motion
+
+SLIDE_SPACING_M = 0.03  # the object is drawn every this much fingertip travel
 
 if TYPE_CHECKING:
     from .planning import PlanResult
@@ -56,8 +59,22 @@ def save_figure(figure: Figure, path: str | Path) -> Path:
     return path
 
 
+def slide_motions(result: PlanResult, spacing_m: float = SLIDE_SPACING_M) -> list[tuple[int, tuple[float, float, float]]]:
+    """The object's planar motion from its start (Eq. 2 on SE(2)) at the waypoints where the fingertip
+    has travelled each further ``spacing_m``, start and goal excluded: ``[(waypoint, (x, y, yaw))]``."""
+    tips = np.asarray(result.fingertip_poses, dtype=float)
+    if len(tips) < 3:
+        return []
+    travel = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(tips[:, :3], axis=0), axis=1))])
+    marks = np.arange(spacing_m, travel[-1] - 0.5 * spacing_m, spacing_m)
+    first = row_to_pose(tips[0])
+    waypoints = sorted(set(int(index) for index in np.searchsorted(travel, marks)) - {0, len(tips) - 1})
+    return [(index, planar_motion(first, row_to_pose(tips[index]))) for index in waypoints]
+
+
 def draw_plan(result: PlanResult, path: str | Path) -> Path:
-    """Draw a plan from above: table, object at start and final pose, fingertip path, grasp.
+    """Draw a plan from above: table, obstacles, object at start, along the slide (faded, every
+    :data:`SLIDE_SPACING_M` of fingertip travel) and at its final pose, fingertip path, grasp.
 
     The final object points that overhang the table are highlighted, the grasp pose is an
     arrow along its approach axis (z of the grasp frame), and the title gives the status,
@@ -83,6 +100,17 @@ def draw_plan(result: PlanResult, path: str | Path) -> Path:
     title = f"{result.planner}: {result.status} in {result.planning_time_s:.2f} s"
     if len(result.trajectory):
         table = SupportSurface.from_vertices(vertices, result.table["height"])
+        # The cloud's outline (its points grown by their mean spacing: an L stays an L), moved along the slide.
+        cloud = shapely.MultiPoint(start_xy)
+        spacing = float(np.sqrt(cloud.convex_hull.area / len(start_xy)))
+        outline = cloud.buffer(spacing).buffer(-0.5 * spacing)
+        rings = [np.asarray(part.exterior.coords) for part in getattr(outline, "geoms", [outline])]
+        for number, (_, motion) in enumerate(slide_motions(result)):
+            for ring_number, ring in enumerate(rings):
+                along = move_planar(ring, motion)
+                first = number == 0 and ring_number == 0
+                axes.plot(along[:, 0], along[:, 1], color="tab:blue", linewidth=0.8, alpha=0.35,
+                          label=f"object every {100 * SLIDE_SPACING_M:.0f} cm of the slide" if first else None)
         final_xy = moved_object_xy(result)
         _, outside, _ = overhang(table, final_xy)
         axes.scatter(final_xy[~outside, 0], final_xy[~outside, 1], s=2, color="tab:blue", label="object at goal")

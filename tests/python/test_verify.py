@@ -214,3 +214,26 @@ def test_a_slide_that_does_not_start_on_the_object_is_reported(plan):
 def test_a_centre_of_mass_closer_to_the_edge_than_com_margin_is_reported(plan):
     plan.params["com_margin"] = 0.5  # more than the table's half-width: no final pose can satisfy it
     assert_reported(plan, "less than com_margin 0.5")
+
+
+def test_the_picture_draws_the_object_along_the_slide_under_the_fingertip():
+    import shapely
+
+    from slideplan import PlannerConfig, load_object
+    from slideplan import plan as make_plan
+    from slideplan.transforms import move_planar, row_to_pose
+    from slideplan.viz import SLIDE_SPACING_M, slide_motions
+
+    scene = load_scene("square")
+    valid_plan = make_plan(scene, load_object("crescent", table_height=0.0, pose=(0.55, -0.08, 0.4)),
+                           PlannerConfig(seed=1, time_limit_s=30.0))
+    assert valid_plan.solved
+    tips = np.asarray(valid_plan.fingertip_poses)
+    travel = np.linalg.norm(np.diff(tips[:, :3], axis=0), axis=1).sum()
+    motions = slide_motions(valid_plan)
+    assert len(motions) == int(np.ceil(travel / SLIDE_SPACING_M - 0.5)) - 1 >= 3  # one per spacing, ends excluded
+    start = np.asarray(valid_plan.object["points"])[:, :2]
+    for index, motion in motions:
+        # The finger presses on the object's top: at each drawn pose the object lies under the fingertip.
+        footprint = shapely.MultiPoint(move_planar(start, motion)).convex_hull.buffer(1e-4)
+        assert footprint.contains(shapely.Point(row_to_pose(tips[index])[:2, 3])), index
