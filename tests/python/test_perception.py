@@ -3,6 +3,7 @@ a plan from the perceived scene checked against the true geometry, and bad input
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -203,3 +204,16 @@ def test_cli_bad_cloud_is_one_error_line(tmp_path, square_scene):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("slideplan: error: ") and "tilted 20.0 deg" in lines[0]
     assert str(cloud) in lines[0]
+
+
+def test_the_docs_test_scene_example_runs_and_perceive_plans_from_its_cloud(tmp_path, monkeypatch, capsys):
+    # docs/perception.md's example is the one place a user learns to make a test cloud: keep it true.
+    text = (Path(__file__).resolve().parents[2] / "docs/perception.md").read_text()
+    example = text.split("A test cloud for `perceive`", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+    monkeypatch.chdir(tmp_path)
+    exec(compile(example, "docs/perception.md", "exec"), {})
+    assert capsys.readouterr().out.strip().endswith("2 objects found")
+    result = CliRunner().invoke(app, ["perceive", "scene.npy", "--out", "perceived", "--plan-target", "0",
+                                      "--time-limit", "30", "--json", "plan.json"])
+    assert result.exit_code == 0, result.output
+    assert verify(PlanResult.load(tmp_path / "plan.json")).ok
