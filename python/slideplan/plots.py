@@ -99,6 +99,20 @@ def plot_planning_time_by_geometry(results: pd.DataFrame, out_dir: str | Path, n
     return save_figures(figure, out_dir, name)
 
 
+SHADED_MIN_RUNS = 30  # below this many runs per curve, intervals are wide: shading them washes the figure out
+
+
+def draw_interval(axes, curve: pd.DataFrame, color, runs: int) -> None:
+    """A success-rate curve's 95% Wilson interval: shaded, or for fewer than :data:`SHADED_MIN_RUNS`
+    runs its two bounds as dotted lines (wide overlapping shades of small experiments mix into one)."""
+    if runs >= SHADED_MIN_RUNS:
+        axes.fill_between(curve["time_s"], 100 * curve["low"], 100 * curve["high"], step="post",
+                          color=color, alpha=0.15, linewidth=0)
+        return
+    for bound in ("low", "high"):
+        axes.step(curve["time_s"], 100 * curve[bound], where="post", color=color, linestyle=":", linewidth=0.8)
+
+
 def plot_success_rate_vs_time(results: pd.DataFrame, out_dir: str | Path, name: str = "fig11") -> list[Path]:
     """Fig. 11: fraction of runs solved within a time budget, one curve per setting.
 
@@ -129,13 +143,12 @@ def plot_success_rate_vs_time(results: pd.DataFrame, out_dir: str | Path, name: 
         curve = success_rate_curve(rows, times)
         line, = axes.step(curve["time_s"], 100 * curve["rate"], where="post",
                           label=f"{setting_label(planner, reconfiguration_range)} (n = {len(rows)})")
-        axes.fill_between(curve["time_s"], 100 * curve["low"], 100 * curve["high"], step="post",
-                          color=line.get_color(), alpha=0.15, linewidth=0)
+        draw_interval(axes, curve, line.get_color(), len(rows))
     axes.set_xscale("log")
     axes.set_ylim(0, 100)
     axes.set_xlabel("planning time budget (s)")
     axes.set_ylabel("runs solved within the budget (%)")
-    axes.set_title("Success rate vs planning time (shaded: 95% Wilson interval)")
+    axes.set_title(f"Success rate vs planning time (95% Wilson interval: shaded, dotted where n < {SHADED_MIN_RUNS})")
     axes.grid(True, which="both", linewidth=0.3)
     axes.legend(loc="lower right")
     return save_figures(figure, out_dir, name)

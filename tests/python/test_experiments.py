@@ -33,6 +33,8 @@ from slideplan.experiments import (
 from slideplan.experiments.tasks import cached_scene, scaled_outline
 from slideplan.objects import place_outline
 from slideplan.plots import (
+    SHADED_MIN_RUNS,
+    draw_interval,
     plot_planning_time_by_geometry,
     plot_planning_time_vs_n_star,
     plot_results,
@@ -262,3 +264,13 @@ def test_tasks_plan_with_the_hand_parameters_and_the_given_params():
     with pytest.raises(InputError) as error:
         build_spec("execution", poses=1, params={"no_such_parameter": 1})
     assert "no_such_parameter" in str(error.value)
+
+
+@pytest.mark.parametrize("runs, fills, dotted", [(4, 0, 2), (SHADED_MIN_RUNS, 1, 0)])
+def test_a_small_experiments_intervals_are_dotted_lines_not_shades(runs, fills, dotted):
+    from matplotlib.figure import Figure
+
+    curve = pd.DataFrame({"time_s": [0.01, 0.1, 1.0], "low": [0.1, 0.3, 0.5], "high": [0.6, 0.8, 0.95]})
+    axes = Figure().add_subplot()
+    draw_interval(axes, curve, "tab:blue", runs)
+    assert (len(axes.collections), len([line for line in axes.lines if line.get_linestyle() == ":"])) == (fills, dotted)
