@@ -46,7 +46,7 @@ from .errors import InputError
 from .execute.model import DEPTH_CAMERA, build_model
 from .execute.runner import SETTLE_S, Runner, Unstable, timing_of, timing_options
 from .execute.settings import ExecutionSettings, stress_settings
-from .execute.video import Recorder
+from .execute.video import Recorder, plan_points
 from .objects import ThinObject, load_object, load_outline
 from .planning import PlannerConfig, PlanResult, build_robot, plan
 from .rendering import Camera, camera_depth, noisy_depth, place_objects, render_scene
@@ -385,9 +385,7 @@ def run(
     noise_rng = np.random.default_rng([seed, 1])
     tracker = Tracker(perceived, camera, table_height=scene.table.height)
     robot = build_robot(first.robot)
-    com0 = np.asarray(perceived.centroid_xy, dtype=float)
-    recorder = Recorder(model, data, video, video_fps, (480, 640), look_at=[*com0, scene.table.height + 0.1],
-                        progress=progress)
+    recorder = Recorder(model, data, video, video_fps, (480, 640), plan_points(first, robot), progress=progress)
     runner = Runner(built, settings, recorder.after_step if recorder.active else None)
 
     def look(guess) -> tuple:

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .framing import frame_points, view_direction
 from .planning import PlanResult
 from .transforms import move_planar, quaternion_from_matrix, row_to_pose
 from .verify import planar_motion
@@ -42,6 +43,8 @@ TIP_PATH_COLOR = (30, 130, 60)
 APPROACH_PATH_COLOR = (120, 80, 200)
 TABLE_THICKNESS_M = 0.04  # the table is drawn as a prism this thick under its top
 FPS = 30  # play rate (slider steps per second of plan time)
+CAMERA_ELEVATION_RAD = math.radians(60.0)  # the initial view's height above the table's plane
+VIEW_ASPECT = 4 / 3  # framed for a window at least this wide (width / height)
 RECORD_FPS = 10  # recording frames per second of plan time: the page replays them in software rendering too
 
 
@@ -178,9 +181,11 @@ class PlanView:
         self._playing = threading.Event()
         server.scene.set_up_direction("+z")
         self._set_camera()
+        # The panel first: a browser receives the scene in order, and the robot's meshes take seconds.
+        self._add_gui()
         self._add_static_scene()
         self._add_robot()
-        self._add_gui()
+        self._connect_gui()
         self.show(0.0)
 
     @property
@@ -189,21 +194,28 @@ class PlanView:
         return f"http://{self.server.get_host()}:{self.server.get_port()}"
 
     def _set_camera(self) -> None:
-        """Look at the object from beyond it, seen from the robot, a little to the side and above:
-        the object, the table edge it overhangs and the arm behind it are all in view; steep enough
-        that the wrist above the object does not hide it."""
-        polygon = np.asarray(self.result.table["polygon"], dtype=float)
-        height = float(self.result.table["height"])
-        target = np.asarray(self.result.object["com_xy"], dtype=float)
+        """Frame what a user checks: the whole table, the object at its start and final poses, the
+        fingertip path and the grasp. Seen from beyond the object, three-quarter to the arm and from
+        above, steep enough that the wrist over the object does not hide it."""
+        result = self.result
+        height = float(result.table["height"])
+        polygon = np.asarray(result.table["polygon"], dtype=float)
+        footprint = np.asarray(result.object["points"], dtype=float)[:, :2]
+        points = [np.column_stack([polygon, np.full(len(polygon), height)])]
+        target = np.asarray(result.object["com_xy"], dtype=float)
         if len(self._motions):
             target = move_planar(target, self._motions[-1])
-        base = np.asarray(self.result.robot["base_pose"], dtype=float)[:2, 3]
+            final = move_planar(footprint, self._motions[-1])
+            points += [np.column_stack([final, np.full(len(final), height)]),
+                       np.asarray(result.fingertip_poses, dtype=float)[:, :3], row_to_pose(result.grasp["pose"])[None, :3, 3]]
+        points.append(np.column_stack([footprint, np.full(len(footprint), height)]))
+        base = np.asarray(result.robot["base_pose"], dtype=float)[:2, 3]
         away = target - base
         heading = math.atan2(away[1], away[0]) + 0.7  # a three-quarter view rather than along the arm
-        distance = max(float(np.ptp(polygon, axis=0).max()), 0.5) * 1.05
         camera = self.server.initial_camera
-        camera.look_at = np.append((target + base) / 2, height + 0.15)
-        camera.position = np.append(target + 0.7 * distance * np.array([math.cos(heading), math.sin(heading)]), height + 1.2 * distance)
+        look_at, position = frame_points(np.concatenate(points), view_direction(heading, CAMERA_ELEVATION_RAD),
+                                         camera.fov, VIEW_ASPECT, margin=1.3)
+        camera.look_at, camera.position = look_at, position
 
     # -- scene --------------------------------------------------------------------------------
 
@@ -242,10 +254,6 @@ class PlanView:
         grasp = row_to_pose(result.grasp["pose"])
         scene.add_frame("/grasp", axes_length=0.06, axes_radius=0.003, wxyz=_wxyz(grasp), position=grasp[:3, 3])
         scene.add_label("/grasp/label", "grasp", position=(0.0, 0.0, 0.07), anchor="bottom-left")
-        scene.add_label(
-            "/final_object/label", f"overhang {100 * result.overhang_m:.1f} cm",
-            position=np.append(result.object["com_xy"], float(points[:, 2].max()) + 0.02), anchor="top-right",
-        )
 
     def _add_overhang(self, points: np.ndarray, polygon: np.ndarray) -> None:
         """The object's points outside the table at its final pose, in red (in the final pose's frame)."""
@@ -254,8 +262,11 @@ class PlanView:
         moved = move_planar(points[:, :2], self._motions[-1])
         outside = ~shapely.contains_xy(shapely.Polygon(polygon), moved[:, 0], moved[:, 1])
         if outside.any():
-            self.server.scene.add_point_cloud("/final_object/overhang", points[outside] + (0, 0, 0.001),
-                                              OVERHANG_COLOR, point_size=0.004)
+            scene = self.server.scene
+            scene.add_point_cloud("/final_object/overhang", points[outside] + (0, 0, 0.001), OVERHANG_COLOR, point_size=0.004)
+            # On the overhanging part's top, where the eye looks for it.
+            scene.add_label("/final_object/label", f"overhang {100 * self.result.overhang_m:.1f} cm",
+                            position=points[outside].mean(axis=0) + (0, 0, 0.005), anchor="bottom-left")
 
     def _add_robot(self) -> None:
         import yourdfpy
@@ -317,8 +328,7 @@ class PlanView:
     def _add_gui(self) -> None:
         gui, result = self.server.gui, self.result
         # The arm stands over the object while it slides: hiding it shows the object's motion.
-        arm = gui.add_checkbox("show arm", initial_value=True)
-        arm.on_update(lambda _: setattr(self._robot_frame, "visible", arm.value))
+        self._arm = gui.add_checkbox("show arm", initial_value=True)
         if not result.solved:
             gui.add_markdown(f"**not solved** (status `{result.status}`): the scene only")
             self.slider = self.play = None
@@ -326,8 +336,15 @@ class PlanView:
         times = " + ".join(f"{segment.name} {segment.times[-1]:.1f} s" for segment in self.segments)
         gui.add_markdown(f"**solved**: overhang {100 * result.overhang_m:.1f} cm; {times}")
         self.slider = gui.add_slider("time (s)", min=0.0, max=round(self.duration, 2), step=0.01, initial_value=0.0)
+        self.play = gui.add_checkbox("play", initial_value=False)
+
+    def _connect_gui(self) -> None:
+        """Make the panel's controls act, once the robot they move is loaded."""
+        arm, play = self._arm, self.play
+        arm.on_update(lambda _: setattr(self._robot_frame, "visible", arm.value))
+        if play is None:
+            return
         self.slider.on_update(lambda _: self.show(self.slider.value))
-        play = self.play = gui.add_checkbox("play", initial_value=False)
         player: list[threading.Thread] = []
 
         def toggle(_) -> None:

@@ -289,3 +289,41 @@ def test_cli_progress_line_is_one_line_per_interval_in_a_log(capsys):
         progress(1.1)  # within 5 s of wall time of the first: not shown
     err = capsys.readouterr().err
     assert err.splitlines() == ["executing: 1.0 s simulated in 0 s"]
+
+
+def test_the_video_keeps_the_table_and_the_hand_in_view_through_the_transfer(tmp_path, monkeypatch):
+    # The Panda's approach rises far above the table: a camera fixed on the object lost its hand.
+    from slideplan import PlannerConfig, load_object, load_scene, plan
+    from slideplan.execute import video
+
+    scene = load_scene("panda_square")
+    result = plan(scene, load_object("crescent", table_height=scene.table.height, pose=(0.55, -0.08, 0.4)), PlannerConfig(seed=1))
+    assert result.solved
+    corners = np.column_stack([result.table["polygon"], np.full(len(result.table["polygon"]), scene.table.height)])
+    outside_per_frame = []
+    record = video.Recorder.after_step
+
+    def after_step(recorder):
+        before = len(recorder.frames)
+        record(recorder)
+        if len(recorder.frames) == before:
+            return
+        # MuJoCo's own camera of the frame just rendered: its pose and frustum at the near plane.
+        camera = recorder.renderer.scene.camera[0]
+        forward, up = np.asarray(camera.forward), np.asarray(camera.up)
+        half_height = (camera.frustum_top - camera.frustum_bottom) / 2
+        half_width = half_height * recorder.renderer.width / recorder.renderer.height
+        import mujoco  # after execute() chose the offscreen GL
+
+        hand = [mujoco.mj_name2id(recorder.data.model, mujoco.mjtObj.mjOBJ_BODY, result.robot[key]) for key in ("grasp_link", "tip_link")]
+        offsets = np.vstack([recorder.data.xpos[hand], corners]) - np.asarray(camera.pos)
+        depth = offsets @ forward
+        across = offsets @ np.cross(forward, up) * camera.frustum_near / depth
+        along = offsets @ up * camera.frustum_near / depth - (camera.frustum_top + camera.frustum_bottom) / 2
+        outside_per_frame.append(int(((depth <= 0) | (np.abs(across) > half_width) | (np.abs(along) > half_height)).sum()))
+
+    monkeypatch.setattr(video.Recorder, "after_step", after_step)
+    execute(result, video=tmp_path / "strip.png")
+    assert len(outside_per_frame) > 100
+    assert sum(outside_per_frame) == 0
+    assert (tmp_path / "strip.png").exists()

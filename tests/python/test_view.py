@@ -22,7 +22,9 @@ from typer.testing import CliRunner
 
 from handmade_plan import build_plan
 from slideplan.cli import app
-from slideplan.view import OBJECT_COLOR, ROBOT_COLOR, TABLE_COLOR, _server, open_view, record
+from slideplan import PlannerConfig, load_object, load_scene, plan
+from slideplan.transforms import move_planar, row_to_pose
+from slideplan.view import OBJECT_COLOR, ROBOT_COLOR, TABLE_COLOR, _server, object_motions, open_view, record
 
 CHROMIUM = "/usr/bin/chromium"
 VIEWPORT = {"width": 800, "height": 600}
@@ -125,6 +127,50 @@ def test_view_draws_robot_and_table_and_scrubbing_moves_the_object(planned, page
         object_end = hue_mask(end, OBJECT_COLOR)
         assert object_end.sum() > 100
         assert np.linalg.norm(centroid(object_end) - centroid(object_start)) > 10  # pixels
+    finally:
+        view.server.stop()
+
+
+def project(camera, points: np.ndarray) -> np.ndarray:
+    """Normalised image coordinates (-1..1 across the view) of world points, from the camera state the
+    browser reports (position, look-at point, up direction, vertical field of view, aspect)."""
+    forward = np.asarray(camera.look_at) - np.asarray(camera.position)
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, camera.up_direction)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    offsets = points - np.asarray(camera.position)
+    depth = offsets @ forward
+    assert (depth > 0).all()
+    half_height = np.tan(camera.fov / 2)
+    return np.column_stack([offsets @ right / (depth * half_height * camera.aspect), offsets @ up / (depth * half_height)])
+
+
+@pytest.mark.parametrize("table, pose", [("square", (0.55, -0.08, 0.4)), ("long", (0.47, 0.25, 0.4))])
+def test_the_default_view_frames_the_table_and_the_object_at_its_start_and_end(table, pose, page):
+    scene = load_scene(table)
+    obj = load_object("crescent", table_height=scene.table.height, pose=pose)
+    result = plan(scene, obj, PlannerConfig(seed=1, time_limit_s=20))
+    assert result.solved
+    view = served(result)
+    try:
+        visit(page, view.url)
+        page.get_by_role("checkbox", name="show arm").uncheck()  # the arm may cover the table, not widen it
+        image = wait_for(page, lambda image: hue_mask(image, TABLE_COLOR).sum() > DRAWN_PIXELS
+                         and hue_mask(image, OBJECT_COLOR).sum() > 100 and hue_mask(image, ROBOT_COLOR).sum() < 50)
+        table_pixels = hue_mask(image, TABLE_COLOR)
+        assert table_pixels.sum() > DRAWN_PIXELS and hue_mask(image, OBJECT_COLOR).sum() > 100
+        # Nothing of the table is cut off by the window's edge...
+        assert not np.concatenate([table_pixels[0], table_pixels[-1], table_pixels[:, 0], table_pixels[:, -1]]).any()
+        # ...and the camera the browser uses has every corner, the object at both ends and the grasp inside.
+        (client,) = view.server.get_clients().values()
+        height = scene.table.height
+        polygon = np.asarray(result.table["polygon"])
+        start = np.asarray(result.object["points"])
+        final = np.column_stack([move_planar(start[:, :2], object_motions(result)[-1]), start[:, 2]])
+        grasp = row_to_pose(result.grasp["pose"])[:3, 3]
+        inside = np.vstack([np.column_stack([polygon, np.full(len(polygon), height)]), start, final, grasp])
+        assert (np.abs(project(client.camera, inside)) < 1.0).all()
     finally:
         view.server.stop()
 

@@ -21,7 +21,7 @@ from .model import build_model
 from .report import Execution, path_features
 from .runner import SETTLE_S, Runner, Unstable, timing_of, timing_options
 from .settings import ExecutionSettings
-from .video import Recorder
+from .video import Recorder, plan_points
 
 _NO_FORCE_N = 0.1  # below this mean normal force the finger does not press at all
 
@@ -90,8 +90,7 @@ def execute(
     planned_com = move_planar(com0, predicted)
     tip_path, yaw_travel = path_features(result)
 
-    recorder = Recorder(model, data, video, video_fps, video_size, look_at=[*(com0 + np.asarray(table.polygon.centroid.coords[0])) / 2,
-                                                                     table.height + 0.1], progress=progress)
+    recorder = Recorder(model, data, video, video_fps, video_size, plan_points(result, core_robot), progress=progress)
     runner = Runner(built, settings, recorder.after_step if recorder.active else None)
     report = dict(
         success=False, failed_stage=None, failure="", predicted_motion=dict(zip(("x", "y", "yaw"), predicted)),

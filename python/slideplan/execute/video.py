@@ -2,10 +2,57 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
+
+from ..framing import frame_points, view_direction
+
+VIEW_HEADING_RAD = math.radians(30.0)  # the video's camera stands on the +x side of the table (a three-quarter view)...
+VIEW_ELEVATION_RAD = math.radians(30.0)  # ...and this far above the table's plane
+
+
+def plan_points(result, robot) -> np.ndarray:
+    """What a video of a plan's execution must show: the table's corners, the object at its start and
+    planned final poses, and the hand (fingertip and grasp frame) along the slide, the approach and the lift.
+
+    Args:
+        result: the plan (solved).
+        robot: its core robot model.
+
+    Returns:
+        (N, 3) world points.
+    """
+    from ..transforms import move_planar
+
+    height = float(result.table["height"])
+    polygon = np.asarray(result.table["polygon"], dtype=float)
+    start = np.asarray(result.object["points"], dtype=float)
+    motion = result.object_motion
+    final = move_planar(start[:, :2], (float(motion["x"]), float(motion["y"]), float(motion["yaw"])))
+    configs = np.concatenate([np.asarray(result.trajectory, dtype=float), np.asarray(result.grasp["approach"], dtype=float)])
+    link, offset = result.robot["grasp_link"], np.asarray(result.robot["grasp_offset"], dtype=float)
+    hand = [np.asarray(robot.fk(q))[:3, 3] for q in configs] + [np.asarray(robot.frame_pose(q, link, offset))[:3, 3] for q in configs]
+    lifted = np.asarray(hand[-1]) + (0.0, 0.0, 0.1)  # above the grasp: the lift
+    return np.vstack([np.column_stack([polygon, np.full(len(polygon), height)]), start,
+                      np.column_stack([final, start[:, 2]]), np.asarray(hand), lifted])
+
+
+def framed_camera(points, fov_y: float, aspect: float):
+    """A MuJoCo free camera, from the video's fixed direction, that keeps ``points`` in its frame."""
+    import mujoco
+
+    back = view_direction(VIEW_HEADING_RAD, VIEW_ELEVATION_RAD)
+    look_at, position = frame_points(points, back, fov_y, aspect)
+    camera = mujoco.MjvCamera()
+    camera.lookat[:] = look_at
+    camera.distance = float(np.linalg.norm(position - look_at))
+    # MuJoCo looks along (cos el cos az, cos el sin az, sin el), from the camera to the look-at point.
+    camera.azimuth = math.degrees(math.atan2(-back[1], -back[0]))
+    camera.elevation = -math.degrees(VIEW_ELEVATION_RAD)
+    return camera
 
 
 class Recorder:
@@ -17,11 +64,11 @@ class Recorder:
         path: the video file (``.mp4``, ``.gif`` or ``.png``), or None for no video.
         fps: frames per simulated second.
         size: (height, width) of a frame in pixels.
-        look_at: (x, y, z) the view camera looks at.
+        keep_in_view: (N, 3) world points the fixed view camera keeps in its frame (:func:`plan_points`).
         progress: called with the simulated time (s), or None.
     """
 
-    def __init__(self, model, data, path: str | Path | None, fps: int, size: tuple[int, int], look_at,
+    def __init__(self, model, data, path: str | Path | None, fps: int, size: tuple[int, int], keep_in_view,
                  progress: Callable[[float], None] | None = None):
         import mujoco
 
@@ -34,9 +81,7 @@ class Recorder:
             # Shadows and reflections are most of a software-rendered frame's cost (22 ms of 40 at 640x480).
             for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION):
                 self.renderer.scene.flags[flag] = False
-            self.camera = mujoco.MjvCamera()
-            self.camera.lookat[:] = look_at
-            self.camera.distance, self.camera.azimuth, self.camera.elevation = 1.1, 210.0, -30.0
+            self.camera = framed_camera(keep_in_view, math.radians(model.vis.global_.fovy), size[1] / size[0])
 
     @property
     def active(self) -> bool:
