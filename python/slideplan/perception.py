@@ -22,6 +22,7 @@ Needs the ``perception`` extra (scikit-learn; SciPy for the grid filters).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -107,16 +108,9 @@ class Perception:
         Returns:
             The scene.
         """
-        robot = load_scene(robot_scene)
-        return Scene(
-            name="perceived",
-            table=self.table,
-            urdf_path=robot.urdf_path,
-            base_pose=robot.base_pose,
-            tip_link=robot.tip_link,
-            contact_links=robot.contact_links,
-            obstacles=tuple(self.obstacles),
-        )
+        # Everything robot-side (URDF, attachments, mount, held joints, hand) as scene_toml writes it.
+        return dataclasses.replace(load_scene(robot_scene), name="perceived", table=self.table,
+                                   obstacles=tuple(self.obstacles), source="")
 
 
 @dataclass
