@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import difflib
 import os
 import sys
 import time
@@ -24,6 +25,12 @@ from typing import Optional, Tuple
 
 import numpy as np
 import typer
+from typer.core import TyperGroup
+
+try:  # typer 0.28 carries its own copy of click; earlier releases use click itself
+    from typer._click import exceptions as click_errors
+except ImportError:
+    from click import exceptions as click_errors
 
 from . import grasp_cache
 from .errors import InputError
@@ -32,6 +39,8 @@ from .planning import PLANNERS, PlannerConfig, PlanResult
 from .scenes import Scene, load_scene
 
 EXIT_SOLVED, EXIT_NOT_SOLVED, EXIT_BAD_INPUT, EXIT_INVALID_PLAN = 0, 1, 2, 3
+PICTURE_SUFFIXES = (".png", ".svg")
+VIDEO_SUFFIXES = (".mp4", ".gif", ".png")
 _SHOWN_VIOLATIONS = 20  # a broken plan can have thousands; the first ones tell the story
 
 # Command-line option names of the PlannerConfig fields the CLI sets, for error messages.
@@ -48,7 +57,38 @@ _OPTION_OF_FIELD = {
     "setting": "--setting",
 }
 
+class _OneLineErrors(TyperGroup):
+    """Usage errors (an unknown or missing option, a value of the wrong type) as one line on stderr
+    and exit 2, like every other bad input: not a box of rich text."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        try:
+            code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click_errors.NoArgsIsHelpError as error:
+            typer.echo(error.ctx.get_help())
+            sys.exit(error.exit_code)
+        except click_errors.NoSuchOption as error:
+            known = sorted(name for param in error.ctx.command.params for name in param.opts if name.startswith("-")) if error.ctx else []
+            close = difflib.get_close_matches(error.option_name, known, n=3, cutoff=0.75)  # click's 0.6 offers --pose for --bogus
+            command = f"{error.ctx.command_path}: " if error.ctx else ""
+            hint = f" (did you mean {' or '.join(close)}?)" if close else f" (see {error.ctx.command_path} --help)" if error.ctx else ""
+            typer.echo(f"slideplan: error: {command}no such option {error.option_name}{hint}", err=True)
+            sys.exit(EXIT_BAD_INPUT)
+        except click_errors.ClickException as error:
+            command = f"{error.ctx.command_path}: " if getattr(error, "ctx", None) else ""
+            message = " ".join(error.format_message().split())
+            typer.echo(f"slideplan: error: {command}{message}", err=True)
+            sys.exit(EXIT_BAD_INPUT if isinstance(error, click_errors.UsageError) else error.exit_code)
+        except typer.Abort:
+            typer.echo("slideplan: aborted", err=True)
+            sys.exit(1)
+        sys.exit(code if isinstance(code, int) else 0)
+
+
 app = typer.Typer(
+    cls=_OneLineErrors,
     add_completion=False,
     no_args_is_help=True,
     pretty_exceptions_enable=False,
@@ -198,10 +238,40 @@ def _exit_for(result: PlanResult) -> typer.Exit:
     return typer.Exit(EXIT_SOLVED if result.solved else EXIT_NOT_SOLVED)
 
 
+def _output_file(path: Path | None, option: str, suffixes: tuple[str, ...] = ()) -> Path | None:
+    """Check that an output file can be written before the work that fills it (its folder is made).
+
+    Raises:
+        InputError: naming the option and the path: a wrong suffix, a directory, or unwritable.
+    """
+    if path is None:
+        return None
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise InputError(f"expected a {' or '.join(suffixes)} file, got {str(path)!r}", field=option)
+    if path.is_dir():
+        raise InputError(f"{path} is a directory, not a file", field=option)
+    existed = path.exists()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "a"):
+            pass
+    except OSError as error:
+        raise InputError(f"cannot write {path} ({error.strerror or error})", field=option) from None
+    if not existed:
+        path.unlink()
+    return path
+
+
+def _write_text(path: Path, text: str, option: str) -> None:
+    try:
+        path.write_text(text)
+    except OSError as error:
+        raise InputError(f"cannot write {path} ({error.strerror or error})", field=option) from None
+
+
 def _write_outputs(result: PlanResult, json_path: Path | None, png_path: Path | None) -> None:
     if json_path is not None:
-        json_path.parent.mkdir(parents=True, exist_ok=True)
-        json_path.write_text(result.to_json(indent=1))
+        _write_text(json_path, result.to_json(indent=1), "--json")
     if png_path is not None:
         from .viz import draw_plan
 
@@ -248,6 +318,7 @@ def plan_command(
     if no_cache:
         os.environ[grasp_cache.NO_CACHE_ENV] = "1"
     try:
+        json_out, png_out = _output_file(json_out, "--json"), _output_file(png_out, "--png", PICTURE_SUFFIXES)
         task_scene = load_scene(scene)
         config = _config_from_options(task_scene, seed, time_limit, reconfiguration_range, planner, param, preset)
         obj, sampled_pose = _load_object(task_scene, object_spec, pose, seed)
@@ -301,6 +372,7 @@ def perceive_command(
     from .objects import load_point_cloud
     from .perception import perceive, write_perception
     try:
+        json_out, png_out = _output_file(json_out, "--json"), _output_file(png_out, "--png", PICTURE_SUFFIXES)
         perception = perceive(load_point_cloud(cloud), seed=seed, source=str(cloud))
         scene_path, cloud_paths = write_perception(perception, out, robot_scene=robot_scene)
         if plan_target is not None and not 0 <= plan_target < len(cloud_paths):
@@ -442,13 +514,13 @@ def execute_command(
     try:
         from .execute import ExecutionSettings, execute
 
+        json_out, video = _output_file(json_out, "--json"), _output_file(video, "--video", VIDEO_SUFFIXES)
         result = PlanResult.load(plan_file)
         with _progress_line("executing" + (f", rendering {video.name}" if video is not None else "")) as progress:
             execution = execute(result, ExecutionSettings(tip_speed=tip_speed), video=video,
                                 progress=progress)
         if json_out is not None:
-            json_out.parent.mkdir(parents=True, exist_ok=True)
-            json_out.write_text(execution.to_json(indent=1))
+            _write_text(json_out, execution.to_json(indent=1), "--json")
     except InputError as error:
         field = _OPTION_OF_FIELD.get(error.field, error.field)
         raise _fail(InputError(error.problem, source=error.source or str(plan_file), field=field)) from None
@@ -484,9 +556,8 @@ def run_command(
     try:
         from .closed_loop import Disturbance, run
 
+        json_out, video = _output_file(json_out, "--json"), _output_file(video, "--video", VIDEO_SUFFIXES)
         scene = load_scene(scene_name)
-        if video is not None and video.suffix.lower() not in (".mp4", ".gif", ".png"):
-            raise InputError(f"expected a .mp4, .gif or .png file, got {str(video)!r}", field="--video")
         if pose is None:
             outline, _, _ = load_outline(object_name)
             pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(seed))
@@ -495,8 +566,7 @@ def run_command(
             report = run(scene, object_name, pose, seed=seed, closed=closed, setting=setting, disturbance=disturbance,
                          video=video, progress=progress)
         if json_out is not None:
-            json_out.parent.mkdir(parents=True, exist_ok=True)
-            json_out.write_text(report.to_json(indent=1))
+            _write_text(json_out, report.to_json(indent=1), "--json")
     except InputError as error:
         raise _fail(InputError(error.problem, source=error.source, field=_OPTION_OF_FIELD.get(error.field, error.field))) from None
     except (ImportError, OSError, ValueError) as error:

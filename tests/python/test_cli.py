@@ -1,5 +1,7 @@
 """The command line: help, and bad input giving exit code 2 with one clear line on stderr."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from typer.testing import CliRunner
@@ -86,3 +88,28 @@ def test_pose_given_for_a_cloud(tmp_path):
 
 def test_unknown_object_name():
     assert_bad_input(run("plan", "--scene", "square", "--object", "banana"), "banana", "built-in object")
+
+
+def test_an_unknown_option_is_one_line_suggesting_only_close_names():
+    assert_bad_input(run("plan", "--bogus"), "no such option --bogus", "plan --help")
+    assert "--pose" not in run("plan", "--bogus").stderr  # click's own guess for --bogus
+    assert_bad_input(run("plan", "--scne", "square"), "no such option --scne", "did you mean --scene?")
+
+
+@pytest.mark.parametrize("args, fragment", [(("plan", "--seed", "x"), "--seed"), (("plan", "--pose", "1"), "--pose"),
+                                            (("nosuch",), "nosuch")])
+def test_a_malformed_command_line_is_one_line(args, fragment):
+    assert_bad_input(run(*args), fragment)
+
+
+@pytest.mark.parametrize("option, make, fragment", [
+    ("--json", lambda tmp: tmp, "is a directory"),
+    ("--png", lambda tmp: tmp / "plan.bmpx", "expected a .png or .svg file"),
+    ("--json", lambda tmp: Path("/proc/version"), "cannot write"),  # exists, but takes no writes
+])
+def test_an_output_that_cannot_be_written_is_refused_before_planning(tmp_path, option, make, fragment):
+    path = make(tmp_path)
+    result = run("plan", "--scene", "square", "--object", "crescent", "--pose", "0.55", "-0.08", "0.4", option, str(path))
+    assert_bad_input(result, option, fragment, str(path))
+    assert "solved" not in result.stdout  # refused before the planner ran
+    assert not (tmp_path / "plan.bmpx.png").exists()
