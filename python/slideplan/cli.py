@@ -16,7 +16,9 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import difflib
+import ipaddress
 import os
+import socket
 import sys
 import time
 import warnings
@@ -446,6 +448,7 @@ def view_command(
     try:
         from . import view
 
+        record_out = _output_file(record_out, "--record")
         result = PlanResult.load(plan_file)
         if not 0 <= port < 65536:
             raise InputError(f"must be in [0, 65536), got {port}", field="--port")
@@ -460,6 +463,10 @@ def view_command(
         raise _fail(InputError(str(error), field="--record")) from None
     if shown.server.get_port() != port:
         typer.echo(f"slideplan: port {port} is in use; using {shown.server.get_port()}", err=True)
+    if not _is_loopback(host):
+        where = "every network interface" if host in ("0.0.0.0", "::", "") else host
+        typer.echo(f"slideplan: warning: serving on {where}: anyone who can reach this machine on port "
+                   f"{shown.server.get_port()} can open the view (there is no password)", err=True)
     status = "" if result.solved else f" (not solved: {result.status}; showing the scene only)"
     typer.echo(f"view at {shown.url}{status}; Ctrl-C to stop")
     try:
@@ -469,6 +476,14 @@ def view_command(
         pass
     finally:
         shown.server.stop()
+
+
+def _is_loopback(host: str) -> bool:
+    """Whether ``host`` is this machine only (an address or a name resolved here)."""
+    try:
+        return ipaddress.ip_address(socket.gethostbyname(host) if ":" not in host else host).is_loopback
+    except (OSError, ValueError, UnicodeError):
+        return False
 
 
 @contextlib.contextmanager

@@ -251,6 +251,21 @@ def test_port_in_use_picks_another_and_says_so(planned, tmp_path):
     assert line.startswith("view at http://127.0.0.1:") and f":{port};" not in line, line
     served = int(line.split("http://127.0.0.1:")[1].split(";")[0])
     assert served != port and f"port {port} is in use; using {served}" in errors
+    assert "warning" not in errors  # this machine only: nothing to warn about
+
+
+def test_serving_beyond_this_machine_says_so(planned, tmp_path):
+    plan_file = tmp_path / "plan.json"
+    plan_file.write_text(planned.to_json())
+    process = subprocess.Popen([sys.executable, "-m", "slideplan.cli", "view", str(plan_file), "--host", "0.0.0.0", "--port", "0"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = process.stdout.readline()
+    finally:
+        process.terminate()
+        _, errors = process.communicate(timeout=10)
+    assert line.startswith("view at http://0.0.0.0:"), line
+    assert "slideplan: warning: serving on every network interface" in errors and "no password" in errors
 
 
 def test_view_refuses_a_host_it_cannot_listen_on(planned, tmp_path):
