@@ -234,6 +234,19 @@ def test_a_version_1_plan_is_timed_for_the_view(planned):
         view.server.stop()
 
 
+def first_line_of_view(plan_file, *options) -> tuple[str, str]:
+    """Start ``slideplan view`` in a process of its own, read the line saying where it serves, stop it:
+    (that line, everything it wrote on stderr)."""
+    process = subprocess.Popen([sys.executable, "-m", "slideplan.cli", "view", str(plan_file), *options],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = process.stdout.readline()
+    finally:
+        process.terminate()
+        _, errors = process.communicate(timeout=10)
+    return line, errors
+
+
 def test_port_in_use_picks_another_and_says_so(planned, tmp_path):
     plan_file = tmp_path / "plan.json"
     plan_file.write_text(planned.to_json())
@@ -241,13 +254,7 @@ def test_port_in_use_picks_another_and_says_so(planned, tmp_path):
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
-        process = subprocess.Popen([sys.executable, "-m", "slideplan.cli", "view", str(plan_file), "--port", str(port)],
-                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        try:
-            line = process.stdout.readline()
-        finally:
-            process.terminate()
-            _, errors = process.communicate(timeout=10)
+        line, errors = first_line_of_view(plan_file, "--port", str(port))
     assert line.startswith("view at http://127.0.0.1:") and f":{port};" not in line, line
     served = int(line.split("http://127.0.0.1:")[1].split(";")[0])
     assert served != port and f"port {port} is in use; using {served}" in errors
@@ -257,13 +264,7 @@ def test_port_in_use_picks_another_and_says_so(planned, tmp_path):
 def test_serving_beyond_this_machine_says_so(planned, tmp_path):
     plan_file = tmp_path / "plan.json"
     plan_file.write_text(planned.to_json())
-    process = subprocess.Popen([sys.executable, "-m", "slideplan.cli", "view", str(plan_file), "--host", "0.0.0.0", "--port", "0"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        line = process.stdout.readline()
-    finally:
-        process.terminate()
-        _, errors = process.communicate(timeout=10)
+    line, errors = first_line_of_view(plan_file, "--host", "0.0.0.0", "--port", "0")
     assert line.startswith("view at http://0.0.0.0:"), line
     assert "slideplan: warning: serving on every network interface" in errors and "no password" in errors
 
