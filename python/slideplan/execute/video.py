@@ -9,6 +9,7 @@ from typing import Callable
 import numpy as np
 
 from ..framing import frame_points, view_direction
+from ..transforms import move_planar
 
 VIEW_HEADING_RAD = math.radians(30.0)  # the video's camera stands on the +x side of the table (a three-quarter view)...
 VIEW_ELEVATION_RAD = math.radians(30.0)  # ...and this far above the table's plane
@@ -25,8 +26,6 @@ def plan_points(result, robot) -> np.ndarray:
     Returns:
         (N, 3) world points.
     """
-    from ..transforms import move_planar
-
     height = float(result.table["height"])
     polygon = np.asarray(result.table["polygon"], dtype=float)
     start = np.asarray(result.object["points"], dtype=float)
