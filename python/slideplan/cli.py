@@ -266,6 +266,7 @@ def _output_file(path: Path | None, option: str, suffixes: tuple[str, ...] = ())
 
 def _write_text(path: Path, text: str, option: str) -> None:
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text)
     except OSError as error:
         raise InputError(f"cannot write {path} ({error.strerror or error})", field=option) from None

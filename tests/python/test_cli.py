@@ -113,3 +113,10 @@ def test_an_output_that_cannot_be_written_is_refused_before_planning(tmp_path, o
     assert_bad_input(result, option, fragment, str(path))
     assert "solved" not in result.stdout  # refused before the planner ran
     assert not (tmp_path / "plan.bmpx.png").exists()
+
+
+def test_demo_writes_into_a_folder_it_makes(tmp_path):
+    out = tmp_path / "new" / "out"
+    result = run("demo", "--out", str(out))
+    assert result.exit_code == 0, result.output + result.stderr
+    assert (out / "demo-plan.json").stat().st_size > 0 and (out / "demo-plan.png").stat().st_size > 0
