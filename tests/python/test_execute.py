@@ -327,3 +327,17 @@ def test_the_video_keeps_the_table_and_the_hand_in_view_through_the_transfer(tmp
     assert len(outside_per_frame) > 100
     assert sum(outside_per_frame) == 0
     assert (tmp_path / "strip.png").exists()
+
+
+def test_a_hand_with_nothing_to_close_executes_the_slide_and_says_why_it_cannot_grasp():
+    # The bundled UR5 carries a rigid finger on its flange and no gripper: this was numpy's
+    # "zero-size array to reduction operation maximum which has no identity".
+    from slideplan import PlannerConfig, load_object, load_scene, plan
+
+    scene = load_scene("ur5_square")
+    result = plan(scene, load_object("crescent", table_height=scene.table.height, pose=(0.55, -0.08, 0.4)), PlannerConfig(seed=1))
+    assert result.solved
+    execution = execute(result)
+    assert execution.failed_stage == "grasp" and not execution.success and not execution.lifted
+    assert "no fingers to close" in execution.failure and "'tool0'" in execution.failure
+    assert execution.position_error_m is not None  # the slide itself ran and was measured

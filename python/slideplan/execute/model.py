@@ -143,6 +143,7 @@ class Model:
     spring_joint: int
     finger_actuators: list[int]
     finger_meet: np.ndarray  # closing angle at which each finger's far end reaches the grasp plane (rad)
+    grasp_link: str  # the fingers are the other children of its parent
     hand_geoms: np.ndarray  # contact-link geoms that only touch things once the finger is lifted
     pad_geom: int
     tip_body: int
@@ -332,6 +333,7 @@ def build_model(result: PlanResult, settings: ExecutionSettings, *, world_object
         spring_joint=model.joint(spring.name).id,
         finger_actuators=[model.actuator(f"close_{joint}").id for joint in fingers],
         finger_meet=np.array(meet),
+        grasp_link=robot["grasp_link"],
         hand_geoms=hand_geoms,
         pad_geom=model.geom(pad.name).id,
         tip_body=model.body(robot["tip_link"]).id,

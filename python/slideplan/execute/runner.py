@@ -169,6 +169,10 @@ class Runner:
         enable_hand_collisions(built, True)
         if self.object_pose()[2] < rest_z - _FELL_DROP_M:
             failure = ("release", "the object fell off the table when the finger let go")
+        if not built.finger_actuators:
+            # A rigid finger only (e.g. the bundled UR5 and xArm7 scenes): the slide ran, there is nothing to close.
+            return failure or ("grasp", f"the hand has no fingers to close: no other link with mass and geometry hangs "
+                                        f"from the parent of the grasp link {built.grasp_link!r}")
         lift_target = np.asarray(robot.fk(grasp_config))
         lift_target[2, 3] += settings.lift_height
         lift_config = robot.ik(lift_target, seed=grasp_config, rng_seed=0)
