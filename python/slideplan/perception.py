@@ -22,9 +22,8 @@ Needs the ``perception`` extra (scikit-learn; SciPy for the grid filters).
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -109,8 +108,7 @@ class Perception:
             The scene.
         """
         # Everything robot-side (URDF, attachments, mount, held joints, hand) as scene_toml writes it.
-        return dataclasses.replace(load_scene(robot_scene), name="perceived", table=self.table,
-                                   obstacles=tuple(self.obstacles), source="")
+        return replace(load_scene(robot_scene), name="perceived", table=self.table, obstacles=tuple(self.obstacles), source="")
 
 
 @dataclass
