@@ -8,8 +8,9 @@ where it is seen.
 2. execute the slide (:mod:`slideplan.execute`'s model and runner, the object as it really is); every
    ``replan_period`` of simulated time render a depth frame with the arm in view and track the object
    (:class:`~slideplan.tracking.Tracker`); when it is further than ``threshold`` from the pose Eq. 2
-   predicts for the commanded configuration in two looks in a row, plan again from that configuration (where the servos'
-   reference is, so it does not jump) with the object where it was seen, and follow the new plan;
+   predicts for the commanded configuration in two looks in a row, and the rest of the slide would not end
+   graspable from where it is seen (:meth:`_Segment.still_works`), plan again from that configuration (where
+   the servos' reference is, so it does not jump) with the object where it was seen, and follow the new plan;
 3. when a slide ends, track the object and plan from the final configuration with the object where it
    was seen: the plan is that configuration and its grasp when the object overhangs enough (else it
    slides on, up to ``end_replans`` times); then approach, close, lift 5 cm and hold 1 s.
@@ -39,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import shapely
 
 from . import jsontext
 from ._fields import as_numbers
@@ -67,7 +69,9 @@ RANDOM_RANGES = {  # the random setting draws each uniformly in its range, per r
 }
 DEPTH_NOISE_AT_1M = 0.002  # m, nominal and stress (as slideplan.rendering)
 DEPTH_DROPOUT = 0.05
-CONFIRM = 2  # looks in a row off the predicted pose that make a drift
+CONFIRM = 2  # looks in a row off the predicted pose, agreeing with each other, that make a drift
+AGREE = 3.0  # two looks agree within this many thresholds
+END_LOOKS = 4  # frames at most at the end of a slide for two in a row that agree
 
 
 @dataclass(frozen=True)
@@ -125,6 +129,8 @@ class ClosedLoopRun:
         failure: one line saying what went wrong ("" on success).
         replans: re-plans whose new plan was followed (slides and grasps from a seen pose).
         replan_latency_s: median latency of the looks that planned (s), None if none did.
+        kept: drifts (off the predicted pose in ``CONFIRM`` looks in a row) after which the rest of the
+            slide still ended graspable from the pose seen, so the plan was kept.
         looks: depth frames tracked; lost_looks: of them, those that did not show the object.
         events: every look that asked for a plan, and each end-of-slide look (:class:`Replan`).
         seen_motion: the object's motion from its perceived pose to where it was last seen, ``{x, y, yaw}``.
@@ -143,6 +149,7 @@ class ClosedLoopRun:
     failure: str
     replans: int
     replan_latency_s: float | None
+    kept: int
     looks: int
     lost_looks: int
     events: list[Replan]
@@ -252,9 +259,24 @@ class _Segment:
 
     def predicted(self, robot, runner: Runner, elapsed: float) -> tuple[float, float, float]:
         """Where Eq. 2 puts the object (motion from its perceived pose) at the commanded configuration."""
-        path = np.asarray(self.result.trajectory)
-        now = np.asarray(robot.fk(runner.commanded(path, self.times, elapsed)))
-        return compose_planar(self.base, planar_motion(row_to_pose(self.result.fingertip_poses[0]), now))
+        return compose_planar(self.base, planar_motion(row_to_pose(self.result.fingertip_poses[0]),
+                                                       self.tip(robot, runner, elapsed)))
+
+    def tip(self, robot, runner: Runner, elapsed: float) -> np.ndarray:
+        """The fingertip pose (4, 4) at the commanded configuration."""
+        return np.asarray(robot.fk(runner.commanded(np.asarray(self.result.trajectory), self.times, elapsed)))
+
+    def still_works(self, perceived: ThinObject, table, config: PlannerConfig, tip: np.ndarray, seen, slack: float) -> bool:
+        """Whether the rest of this slide still ends graspable from where the object is seen: carried
+        from there by Eq. 2 to the plan's last contact, it overhangs by ``u*`` and keeps its centre of
+        mass ``com_margin`` inside the table (a slide that ends short as seen then is slid on from its
+        end), and the fingertip is on the object as seen, ``slack`` (the tracker's error) inside its hull."""
+        now = perceived.moved(seen)
+        if not shapely.MultiPoint(now.points[:, :2]).convex_hull.buffer(-slack).contains(shapely.Point(tip[:2, 3])):
+            return False
+        end = perceived.moved(compose_planar(seen, planar_motion(tip, row_to_pose(self.result.fingertip_poses[-1]))))
+        return (overhang(table, end.points[:, :2])[0] >= config.u_star
+                and table.edge_margin(end.centroid_xy) >= config.com_margin)
 
 
 def _segment(result: PlanResult, top: float, base) -> _Segment:
@@ -362,7 +384,7 @@ def run(
     mode = "closed" if closed else "open"
     report: dict[str, Any] = dict(
         success=False, mode=mode, setting=setting, failed_stage=None, failure="", replans=0, replan_latency_s=None,
-        looks=0, lost_looks=0, events=[], seen_motion=None, overhang_m=None, com_margin_m=None, true_overhang_m=None, true_com_margin_m=None,
+        kept=0, looks=0, lost_looks=0, events=[], seen_motion=None, overhang_m=None, com_margin_m=None, true_overhang_m=None, true_com_margin_m=None,
         lifted=False, draws=draws, disturbance=None if disturbance is None else dataclasses.asdict(disturbance),
     )
     first = plan(scene, perceived, config)
@@ -388,14 +410,48 @@ def run(
     recorder = Recorder(model, data, video, video_fps, (480, 640), plan_points(first, robot), progress=progress)
     runner = Runner(built, settings, recorder.after_step if recorder.active else None)
 
-    def look(guess) -> tuple:
+    last: list = []  # (motion seen, fingertip pose then) of the last look that found the object
+
+    def look(predicted) -> tuple:
+        """Track the object in a new frame, from where Eq. 2 puts it and from where it was last seen
+        carried along by the fingertip since (the better fit wins): after a disturbance the prediction
+        is centimetres off, and after a wrong fit the last pose is."""
         frame = noisy_depth(camera_depth(depth_renderer, model, data, DEPTH_CAMERA), draws["depth_noise_at_1m"],
                             DEPTH_DROPOUT, noise_rng)
-        return tracker.track(frame, guess)
+        tip = np.asarray(robot.fk(data.qpos[built.arm_qpos]))
+        guesses = [predicted]
+        if last:
+            carried = compose_planar(last[0][0], planar_motion(last[0][1], tip))
+            if not agree(carried, predicted):
+                guesses.append(carried)
+        # The finger presses on the object until the grasp: its measured position is on the object.
+        seen = max((tracker.track(frame, guess, contact=tip[:2, 3]) for guess in guesses),
+                   key=lambda fit: (fit.ok, fit.edge_points, -fit.rmse_m if fit.ok else 0.0))
+        if seen.ok:
+            last[:] = [(seen.motion, tip)]
+        return seen
 
-    def replan(trigger: str, elapsed: float, start_config: np.ndarray, predicted) -> tuple[PlanResult | None, Replan, Any]:
-        started = time.perf_counter()
+    def agree(first, second) -> bool:
+        """Two seen poses within AGREE thresholds of each other: the tracker's own scatter under the arm
+        is about a threshold; its wrong fits are centimetres or tens of degrees off."""
+        error_m, error_yaw = _pose_error(perceived, first, second)
+        return error_m <= AGREE * threshold[0] and abs(error_yaw) <= AGREE * threshold[1]
+
+    def settled_look(predicted):
+        """At the end of a slide, the arm at rest: frames until two in a row agree (a single frame's fit
+        can be a wrong one, and the grasp is made where the object is seen)."""
         seen = look(predicted)
+        for _ in range(END_LOOKS - 1):
+            again = look(predicted)
+            report["looks"] += 1
+            if seen.ok and again.ok and agree(seen.motion, again.motion):
+                return again
+            seen = again
+        return dataclasses.replace(seen, ok=False, reason=f"no two of {END_LOOKS} frames agree") if seen.ok else seen
+
+    def replan(trigger: str, elapsed: float, start_config: np.ndarray, predicted, tip=None) -> tuple[PlanResult | None, Replan, Any]:
+        started = time.perf_counter()
+        seen = settled_look(predicted) if trigger == "end" else look(predicted)
         tracked = time.perf_counter()
         error_m, error_yaw = _pose_error(perceived, seen.motion, predicted)
         event = Replan(elapsed, trigger, error_m, math.degrees(error_yaw), tracked - started, 0.0, "lost", seen.reason)
@@ -404,12 +460,22 @@ def run(
             report["lost_looks"] += 1
             return None, (event if trigger == "end" else None), seen
         if trigger == "drift":
-            # A drift is a pose off the prediction in CONFIRM looks in a row: one look's error alone is
-            # mostly the tracker's, with the arm hiding much of the object.
-            beyond[0] = beyond[0] + 1 if error_m > threshold[0] or abs(error_yaw) > threshold[1] else 0
-            if beyond[0] < CONFIRM:
+            # A drift is a pose off the prediction in CONFIRM looks in a row that agree with each other:
+            # one look's error alone is mostly the tracker's, with the arm hiding much of the object.
+            if error_m <= threshold[0] and abs(error_yaw) <= threshold[1]:
+                beyond.clear()
+            elif beyond and not agree(beyond[-1], seen.motion):
+                beyond[:] = [seen.motion]
+            else:
+                beyond.append(seen.motion)
+            if len(beyond) < CONFIRM:
                 return None, None, seen
-        beyond[0] = 0
+            # A drift that leaves the rest of the slide ending graspable changes nothing worth a new plan:
+            # re-planning on the tracker's own error restarts the slide from rest again and again.
+            if segment.still_works(perceived, scene.table, config, tip, seen.motion, threshold[0]):
+                report["kept"] += 1
+                return None, None, seen
+        beyond.clear()
         try:
             again = plan(scene, perceived.moved(seen.motion),
                          dataclasses.replace(config, time_limit_s=replan_time_limit), start_config=start_config)
@@ -423,7 +489,7 @@ def run(
         event.outcome, event.detail = ("grasp" if len(again.trajectory) == 1 else "slide"), ""
         return again, event, seen
 
-    beyond = [0]  # looks in a row off the predicted pose
+    beyond: list = []  # the poses seen in the looks in a row off the predicted pose
     disturbed = [disturbance is None]
     slide_start = [0.0]
 
@@ -456,7 +522,7 @@ def run(
                 next_look[0] += replan_period
                 path = np.asarray(segment.result.trajectory)
                 again, event, seen = replan("drift", now, runner.commanded(path, segment.times, elapsed),
-                                         segment.predicted(robot, runner, elapsed))
+                                            segment.predicted(robot, runner, elapsed), segment.tip(robot, runner, elapsed))
                 if event is not None:
                     report["events"].append(event)
                 if again is None:

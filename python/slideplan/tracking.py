@@ -93,6 +93,7 @@ class Tracker:
         self.obj, self.camera, self.iterations = obj, camera, iterations
         self.table_height = as_number(table_height, source="", field="table_height")
         outline = obj.outline if obj.outline is not None else _cloud_outline(obj.points[:, :2])
+        self._hull = outline.convex_hull  # where a start contact may be (the planner's test)
         self._model = _densify(outline, OUTLINE_SPACING_M)
         self._tree = cKDTree(self._model)
         self._centre = np.asarray(obj.centroid_xy, dtype=float)
@@ -133,13 +134,17 @@ class Tracker:
         edge = (is_object & binary_dilation(is_table, cross)) | (is_table & binary_dilation(is_object, cross))
         return world[edge][:, :2], world[is_object][:, :2]
 
-    def track(self, depth: np.ndarray, guess=(0.0, 0.0, 0.0)) -> TrackedPose:
+    def track(self, depth: np.ndarray, guess=(0.0, 0.0, 0.0), contact=None) -> TrackedPose:
         """Estimate where the object is in one frame.
 
         Args:
             depth: (height, width) depth image of the tracker's camera (m), NaN for no return.
             guess: (x, y, yaw) motion of the reference object expected now (the last estimate, or the
                 pose Eq. 2 predicts); the fit starts there.
+            contact: (x, y) of the fingertip pressing on the object (its measured pose), or None: only
+                a fit that puts the object under it is taken. The edges of the finger and hand with the
+                table can match part of the outline better than the occluded object does; this is
+                what rules those fits out.
 
         Returns:
             The estimate; ``ok`` False (with the reason) when the frame shows too little edge.
@@ -153,6 +158,8 @@ class Tracker:
             raise InputError(f"expected a ({self.camera.height}, {self.camera.width}) depth image, got shape {depth.shape}",
                              field="depth")
         guess = tuple(float(value) for value in as_numbers(guess, 3, source="", field="guess"))
+        if contact is not None:
+            contact = as_numbers(contact, 2, source="", field="contact")
         points, inside = self.classify(depth, guess)
         if len(points) < MIN_EDGE_POINTS:
             return TrackedPose(False, guess, len(points), math.nan, f"{len(points)} edge points in view (< {MIN_EDGE_POINTS})")
@@ -171,12 +178,26 @@ class Tracker:
             # Short fits from the guess and the shifted guess, each also turned by +-START_YAW; the best goes on.
             starts = [np.array(guess) + [dx, dy, turn] for dx, dy in offsets for turn in (0.0, -START_YAW, START_YAW)]
             scouts = [self._icp(points, start, SCOUT_ITERATIONS) for start in starts]
-            refined = self._icp(points, max(scouts, key=_score)[0], self.iterations)
-            fit = max(fit, refined, key=_score)
+            under = [scout for scout in scouts if self._holds(scout[0], contact)]
+            refined = self._icp(points, max(under or scouts, key=_score)[0], self.iterations)
+            fits = [candidate for candidate in (fit, refined) if self._holds(candidate[0], contact)]
+            if not fits:
+                return TrackedPose(False, guess, 0, math.nan, "no fit puts the object under the fingertip")
+            fit = max(fits, key=_score)
+        elif not self._holds(fit[0], contact):
+            return TrackedPose(False, guess, 0, math.nan, "no fit puts the object under the fingertip")
         motion, inliers, rmse = fit
         if inliers < MIN_EDGE_POINTS:
             return TrackedPose(False, guess, inliers, math.nan, "the fit lost the edge")
         return TrackedPose(True, (float(motion[0]), float(motion[1]), wrap_angle(float(motion[2]))), inliers, rmse)
+
+    def _holds(self, motion: np.ndarray, contact) -> bool:
+        """Whether the outline's convex hull at ``motion`` covers ``contact`` (within ``INLIER_M``), as the
+        planner requires of a start contact; True without one."""
+        if contact is None:
+            return True
+        local = (np.asarray(contact, dtype=float) - motion[:2]) @ rotation_2d(motion[2])
+        return self._hull.distance(shapely.Point(local)) <= INLIER_M
 
     def _icp(self, points: np.ndarray, motion: np.ndarray, iterations: int) -> tuple[np.ndarray, int, float]:
         """Trimmed ICP from ``motion``: the fit, the edge points within ``INLIER_M`` of the outline, and

@@ -104,3 +104,34 @@ def test_cli_bad_input_is_exit_2_with_one_line():
     result = CliRunner().invoke(app, ["run", "--pose", "2", "0", "0"])
     assert result.exit_code == 2
     assert "--pose" in result.output and "not wholly on the table" in result.output
+
+
+def test_a_slide_is_kept_while_it_still_ends_graspable_from_where_the_object_is_seen():
+    from slideplan.closed_loop import _segment
+
+    scene_name, name, pose = DEMO
+    scene = load_scene(scene_name)
+    obj = load_object(name, table_height=scene.table.height, pose=pose)
+    config = PlannerConfig.for_scene(scene, seed=1)
+    result = plan(scene, obj, config)
+    segment = _segment(result, scene.table.height + obj.thickness, (0.0, 0.0, 0.0))
+    middle = len(result.trajectory) // 2
+    tip = row_to_pose(result.fingertip_poses[middle])
+    where_planned = planar_motion(row_to_pose(result.fingertip_poses[0]), tip)
+    assert segment.still_works(obj, scene.table, config, tip, where_planned, 0.003)
+    # Pushed 3 cm back from the edge it slides to (the demo's push): the rest of the plan ends short.
+    pushed = (where_planned[0] + PUSHED.dx, where_planned[1] + PUSHED.dy, where_planned[2])
+    assert not segment.still_works(obj, scene.table, config, tip, pushed, 0.003)
+    # Seen where the fingertip is not on it: the plan cannot go on pushing it.
+    away = (where_planned[0] + 0.2, where_planned[1], where_planned[2])
+    assert not segment.still_works(obj, scene.table, config, tip, away, 0.003)
+
+
+def test_under_the_stress_setting_the_loop_does_not_chase_the_trackers_error():
+    # Torsional friction halved and the finger at its shallowest: the tracker's scatter under the arm is
+    # about the 3 mm / 2 degree threshold, so looks off the prediction come often. Before the re-plan was
+    # kept for drifts that matter (and to looks that agree), this run re-planned 517 times in 192 s.
+    report = run(*DEMO, seed=1, closed=True, setting="stress")
+    assert report.success, report.summary()
+    assert report.replans <= 10 and report.sim_time_s < 60.0, report.summary()
+    assert report.kept >= 1  # drifts were seen and the plan kept

@@ -91,3 +91,19 @@ def test_a_guess_that_is_not_a_pose_is_an_input_error(square):
     with pytest.raises(InputError) as error:
         tracker.track(np.zeros((camera.height, camera.width)), guess=(0.0, 0.0))
     assert error.value.field == "guess"
+
+
+def test_a_fit_must_put_the_object_under_the_fingertip(square):
+    # The finger presses on the object: a contact point far off the object rules every fit out, one on it
+    # changes nothing.
+    table, camera = square
+    pose = (0.55, 0.0, 0.3)
+    obj = load_object("L", table_height=table.height, pose=pose)
+    depth = frame(table, camera, "L", pose, [], np.random.default_rng(3))
+    tracker = Tracker(obj, camera, table_height=table.height)
+    free = tracker.track(depth)
+    assert free.ok, free.reason
+    on = tracker.track(depth, contact=obj.points[0, :2])
+    assert on.ok and np.allclose(on.motion, free.motion)
+    off = tracker.track(depth, contact=obj.centroid_xy + (0.2, 0.0))
+    assert not off.ok and "fingertip" in off.reason
