@@ -87,9 +87,13 @@ def tables(results: pd.DataFrame) -> str:
         title = f"Fig. 10 ({label}, {group['pose_index'].nunique()} poses per cell)"
         sections += [f"## {title}: planning time per object", by_category_table(group, "object", "object"),
                      f"## {title}: planning time per table", by_category_table(group, "scene", "table")]
-    fig11 = runs[runs["experiment"] == "fig11"]
-    if not fig11.empty:
-        sections += ["## Fig. 11: success rate within a time budget [95% Wilson interval]", success_table(fig11)]
+    # The baselines run as published in both presets: the same tasks, in both files, shown once per preset.
+    fig11 = runs[runs["experiment"] == "fig11"].drop_duplicates("task_id")
+    baselines = fig11[fig11["planner"] != "slideplan"]
+    for preset, ours in fig11[fig11["planner"] == "slideplan"].groupby("preset", sort=True):
+        group = pd.concat([ours, baselines])
+        sections += [f"## Fig. 11 (preset {preset} for slideplan, {group['pose_index'].nunique()} poses per object): "
+                     "success rate within a time budget [95% Wilson interval]", success_table(group)]
     fig12 = runs[runs["experiment"] == "fig12"]
     if not fig12.empty:
         sections += ["## Fig. 12: planning time per N*", n_star_table(fig12)]
