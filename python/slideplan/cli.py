@@ -609,7 +609,8 @@ def _experiment_executor(workers: int | None, scheduler: str | None, threads: bo
 @app.command("experiment")
 def experiment_command(
     figure: str = typer.Argument(
-        ..., help="Which experiment: fig10, fig11 or fig12 (paper section V), or execution (Fig. 10's plans executed in MuJoCo)."
+        ..., help="Which experiment: fig10, fig11 or fig12 (paper section V), execution (Fig. 10's plans executed in MuJoCo) "
+        "or closed-loop (Fig. 10's tasks run whole in MuJoCo, open and closed loop, in every setting)."
     ),
     out: Path = typer.Option(..., "--out", help="Output directory; results go to OUT/results/ (one Parquet file per task)."),
     quick: bool = typer.Option(False, "--quick", help="A small subset: 2 objects x 2 poses per cell, 5 s limit."),
@@ -660,6 +661,13 @@ def experiment_command(
         results = load_execution(out)
         typer.echo(summarize_execution(results).to_string(index=False))
         for path in plot_execution(results, out):
+            typer.echo(str(path))
+    if figure == "closed-loop":
+        from .experiments.closed_loop import closed_loop_runs, load_closed_loop, plot_closed_loop, summarize_closed_loop
+
+        runs = closed_loop_runs(load_closed_loop(out))
+        typer.echo(summarize_closed_loop(runs).to_string(index=False))
+        for path in plot_closed_loop(runs, out):
             typer.echo(str(path))
     if summary.lost:
         typer.echo(f"slideplan: {summary.lost} tasks lost, first: {summary.first_loss}; rerun to resume", err=True)

@@ -135,3 +135,29 @@ def test_under_the_stress_setting_the_loop_does_not_chase_the_trackers_error():
     assert report.success, report.summary()
     assert report.replans <= 10 and report.sim_time_s < 60.0, report.summary()
     assert report.kept >= 1  # drifts were seen and the plan kept
+
+
+def test_the_closed_loop_experiment_records_each_run_of_a_task(monkeypatch, tmp_path):
+    # One task of `slideplan experiment closed-loop`, the nominal setting only (each run is a whole MuJoCo task).
+    import json
+
+    import pandas as pd
+
+    from slideplan.experiments import build_spec
+    from slideplan.experiments import closed_loop as experiment
+
+    monkeypatch.setattr(experiment, "SETTINGS", ("nominal",))
+    task = build_spec("closed-loop", quick=True).tasks[0]
+    row = experiment.run_closed_loop_task(task)
+    assert row["error"] is None and row["solved"]
+    runs = experiment.closed_loop_runs(pd.DataFrame([row]))
+    assert list(runs["mode"]) == ["open", "closed"] and set(runs["setting"]) == {"nominal"}
+    assert (runs["task_id"] == task.task_id).all()
+    # The row is the run: the open loop again, alone, gives what the row holds.
+    alone = run(task.scene, task.object, (task.x, task.y, task.yaw), seed=task.seed, closed=False, config=task.planner_config())
+    opened = runs[runs["mode"] == "open"].iloc[0]
+    assert bool(opened["success"]) == alone.success and opened["sim_time_s"] == alone.sim_time_s
+    assert json.loads(opened["draws"]) == alone.draws
+    summary = experiment.summarize_closed_loop(runs)
+    assert list(summary["runs"]) == [1, 1]
+    assert [path.suffix for path in experiment.plot_closed_loop(runs, tmp_path)] == [".png", ".svg"]

@@ -39,10 +39,10 @@ _OUTCOME_COLUMNS = [
     ("overhang_m", pa.float64()), ("lifted", pa.bool_()), ("normal_force_n", pa.float64()),
     ("wall_time_s", pa.float64()), ("sim_time_s", pa.float64()),
 ]
-_TASK_COLUMNS = [field for field in ROW_SCHEMA if field.name in {"task_id", "reconfiguration_range_m"}
+TASK_COLUMNS = [field for field in ROW_SCHEMA if field.name in {"task_id", "reconfiguration_range_m"}
                  or field.name in {item.name for item in dataclasses.fields(Task)}]
 EXECUTION_ROW_SCHEMA = pa.schema(
-    _TASK_COLUMNS
+    TASK_COLUMNS
     + _PLAN_COLUMNS
     + [(f"{setting}_{name}", kind) for setting in SETTINGS for name, kind in _OUTCOME_COLUMNS]
     + [("error", pa.string())]

@@ -91,7 +91,9 @@ def run_experiment(
     Rows are written to ``OUT/results/part-<task_id>.parquet`` as they arrive. Tasks
     already there are skipped (resume), including rows of tasks that raised: delete a
     part file to run its task again. The ``execution`` experiment's tasks plan and then
-    execute in MuJoCo (:func:`slideplan.experiments.execution.run_execution_task`).
+    execute in MuJoCo (:func:`slideplan.experiments.execution.run_execution_task`); the
+    ``closed-loop`` experiment's run whole tasks open and closed loop
+    (:func:`slideplan.experiments.closed_loop.run_closed_loop_task`).
 
     Args:
         spec: the experiment (see :func:`slideplan.experiments.build_spec`).
@@ -115,6 +117,10 @@ def run_experiment(
         from .execution import EXECUTION_ROW_SCHEMA, run_execution_task
 
         run, schema = run_execution_task, EXECUTION_ROW_SCHEMA
+    elif spec.name == "closed-loop":
+        from .closed_loop import CLOSED_LOOP_ROW_SCHEMA, run_closed_loop_task
+
+        run, schema = run_closed_loop_task, CLOSED_LOOP_ROW_SCHEMA
     executed = solved = errors = lost = 0
     first_loss = ""
     with _progress_bar(progress) as bar:

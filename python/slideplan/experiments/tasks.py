@@ -25,7 +25,7 @@ from ..planning import PlannerConfig
 from ..scenes import Scene, load_scene
 
 FIGURES = ("fig10", "fig11", "fig12")
-EXPERIMENTS = FIGURES + ("execution",)  # execution: plans of the Fig. 10 set executed in MuJoCo (issue 9)
+EXPERIMENTS = FIGURES + ("execution", "closed-loop")  # Fig. 10's set executed in MuJoCo: its plans (issue 9), whole tasks (issue 24)
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")  # the paper's 5 test objects (Fig. 7)
 TABLES = ("square", "round", "triangle", "long")  # the paper's 4 support surfaces (Fig. 9)
 SCALES = (1.0, 0.5)  # Fig. 10: full size and half size
@@ -321,7 +321,23 @@ def execution_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple
     )
 
 
-_SPEC_BUILDERS = {"fig10": fig10_spec, "fig11": fig11_spec, "fig12": fig12_spec, "execution": execution_spec}
+def closed_loop_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
+    """Closed loop: the execution experiment's object poses (5 objects x 4 tables x 10 poses, the hand's
+    band), each run whole in MuJoCo in every setting and mode (:mod:`slideplan.experiments.closed_loop`).
+
+    Args:
+        base: supplies the seed, the time limit and ``dz_min``.
+        quick: 2 objects x 2 poses per table instead (16 tasks).
+        poses: poses per cell instead of 10 (None: 10, or the quick count).
+    """
+    return _tasks(
+        "closed-loop", scenes=TABLES, objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
+        poses=_pose_count(poses, quick, 10), settings=(_Setting(),), base=base, hand_band=True,
+    )
+
+
+_SPEC_BUILDERS = {"fig10": fig10_spec, "fig11": fig11_spec, "fig12": fig12_spec, "execution": execution_spec,
+                  "closed-loop": closed_loop_spec}
 
 
 def build_spec(
@@ -331,7 +347,7 @@ def build_spec(
     """Build the tasks of one figure.
 
     Args:
-        figure: ``"fig10"``, ``"fig11"``, ``"fig12"`` or ``"execution"``.
+        figure: ``"fig10"``, ``"fig11"``, ``"fig12"``, ``"execution"`` or ``"closed-loop"``.
         quick: the small subset (2 objects x 2 poses per cell, 5 s limit).
         time_limit_s: planning time budget per task (s), > 0; default 60 s (the paper's),
             5 s with ``quick``.

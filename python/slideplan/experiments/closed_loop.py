@@ -1,0 +1,170 @@
+"""The closed-loop experiment (issue 24): the Fig. 10 set run whole in MuJoCo, open and closed loop.
+
+Each task is one object pose of the execution experiment's set (5 objects x 4 tables, same poses
+and planner seeds for the same experiment seed); its worker runs :func:`slideplan.closed_loop.run`
+in every setting (nominal, stress, random) and mode (open, closed): perceive, plan, slide, grasp,
+lift. The random setting's draws come from the task's seed alone, so open and closed loop meet the
+same physics. One part file per task holds its six runs side by side (``<setting>_<mode>_<column>``);
+:func:`closed_loop_runs` turns them into one row per run::
+
+    slideplan experiment closed-loop --poses 2 --out out/closed_loop
+    python -c "from slideplan.experiments.closed_loop import *; \\
+        closed_loop_runs(load_closed_loop('out/closed_loop')).to_parquet('docs/results/closed_loop.parquet')"
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+
+from ..closed_loop import SETTINGS, run
+from .execution import TASK_COLUMNS
+from .results import load_results
+from .stats import wilson_interval
+from .tasks import Task, cached_scene
+
+MODES = ("open", "closed")
+_RUN_COLUMNS = [
+    ("success", pa.bool_()), ("failed_stage", pa.string()), ("failure", pa.string()), ("replans", pa.int64()),
+    ("kept", pa.int64()), ("replan_latency_s", pa.float64()), ("max_latency_s", pa.float64()), ("looks", pa.int64()),
+    ("lost_looks", pa.int64()), ("overhang_m", pa.float64()), ("com_margin_m", pa.float64()),
+    ("true_overhang_m", pa.float64()), ("true_com_margin_m", pa.float64()), ("lifted", pa.bool_()),
+    ("draws", pa.string()), ("sim_time_s", pa.float64()), ("wall_time_s", pa.float64()),
+]
+CLOSED_LOOP_ROW_SCHEMA = pa.schema(
+    TASK_COLUMNS
+    + [("solved", pa.bool_())]
+    + [(f"{setting}_{mode}_{name}", kind) for setting, mode in itertools.product(SETTINGS, MODES) for name, kind in _RUN_COLUMNS]
+    + [("error", pa.string())]
+)
+"""Columns of a task's part file: the task, ``solved`` (every run of it finished), then each run's outcome
+(:class:`slideplan.closed_loop.ClosedLoopRun`; ``max_latency_s`` the slowest re-plan; ``draws`` the
+physics as JSON), then ``error`` (a run that raised)."""
+
+
+def run_closed_loop_task(task: Task) -> dict:
+    """Run one task's six runs and return its row (runs in the worker).
+
+    Args:
+        task: a task of :func:`slideplan.experiments.tasks.closed_loop_spec`.
+
+    Returns:
+        A dict with the keys of :data:`CLOSED_LOOP_ROW_SCHEMA`; an exception becomes the ``error`` column.
+    """
+    row = {field.name: None for field in CLOSED_LOOP_ROW_SCHEMA}
+    row.update(task.fields(), solved=False)
+    try:
+        scene, config = cached_scene(task.scene), task.planner_config()
+        for setting, mode in itertools.product(SETTINGS, MODES):
+            report = run(scene, task.object, (task.x, task.y, task.yaw), seed=task.seed, closed=mode == "closed",
+                         setting=setting, config=config)
+            outcome = dataclasses.asdict(report)
+            outcome["draws"] = json.dumps(report.draws, sort_keys=True)
+            latencies = [event.latency_s for event in report.events if event.outcome != "lost"]
+            outcome["max_latency_s"] = max(latencies) if latencies else None
+            row.update({f"{setting}_{mode}_{name}": outcome[name] for name, _ in _RUN_COLUMNS})
+        row["solved"] = True
+    except Exception as error:  # noqa: BLE001 - recorded in the row; one bad task must not end the run
+        row["error"] = f"{type(error).__name__}: {error}"
+    return row
+
+
+def load_closed_loop(path: str | Path) -> pd.DataFrame:
+    """Read closed-loop part files (an output directory or its ``results/``), one row per task.
+
+    Raises:
+        FileNotFoundError: ``path`` does not exist.
+    """
+    return load_results(path, CLOSED_LOOP_ROW_SCHEMA)
+
+
+def closed_loop_runs(tasks: pd.DataFrame) -> pd.DataFrame:
+    """One row per run: the task's columns, ``setting``, ``mode`` and the run's outcome columns.
+
+    Args:
+        tasks: :func:`load_closed_loop` rows; tasks that raised are left out.
+    """
+    tasks = tasks[tasks["error"].isna()]
+    task_columns = [field.name for field in TASK_COLUMNS]
+    parts = []
+    for setting, mode in itertools.product(SETTINGS, MODES):
+        part = tasks[task_columns].copy()
+        part.insert(len(task_columns), "setting", setting)
+        part.insert(len(task_columns) + 1, "mode", mode)
+        for name, _ in _RUN_COLUMNS:
+            part[name] = tasks[f"{setting}_{mode}_{name}"].to_numpy()
+        parts.append(part)
+    columns = task_columns + ["setting", "mode"] + [name for name, _ in _RUN_COLUMNS]
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=columns)
+
+
+def summarize_closed_loop(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per setting and mode: runs, success rate with its 95% Wilson interval, re-plans per run and
+    the median and 95th percentile of the runs' median re-plan latency.
+
+    Args:
+        runs: :func:`closed_loop_runs` rows.
+    """
+    rows = []
+    for (setting, mode), group in runs.groupby(["setting", "mode"], sort=False):
+        successes = int(group["success"].fillna(False).sum())
+        low, high = wilson_interval(successes, len(group))
+        latency = group["replan_latency_s"].dropna()
+        rows.append({
+            "setting": setting, "mode": mode, "runs": len(group), "success": successes / max(len(group), 1),
+            "low": float(low), "high": float(high), "replans_mean": float(group["replans"].mean()),
+            "replans_max": int(group["replans"].max()),
+            "latency_ms_median": float(1000 * latency.median()) if len(latency) else float("nan"),
+            "latency_ms_p95": float(1000 * latency.quantile(0.95)) if len(latency) else float("nan"),
+        })
+    return pd.DataFrame(rows)
+
+
+def plot_closed_loop(runs: pd.DataFrame, out_dir: str | Path, name: str = "closed_loop") -> list[Path]:
+    """Success per setting and mode (95% Wilson interval), re-plans per closed-loop run, and the
+    distribution of the runs' median re-plan latency.
+
+    Args:
+        runs: :func:`closed_loop_runs` rows.
+        out_dir: where ``<name>.png`` and ``<name>.svg`` go.
+        name: file name stem.
+
+    Returns:
+        The files written.
+    """
+    from matplotlib.figure import Figure
+
+    from ..plots import save_figures
+
+    summary = summarize_closed_loop(runs)
+    figure = Figure(figsize=(13, 3.8))
+    success_axes, replan_axes, latency_axes = figure.subplots(1, 3)
+    width = 0.38
+    for offset, (mode, colour) in zip((-width / 2, width / 2), zip(MODES, ("tab:grey", "tab:blue"))):
+        rows = summary[summary["mode"] == mode].set_index("setting").reindex(list(SETTINGS))
+        positions = np.arange(len(SETTINGS)) + offset
+        success_axes.bar(positions, 100 * rows["success"], width, color=colour, label=f"{mode} loop")
+        success_axes.errorbar(positions, 100 * rows["success"], yerr=[100 * (rows["success"] - rows["low"]),
+                              100 * (rows["high"] - rows["success"])], fmt="none", color="black", capsize=3)
+    success_axes.set(xticks=np.arange(len(SETTINGS)), xticklabels=list(SETTINGS), ylabel="success (%)", ylim=(0, 105))
+    success_axes.axhline(95, color="grey", linestyle=":")
+    closed = runs[runs["mode"] == "closed"]
+    for setting in SETTINGS:
+        replans = closed[closed["setting"] == setting]["replans"].to_numpy()
+        replan_axes.step(np.sort(replans), np.arange(1, len(replans) + 1) / max(len(replans), 1), where="post", label=setting)
+        latency = np.sort(1000 * closed[closed["setting"] == setting]["replan_latency_s"].dropna().to_numpy())
+        latency_axes.step(latency, np.arange(1, len(latency) + 1) / max(len(latency), 1), where="post", label=setting)
+    replan_axes.set(xlabel="re-plans per closed-loop run", ylabel="fraction of runs")
+    latency_axes.set(xlabel="median re-plan latency of a run (ms): track + plan", ylabel="fraction of runs")
+    latency_axes.axvline(50, color="grey", linestyle=":")
+    for axes in (success_axes, replan_axes, latency_axes):
+        axes.legend(fontsize=8)
+        axes.grid(alpha=0.3)
+    figure.tight_layout()
+    return save_figures(figure, out_dir, name)
