@@ -412,18 +412,24 @@ def run(
 
     last: list = []  # (motion seen, fingertip pose then) of the last look that found the object
 
+    def measured_tip() -> np.ndarray:
+        return np.asarray(robot.fk(data.qpos[built.arm_qpos]))
+
+    def carried_last(tip: np.ndarray):
+        """The pose last seen, carried by the fingertip's motion since (Eq. 2), or None."""
+        return compose_planar(last[0][0], planar_motion(last[0][1], tip)) if last else None
+
     def look(predicted) -> tuple:
         """Track the object in a new frame, from where Eq. 2 puts it and from where it was last seen
         carried along by the fingertip since (the better fit wins): after a disturbance the prediction
         is centimetres off, and after a wrong fit the last pose is."""
         frame = noisy_depth(camera_depth(depth_renderer, model, data, DEPTH_CAMERA), draws["depth_noise_at_1m"],
                             DEPTH_DROPOUT, noise_rng)
-        tip = np.asarray(robot.fk(data.qpos[built.arm_qpos]))
+        tip = measured_tip()
         guesses = [predicted]
-        if last:
-            carried = compose_planar(last[0][0], planar_motion(last[0][1], tip))
-            if not agree(carried, predicted):
-                guesses.append(carried)
+        carried = carried_last(tip)
+        if carried is not None and not agree(carried, predicted):
+            guesses.append(carried)
         # The finger presses on the object until the grasp: its measured position is on the object.
         seen = max((tracker.track(frame, guess, contact=tip[:2, 3]) for guess in guesses),
                    key=lambda fit: (fit.ok, fit.edge_points, -fit.rmse_m if fit.ok else 0.0))
@@ -439,8 +445,12 @@ def run(
 
     def settled_look(predicted):
         """At the end of a slide, the arm at rest: frames until two in a row agree (a single frame's fit
-        can be a wrong one, and the grasp is made where the object is seen)."""
+        can be a wrong one, and the grasp is made where the object is seen). The pose last seen during
+        the slide, carried to the end, counts as the first of the two."""
+        carried = carried_last(measured_tip())
         seen = look(predicted)
+        if seen.ok and carried is not None and agree(carried, seen.motion):
+            return seen
         for _ in range(END_LOOKS - 1):
             again = look(predicted)
             report["looks"] += 1
