@@ -315,10 +315,7 @@ def execution_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple
         quick: 2 objects x 2 poses per table instead (16 tasks).
         poses: poses per cell instead of 10 (None: 10, or the quick count).
     """
-    return _tasks(
-        "execution", scenes=TABLES, objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
-        poses=_pose_count(poses, quick, 10), settings=(_Setting(),), base=base, hand_band=True,
-    )
+    return _executed_tasks("execution", base, quick, poses)
 
 
 def closed_loop_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
@@ -330,8 +327,13 @@ def closed_loop_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tup
         quick: 2 objects x 2 poses per table instead (16 tasks).
         poses: poses per cell instead of 10 (None: 10, or the quick count).
     """
+    return _executed_tasks("closed-loop", base, quick, poses)
+
+
+def _executed_tasks(experiment: str, base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
+    """The full-size Fig. 10 set with the hand's band, 10 poses per cell (the experiments run in MuJoCo)."""
     return _tasks(
-        "closed-loop", scenes=TABLES, objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
+        experiment, scenes=TABLES, objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
         poses=_pose_count(poses, quick, 10), settings=(_Setting(),), base=base, hand_band=True,
     )
 
