@@ -376,10 +376,17 @@ def perceive_command(
     from .perception import perceive, write_perception
     try:
         json_out, png_out = _output_file(json_out, "--json"), _output_file(png_out, "--png", PICTURE_SUFFIXES)
+        if plan_target is not None and plan_target < 0:
+            raise InputError(f"expected an object index >= 0, got {plan_target}", field="--plan-target")
+        try:  # before perception runs and files are written
+            load_scene(robot_scene)
+        except InputError as error:
+            raise InputError(error.problem, source=error.source, field="--robot-scene") from None
         perception = perceive(load_point_cloud(cloud), seed=seed, source=str(cloud))
+        if plan_target is not None and plan_target >= len(perception.objects):
+            raise InputError(f"no object {plan_target}: the perceived objects are 0 to {len(perception.objects) - 1}",
+                             field="--plan-target")
         scene_path, cloud_paths = write_perception(perception, out, robot_scene=robot_scene)
-        if plan_target is not None and not 0 <= plan_target < len(cloud_paths):
-            raise InputError(f"no object {plan_target}: the perceived objects are 0 to {len(cloud_paths) - 1}", field="--plan-target")
     except (ImportError, InputError, OSError) as error:
         raise _fail(error) from None
     table = perception.table

@@ -23,6 +23,7 @@ Needs the ``perception`` extra (scikit-learn; SciPy for the grid filters).
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -332,7 +333,10 @@ def _table_plane(cloud: np.ndarray, tolerance: float, min_area: float, max_tilt_
     sample = cloud[rng.choice(len(cloud), _PLANE_SAMPLE, replace=False)] if len(cloud) > _PLANE_SAMPLE else cloud
     large = [plane for plane in _fit_planes(sample, tolerance, seed) if plane.covered_area() >= min_area]
     if not large:
-        raise problem(f"no plane of at least {min_area:g} m^2 found: the cloud shows no table top")
+        span = float(np.max(np.ptp(cloud, axis=0)))
+        # A table is metres across: a cloud spanning tens of metres is most likely in millimetres.
+        units = f" (the cloud spans {span:g} along an axis: slideplan reads metres; is it in millimetres?)" if span > 20 else ""
+        raise problem(f"no plane of at least {min_area:g} m^2 found: the cloud shows no table top{units}")
     # The highest: the floor is often the largest plane in view, the table stands above it.
     plane = max(large, key=lambda candidate: float(np.median(candidate.inliers[:, 2])))
     if plane.tilt_deg > max_tilt_deg:
@@ -459,6 +463,10 @@ def write_perception(perception: Perception, out_dir: str | Path, *, robot_scene
         raise InputError(f"expected .ply or .npy, got {cloud_suffix!r}", field="cloud_suffix")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    # An earlier run's objects must not pass for this run's (it may have found more of them).
+    for stale in out_dir.glob("object_*"):
+        if re.fullmatch(r"object_\d+\.(ply|npy)", stale.name):
+            stale.unlink()
     scene_path = out_dir / "scene.toml"
     scene_path.write_text(scene_toml(perception, robot_scene))
     cloud_paths = []

@@ -217,3 +217,30 @@ def test_the_docs_test_scene_example_runs_and_perceive_plans_from_its_cloud(tmp_
                                       "--time-limit", "30", "--json", "plan.json"])
     assert result.exit_code == 0, result.output
     assert verify(PlanResult.load(tmp_path / "plan.json")).ok
+
+
+def test_a_rerun_into_the_same_folder_leaves_no_object_of_the_earlier_run(tmp_path, square_scene):
+    out = tmp_path / "out"
+    write_perception(perceive(square_scene.points), out)
+    assert sorted(path.name for path in out.glob("object_*")) == ["object_0.ply", "object_1.ply", "object_2.ply"]
+    single = rendered("square", [("L", (0.5, 0.0, 0.4))], seed=4)
+    write_perception(perceive(single.points), out)
+    assert sorted(path.name for path in out.glob("object_*")) == ["object_0.ply"]
+
+
+@pytest.mark.parametrize("option, value, problem", [
+    ("--plan-target", "99", "no object 99: the perceived objects are 0 to 2"),
+    ("--plan-target", "-1", "expected an object index >= 0"),
+    ("--robot-scene", "nosuch", "nosuch"),
+])
+def test_cli_bad_target_or_robot_scene_is_refused_before_anything_is_written(tmp_path, square_scene, option, value, problem):
+    cloud = tmp_path / "scene.npy"
+    np.save(cloud, square_scene.points)
+    result = runner.invoke(app, ["perceive", str(cloud), "--out", str(tmp_path / "out"), option, value])
+    assert result.exit_code == 2 and option in result.stderr and problem in result.stderr, result.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_cloud_in_millimetres_gets_a_hint_about_units(square_scene):
+    with pytest.raises(InputError, match="millimetres"):
+        perceive(square_scene.points * 1000.0)
