@@ -257,10 +257,9 @@ class _Segment:
     depths: np.ndarray
     base: tuple[float, float, float]
 
-    def predicted(self, robot, runner: Runner, elapsed: float) -> tuple[float, float, float]:
-        """Where Eq. 2 puts the object (motion from its perceived pose) at the commanded configuration."""
-        return compose_planar(self.base, planar_motion(row_to_pose(self.result.fingertip_poses[0]),
-                                                       self.tip(robot, runner, elapsed)))
+    def predicted(self, tip: np.ndarray) -> tuple[float, float, float]:
+        """Where Eq. 2 puts the object (motion from its perceived pose) with the fingertip at ``tip`` (4, 4)."""
+        return compose_planar(self.base, planar_motion(row_to_pose(self.result.fingertip_poses[0]), tip))
 
     def tip(self, robot, runner: Runner, elapsed: float) -> np.ndarray:
         """The fingertip pose (4, 4) at the commanded configuration."""
@@ -437,11 +436,12 @@ def run(
             last[:] = [(seen.motion, tip)]
         return seen
 
-    def agree(first, second) -> bool:
-        """Two seen poses within AGREE thresholds of each other: the tracker's own scatter under the arm
-        is about a threshold; its wrong fits are centimetres or tens of degrees off."""
+    def agree(first, second, factor: float = AGREE) -> bool:
+        """Two poses within ``factor`` thresholds of each other (two seen poses agree within AGREE: the
+        tracker's own scatter under the arm is about a threshold; its wrong fits are centimetres or tens
+        of degrees off)."""
         error_m, error_yaw = _pose_error(perceived, first, second)
-        return error_m <= AGREE * threshold[0] and abs(error_yaw) <= AGREE * threshold[1]
+        return error_m <= factor * threshold[0] and abs(error_yaw) <= factor * threshold[1]
 
     def settled_look(predicted):
         """At the end of a slide, the arm at rest: frames until two in a row agree (a single frame's fit
@@ -472,7 +472,7 @@ def run(
         if trigger == "drift":
             # A drift is a pose off the prediction in CONFIRM looks in a row that agree with each other:
             # one look's error alone is mostly the tracker's, with the arm hiding much of the object.
-            if error_m <= threshold[0] and abs(error_yaw) <= threshold[1]:
+            if agree(seen.motion, predicted, 1.0):
                 beyond.clear()
             elif beyond and not agree(beyond[-1], seen.motion):
                 beyond[:] = [seen.motion]
@@ -531,8 +531,9 @@ def run(
                     return False
                 next_look[0] += replan_period
                 path = np.asarray(segment.result.trajectory)
+                tip = segment.tip(robot, runner, elapsed)
                 again, event, seen = replan("drift", now, runner.commanded(path, segment.times, elapsed),
-                                            segment.predicted(robot, runner, elapsed), segment.tip(robot, runner, elapsed))
+                                            segment.predicted(tip), tip)
                 if event is not None:
                     report["events"].append(event)
                 if again is None:
@@ -550,7 +551,7 @@ def run(
                 segment = _segment(new, top, seen_motion)
                 continue
             end_config = np.asarray(segment.result.trajectory)[-1]
-            predicted_end = segment.predicted(robot, runner, float(segment.times[-1]))
+            predicted_end = segment.predicted(segment.tip(robot, runner, float(segment.times[-1])))
             if not closed:
                 seen_motion = look(predicted_end).motion
                 grasp_plan = segment.result
