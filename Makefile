@@ -29,7 +29,7 @@ $(PYTHON):
 install: deps $(PYTHON)
 	$(PYTHON) -m pip install -q scikit-build-core pybind11
 	$(PYTHON) -m pip install -q --no-build-isolation -C build-dir=$(BUILD_DIR) \
-	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,robots,view,perception,execution,test]"
+	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,robots,view,perception,execution,ros,test]"
 
 test-cpp: install
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2

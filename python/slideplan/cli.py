@@ -703,5 +703,87 @@ def plot_command(
         typer.echo(str(path))
 
 
+ros_app = typer.Typer(cls=_OneLineErrors, no_args_is_help=True, help="slideplan on a ROS 2 robot (docs/ros2.md; the ros extra).")
+app.add_typer(ros_app, name="ros")
+_ROS_ARGS = {"allow_extra_args": True, "ignore_unknown_options": True}
+
+
+def _ros_args(context: typer.Context) -> list[str]:
+    """What follows ``--ros-args`` (remappings ``-r FROM:=TO``, parameters ``-p NAME:=VALUE``); nothing
+    else may be left over."""
+    extra = list(context.args)
+    if extra and extra[0] != "--ros-args":
+        raise _fail(InputError(f"unexpected argument {extra[0]!r} (ROS arguments go after --ros-args)"))
+    return extra
+
+
+def _ros_import(module: str):
+    try:
+        return __import__(f"slideplan.ros.{module}", fromlist=[module])
+    except ImportError as error:
+        raise _fail(InputError(f"the ros extra is not installed ({error}): pip install 'slideplan[ros]'")) from None
+
+
+@ros_app.command("serve", context_settings=_ROS_ARGS)
+def ros_serve_command(
+    context: typer.Context,
+    scene_name: str = typer.Option("square", "--scene", help="The robot's scene (URDF, mount, hand): built-in name or TOML."),
+    camera_pose: Optional[Tuple[float, float, float, float, float, float]] = typer.Option(
+        None, "--camera-pose", help="X Y Z ROLL PITCH YAW of the cloud's frame in the world (parameter camera_pose)."),
+    target: int = typer.Option(0, "--target", help="Which object to slide, largest first (parameter target)."),
+    closed: bool = typer.Option(True, "--closed-loop/--open-loop", help="Watch and re-plan while sliding (parameter closed_loop)."),
+) -> None:
+    """The planning node ``slideplan``: services /slideplan/plan and /slideplan/execute (docs/ros2.md).
+    ROS arguments (remappings, parameters) go after --ros-args. Exit codes: 0 on Ctrl-C, 2 bad input."""
+    ros_args = _ros_args(context)
+    serve = _ros_import("serve")
+    try:
+        scene = load_scene(scene_name)
+    except (InputError, OSError, ValueError) as error:
+        raise _fail(error) from None
+    parameters = {"target": target, "closed_loop": closed}
+    if camera_pose is not None:
+        parameters["camera_pose"] = [float(value) for value in camera_pose]
+    serve.serve(scene, parameters, ros_args=ros_args, log=typer.echo)
+
+
+@ros_app.command("sim", context_settings=_ROS_ARGS)
+def ros_sim_command(
+    context: typer.Context,
+    scene_name: str = typer.Option("square", "--scene", help="Built-in scene name or scene TOML."),
+    object_name: str = typer.Option("crescent", "--object", help="Object outline: a name in data/objects or a TOML."),
+    pose: Optional[Tuple[float, float, float]] = typer.Option(
+        None, "--pose", help="X Y YAW where the object lies (m, m, rad); default: drawn on the table from --seed."),
+    seed: int = typer.Option(1, "--seed", help="Seeds the pose, the camera noise and the random setting."),
+    setting: str = typer.Option("nominal", "--setting", help="nominal, stress or random (physics drawn per --seed)."),
+    disturb: Optional[Tuple[float, float, float, float]] = typer.Option(
+        None, "--disturb", help="DX DY DYAW T: move the object by (DX, DY) m and turn it by DYAW rad T s after the finger first touches it."),
+    home: Optional[str] = typer.Option(None, "--home", help="The arm's first configuration, comma-separated (rad); default all 0."),
+    cloud_hz: float = typer.Option(5.0, "--cloud-rate", help="Depth clouds per second on /camera/points."),
+) -> None:
+    """The MuJoCo robot ``slideplan_sim``: /joint_states, /camera/points, /slideplan_sim/object_pose; follows
+    /joint_trajectory_controller/joint_trajectory; serves /gripper/set (docs/ros2.md). Exit codes: 0 on
+    Ctrl-C, 2 bad input."""
+    ros_args = _ros_args(context)
+    sim = _ros_import("sim")
+    try:
+        from .closed_loop import Disturbance
+
+        scene = load_scene(scene_name)
+        if pose is None:
+            outline, _, _ = load_outline(object_name)
+            pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(seed))
+        if not (np.isfinite(cloud_hz) and 0 < cloud_hz <= 60):
+            raise InputError(f"expected a rate in (0, 60] Hz, got {cloud_hz}", field="--cloud-rate")
+        configuration = None if home is None else [float(value) for value in home.split(",")]
+        disturbance = None if disturb is None else Disturbance(*disturb)
+        robot = sim.Sim(scene, object_name, pose, setting=setting, seed=seed, home=configuration, disturbance=disturbance)
+    except InputError as error:
+        raise _fail(InputError(error.problem, source=error.source, field=_OPTION_OF_FIELD.get(error.field, error.field))) from None
+    except (OSError, ValueError) as error:
+        raise _fail(error) from None
+    sim.serve(robot, cloud_hz=cloud_hz, ros_args=ros_args, log=typer.echo)
+
+
 if __name__ == "__main__":
     app(prog_name="slideplan")

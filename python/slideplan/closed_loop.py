@@ -208,7 +208,7 @@ def setting_draws(setting: str, seed: int) -> dict[str, float]:
     return {name: float(rng.uniform(*bounds)) for name, bounds in RANDOM_RANGES.items()}
 
 
-def _execution_settings(setting: str, draws: dict[str, float], dz_min: float) -> ExecutionSettings:
+def execution_settings(setting: str, draws: dict[str, float], dz_min: float) -> ExecutionSettings:
     base = stress_settings(dz_min) if setting == "stress" else ExecutionSettings()
     return dataclasses.replace(base, table_friction=draws["table_friction"], pad_friction=draws["pad_friction"],
                                torsional_friction=draws["torsional_friction"],
@@ -398,7 +398,7 @@ def run(
         raise InputError(f"{disturbance.after_s} s is after the planned slide ends ({slide_s:.2f} s)", field="--disturb")
     import mujoco
 
-    settings = _execution_settings(setting, draws, float(first.params["dz_min"]))
+    settings = execution_settings(setting, draws, float(first.params["dz_min"]))
     built = build_model(first, settings, world_object=truth, camera=camera)
     model, data = built.model, built.data
     depth_renderer = mujoco.Renderer(model, camera.height, camera.width)

@@ -99,17 +99,18 @@ class Perception:
         be off by their sum."""
         return self.cell_size + _OUTLINE_TOLERANCE
 
-    def scene(self, robot_scene: str | Path = "square") -> Scene:
+    def scene(self, robot_scene: Scene | str | Path = "square") -> Scene:
         """The perceived scene: this table and these obstacles, with another scene's robot.
 
         Args:
-            robot_scene: built-in scene name or scene TOML whose robot (URDF, mount, links) is used.
+            robot_scene: a scene, built-in scene name or scene TOML whose robot (URDF, mount, links) is used.
 
         Returns:
             The scene.
         """
         # Everything robot-side (URDF, attachments, mount, held joints, hand) as scene_toml writes it.
-        return replace(load_scene(robot_scene), name="perceived", table=self.table, obstacles=tuple(self.obstacles), source="")
+        robot_side = robot_scene if isinstance(robot_scene, Scene) else load_scene(robot_scene)
+        return replace(robot_side, name="perceived", table=self.table, obstacles=tuple(self.obstacles), source="")
 
 
 @dataclass

@@ -70,6 +70,8 @@ class Camera:
         target: the point on the optical axis it looks at (m).
         fovy_deg: vertical field of view (deg).
         width, height: image size (pixels).
+        up: the world direction that points up in the image (any roll about the optical axis), or
+            None: world z, or world x for a camera looking straight down.
     """
 
     position: tuple[float, float, float]
@@ -77,6 +79,29 @@ class Camera:
     fovy_deg: float = 45.0
     width: int = 320
     height: int = 240
+    up: tuple[float, float, float] | None = None
+
+    @classmethod
+    def from_optical_pose(cls, pose, *, width: int, height: int, fovy_deg: float) -> Camera:
+        """The camera whose optical frame (x right, y down, z forward: the frame a depth camera's
+        organized cloud is in) has this world pose.
+
+        Args:
+            pose: (4, 4) world pose of the optical frame.
+            width, height: image size (pixels).
+            fovy_deg: vertical field of view (deg).
+        """
+        pose = np.asarray(pose, dtype=float)
+        position = pose[:3, 3]
+        return cls(tuple(position), tuple(position + pose[:3, 2]), fovy_deg, width, height, tuple(-pose[:3, 1]))
+
+    def optical_pose(self) -> np.ndarray:
+        """(4, 4) world pose of the optical frame (x right, y down, z forward)."""
+        right, up, back = self.axes().T
+        pose = np.eye(4)
+        pose[:3, :3] = np.column_stack([right, -up, -back])
+        pose[:3, 3] = self.position
+        return pose
 
     @property
     def focal_px(self) -> float:
@@ -98,7 +123,10 @@ class Camera:
         """
         forward = np.subtract(self.target, self.position)
         forward = forward / np.linalg.norm(forward)
-        up_hint = np.array([1.0, 0.0, 0.0]) if abs(forward[2]) > 0.999 else np.array([0.0, 0.0, 1.0])
+        if self.up is not None:
+            up_hint = np.asarray(self.up, dtype=float)
+        else:
+            up_hint = np.array([1.0, 0.0, 0.0]) if abs(forward[2]) > 0.999 else np.array([0.0, 0.0, 1.0])
         right = np.cross(forward, up_hint)
         right /= np.linalg.norm(right)
         up = np.cross(right, forward)

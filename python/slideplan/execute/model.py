@@ -15,7 +15,7 @@ from shapely.geometry import Polygon
 
 from ..errors import InputError
 from ..geometry import SupportSurface
-from ..planning import PlanResult, merge_urdf
+from ..planning import PlanResult, merge_urdf, robot_description
 from ..transforms import quaternion_from_matrix
 from .settings import ExecutionSettings
 
@@ -130,6 +130,30 @@ def object_boxes(points: np.ndarray, cell_size: float) -> np.ndarray:
     return np.array([[*((low + high) / 2), *np.maximum((high - low) / 2, 1e-3)]])
 
 
+@dataclass(frozen=True)
+class Rig:
+    """What :func:`build_model` reads of a plan, for a robot that has no plan yet (the simulated robot
+    of ``slideplan ros sim``): the robot, table and object, the hand's ``beta0`` and ``dz_max``, and the
+    configuration the servo gains are set at. The attribute names are a plan's."""
+
+    robot: dict[str, Any]
+    joint_names: list[str]
+    params: dict[str, float]
+    table: dict[str, Any]
+    object: dict[str, Any]
+    start_config: np.ndarray
+
+    @classmethod
+    def for_scene(cls, scene, obj, config, joint_names: list[str], start_config) -> Rig:
+        """A scene's robot and table, ``obj`` (a :class:`~slideplan.objects.ThinObject`) and
+        ``config``'s hand parameters (a :class:`~slideplan.planning.PlannerConfig`)."""
+        return cls(robot=robot_description(scene), joint_names=list(joint_names),
+                   params={"beta0": config.beta0, "dz_max": config.dz_max},
+                   table={"polygon": np.array(scene.table.vertices, dtype=float), "height": float(scene.table.height)},
+                   object={"thickness": float(obj.thickness), "points": obj.points, "com_xy": obj.centroid_xy},
+                   start_config=np.asarray(start_config, dtype=float))
+
+
 @dataclass
 class Model:
     """The compiled model and the indices the run needs."""
@@ -152,11 +176,12 @@ class Model:
     table_geoms: set
 
 
-def build_model(result: PlanResult, settings: ExecutionSettings, *, world_object=None, camera=None) -> Model:
+def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_object=None, camera=None) -> Model:
     """Build the MuJoCo model of a plan (the package docstring).
 
     Args:
-        result: the plan (robot, table; the object too unless ``world_object`` is given).
+        result: the plan (robot, table; the object too unless ``world_object`` is given), or a
+            :class:`Rig`.
         settings: physical parameters.
         world_object: the object as it really is (a :class:`~slideplan.objects.ThinObject`), when the
             plan's is a perception of it; None: the plan's.
@@ -383,7 +408,7 @@ def _subtree_far_point(model, data, body_name: str, pivot: np.ndarray) -> np.nda
     return far
 
 
-def _add_world(spec, result: PlanResult, settings: ExecutionSettings, points: np.ndarray, com: np.ndarray) -> None:
+def _add_world(spec, result: PlanResult | Rig, settings: ExecutionSettings, points: np.ndarray, com: np.ndarray) -> None:
     """Add the table prism and the object (boxes on a grid over the top cloud ``points``, one free body
     with its origin at ``com``) to the spec."""
     import mujoco

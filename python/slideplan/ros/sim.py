@@ -1,0 +1,325 @@
+"""``slideplan ros sim``: the MuJoCo execution model (:mod:`slideplan.execute`) as a ROS 2 robot, node
+``slideplan_sim``.
+
+It runs in real time where the physics keeps up (slower where it cannot: everything is timed in
+simulated time) and
+
+- publishes ``/joint_states`` (100 Hz, the arm's joints), ``/camera/points`` (an organized
+  ``PointCloud2`` of a rendered depth camera with noise and dropouts, in its optical frame
+  ``slideplan_camera``, 5 Hz by default) and ``/slideplan_sim/object_pose`` (the object's true pose, its
+  centre of mass, for tests and demos);
+- follows ``trajectory_msgs/JointTrajectory`` on ``/joint_trajectory_controller/joint_trajectory`` as
+  ros2_control's JointTrajectoryController does: positions interpolated in ``time_from_start`` from
+  the message's arrival, from where the arm is commanded then; a new message replaces the current one;
+- serves ``/gripper/set`` (``std_srvs/SetBool``, true = close): it answers when the fingers have closed
+  (or opened).
+
+The open hand touches the world with its fingertip pad only (the slide's contact), the closed hand
+with all its links: as in ``slideplan execute``, where the hand's links collide from the approach on.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import threading
+import time
+
+import numpy as np
+
+from ..closed_loop import DEPTH_DROPOUT, Disturbance, execution_settings, default_camera, setting_draws
+from ..errors import InputError
+from ..execute.model import DEPTH_CAMERA, Rig, build_model, enable_hand_collisions, set_servo_gains
+from ..execute.runner import reference
+from ..objects import load_object
+from ..planning import PlannerConfig, build_robot, robot_description
+from ..rendering import Camera, camera_depth, noisy_depth
+from ..scenes import Scene
+from ..transforms import homogeneous
+
+JOINT_STATE_HZ = 100.0
+GRIPPER_CLOSED_RAD = 1.5  # beyond any contact: the capped torque squeezes (as slideplan.execute)
+_CLOSE_HOLD_S = 0.8
+
+
+class Sim:
+    """The simulated robot without ROS: MuJoCo stepped to a time, the arm following timed joint paths,
+    the gripper opened or closed, the camera rendered.
+
+    Args:
+        scene: the scene (robot, hand, table).
+        object_name: the object's outline (a name in ``data/objects`` or a TOML path).
+        pose: (x, y, yaw) where it lies (m, m, rad).
+        setting: ``nominal``, ``stress`` (torsional friction halved) or ``random`` (frictions, mass and
+            depth noise drawn from ``seed``), as ``slideplan run``.
+        seed: the random setting's draws and the camera noise.
+        camera: the depth camera (default: the closed loop's, :func:`slideplan.closed_loop.default_camera`).
+        home: the arm's first configuration (default: every joint at 0, clipped into its limits).
+        disturbance: move the object ``after_s`` after the fingertip first touches it, or None.
+
+    Raises:
+        InputError: an unknown setting, an object off the table, a home of the wrong length or
+            outside the limits, or a URDF MuJoCo cannot import.
+    """
+
+    def __init__(self, scene: Scene, object_name, pose, *, setting: str = "nominal", seed: int = 0,
+                 camera: Camera | None = None, home=None, disturbance: Disturbance | None = None) -> None:
+        os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo is first imported
+        import mujoco
+
+        self.draws = setting_draws(setting, seed)
+        self.truth = load_object(object_name, table_height=scene.table.height, pose=pose)
+        if not scene.table.polygon.contains(self.truth.outline):
+            raise InputError(f"the object at {tuple(pose)} is not wholly on the table", field="--pose")
+        config = PlannerConfig.for_scene(scene, seed=seed)
+        self.robot = build_robot(robot_description(scene))
+        self.joint_names = list(self.robot.joint_names)
+        lower, upper = np.asarray(self.robot.lower_limits), np.asarray(self.robot.upper_limits)
+        if home is None:
+            home = np.clip(np.zeros(self.robot.dof), lower, upper)
+        home = np.asarray(home, dtype=float)
+        if home.shape != (self.robot.dof,) or not np.all(np.isfinite(home)):
+            raise InputError(f"expected {self.robot.dof} joint values ({', '.join(self.joint_names)})", field="--home")
+        if np.any(home < lower - 1e-9) or np.any(home > upper + 1e-9):
+            raise InputError("outside the joint limits", field="--home")
+        # The stress setting's spring override follows a plan's depths, which a robot does not know.
+        self.settings = dataclasses.replace(execution_settings(setting, self.draws, config.dz_min), contact_depth=None)
+        self.camera = camera or default_camera(scene)
+        self.built = build_model(Rig.for_scene(scene, self.truth, config, self.joint_names, home), self.settings,
+                                 world_object=self.truth, camera=self.camera)
+        self.model, self.data = self.built.model, self.built.data
+        self.data.qpos[self.built.arm_qpos] = home
+        set_servo_gains(self.built, home, self.settings)
+        self.data.ctrl[self.built.arm_actuators] = home
+        mujoco.mj_forward(self.model, self.data)
+        self._stiffness = float(self.model.jnt_stiffness[self.built.spring_joint])
+        self._path, self._times, self._started = home[None, :], np.zeros(1), 0.0
+        self._lead = 1.0 / (math.pi * self.settings.servo_bandwidth_hz)  # as the execution runner's servos
+        self._gripper: tuple[bool, float] = (False, 0.0)  # commanded closed, since (sim time)
+        self.gripper_done = threading.Event()
+        self.gripper_done.set()
+        self.disturbance, self._touched = disturbance, None
+        self._noise = np.random.default_rng([seed, 1])
+        self._renderer = None
+        self.lock = threading.Lock()  # the ROS callbacks' commands against the stepping thread
+        self._set_hand(False)
+
+    # --------------------------------------------------------------- commands (any thread)
+
+    def command(self, path: np.ndarray, times: np.ndarray) -> None:
+        """Follow ``path`` (M, dof) at ``times`` (M,) s from now, starting from the reference held now
+        (a trajectory whose first point is at t > 0 is approached from there)."""
+        with self.lock:
+            now = self.data.time
+            current = self._reference(now)
+            if times[0] > 0:
+                path, times = np.vstack([current, path]), np.concatenate([[0.0], times])
+            self._path, self._times, self._started = np.asarray(path, dtype=float), np.asarray(times, dtype=float), now
+
+    def set_gripper(self, closed: bool) -> threading.Event:
+        """Start closing (True) or opening the hand; the event is set when it has."""
+        with self.lock:
+            self.gripper_done.clear()
+            self._gripper = (bool(closed), self.data.time)
+            self._set_hand(closed)
+            return self.gripper_done
+
+    # --------------------------------------------------------------- stepping (one thread)
+
+    def step_to(self, until: float) -> None:
+        """Step the physics up to simulated time ``until`` (s)."""
+        import mujoco
+
+        while self.data.time < until:
+            with self.lock:
+                self.data.ctrl[self.built.arm_actuators] = self._reference(self.data.time + self._lead)
+                self._drive_gripper()
+                self._maybe_disturb()
+                mujoco.mj_step(self.model, self.data)
+            if not np.isfinite(self.data.qacc).all():
+                raise RuntimeError(f"simulation unstable (bad accelerations) at t = {self.data.time:.3f} s")
+
+    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """The arm's joint positions and velocities."""
+        return self.data.qpos[self.built.arm_qpos].copy(), self.data.qvel[self.built.arm_dofs].copy()
+
+    def object_pose(self) -> np.ndarray:
+        """(4, 4) pose of the object's body (its origin at the centre of mass, unturned at the start)."""
+        body = self.built.object_body
+        return homogeneous(self.data.xmat[body].reshape(3, 3), self.data.xpos[body])
+
+    def depth(self) -> np.ndarray:
+        """A noisy depth frame of the camera now (NaN: no return). Call from the stepping thread: the
+        renderer's GL context belongs to the thread that made it."""
+        import mujoco
+
+        if self._renderer is None:
+            self._renderer = mujoco.Renderer(self.model, self.camera.height, self.camera.width)
+            self._renderer.enable_depth_rendering()
+        return noisy_depth(camera_depth(self._renderer, self.model, self.data, DEPTH_CAMERA),
+                           self.draws["depth_noise_at_1m"], DEPTH_DROPOUT, self._noise)
+
+    def optical_points(self, depth: np.ndarray) -> np.ndarray:
+        """(height, width, 3) points of a depth frame in the camera's optical frame (x right, y down,
+        z forward), NaN where there is no return."""
+        camera = self.camera
+        rows, cols = np.mgrid[0:camera.height, 0:camera.width]
+        return np.stack([(cols + 0.5 - 0.5 * camera.width) / camera.focal_px * depth,
+                         (rows + 0.5 - 0.5 * camera.height) / camera.focal_px * depth, depth], axis=-1)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # --------------------------------------------------------------- internals
+
+    def _reference(self, t: float) -> np.ndarray:
+        return reference(self._path, self._times, t - self._started)
+
+    def _set_hand(self, closed: bool) -> None:
+        """Closed: every hand link touches the world, the finger's flexure stiffens and the closing torque
+        is capped (as :meth:`slideplan.execute.runner.Runner.grasp`); open: the pad alone touches."""
+        built, model = self.built, self.model
+        enable_hand_collisions(built, closed)
+        model.jnt_stiffness[built.spring_joint] = self._stiffness * (50.0 if closed else 1.0)
+        limit = self.settings.grip_torque if closed else 100.0
+        for actuator in built.finger_actuators:
+            model.actuator_forcerange[actuator] = (-limit, limit)
+
+    def _drive_gripper(self) -> None:
+        """The fingers close at the hand's speed and meet at the grasp plane together, then squeeze."""
+        closed, since = self._gripper
+        built = self.built
+        if not built.finger_actuators:
+            self.gripper_done.set()
+            return
+        ramp_s = float(built.finger_meet.max()) / self.settings.close_speed
+        fraction = min((self.data.time - since) / ramp_s, 1.0)
+        if closed:
+            self.data.ctrl[built.finger_actuators] = fraction * built.finger_meet if fraction < 1.0 else GRIPPER_CLOSED_RAD
+        else:
+            self.data.ctrl[built.finger_actuators] = (1.0 - fraction) * np.minimum(self.data.ctrl[built.finger_actuators], built.finger_meet)
+        if self.data.time - since >= ramp_s + (_CLOSE_HOLD_S if closed else 0.0):
+            self.gripper_done.set()
+
+    def _maybe_disturb(self) -> None:
+        """Move the object by the disturbance ``after_s`` after the pad first touched it."""
+        import mujoco
+
+        if self.disturbance is None:
+            return
+        if self._touched is None:
+            for index in range(self.data.ncon):
+                pair = (int(self.data.contact[index].geom1), int(self.data.contact[index].geom2))
+                if self.built.pad_geom in pair and (pair[0] in self.built.object_geoms or pair[1] in self.built.object_geoms):
+                    self._touched = self.data.time
+                    break
+            return
+        if self.data.time - self._touched < self.disturbance.after_s:
+            return
+        move, self.disturbance = self.disturbance, None
+        address = self.model.jnt_qposadr[self.model.body_jntadr[self.built.object_body]]
+        self.data.qpos[address:address + 2] += (move.dx, move.dy)
+        turn = np.array([math.cos(move.dyaw / 2), 0.0, 0.0, math.sin(move.dyaw / 2)])
+        quaternion = np.zeros(4)
+        mujoco.mju_mulQuat(quaternion, turn, self.data.qpos[address + 3:address + 7].copy())
+        self.data.qpos[address + 3:address + 7] = quaternion
+        self.data.qvel[self.model.jnt_dofadr[self.model.body_jntadr[self.built.object_body]]:][:6] = 0.0
+
+
+def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=print) -> None:
+    """Run ``sim`` as the node ``slideplan_sim`` until interrupted (``ros_args``: ``--ros-args ...``
+    remappings)."""
+    import rclpy
+    from rclpy.callback_groups import ReentrantCallbackGroup
+    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+    from rclpy.node import Node
+    from rclpy.qos import qos_profile_sensor_data
+    from geometry_msgs.msg import PoseStamped
+    from sensor_msgs.msg import JointState, PointCloud2
+    from std_msgs.msg import Header
+    from std_srvs.srv import SetBool
+    from trajectory_msgs.msg import JointTrajectory
+
+    from .messages import WORLD_FRAME, cloud_message, pose_message, trajectory_arrays
+
+    rclpy.init(args=["slideplan_sim", *ros_args])
+    node = Node("slideplan_sim")
+    group = ReentrantCallbackGroup()
+    joint_pub = node.create_publisher(JointState, "/joint_states", 10)
+    cloud_pub = node.create_publisher(PointCloud2, "/camera/points", qos_profile_sensor_data)
+    pose_pub = node.create_publisher(PoseStamped, "/slideplan_sim/object_pose", 10)
+
+    def on_trajectory(message: JointTrajectory) -> None:
+        try:
+            path, times = trajectory_arrays(message, sim.joint_names)
+        except InputError as error:
+            node.get_logger().error(f"trajectory ignored: {error.problem}")
+            return
+        sim.command(path, times)
+
+    def on_gripper(request, response):
+        done = sim.set_gripper(request.data)
+        response.success = done.wait(timeout=10.0)
+        response.message = ("closed" if request.data else "opened") if response.success else "the hand did not finish"
+        return response
+
+    node.create_subscription(JointTrajectory, "/joint_trajectory_controller/joint_trajectory", on_trajectory, 10,
+                             callback_group=group)
+    node.create_service(SetBool, "/gripper/set", on_gripper, callback_group=group)
+    stop = threading.Event()
+
+    def header(frame: str) -> Header:
+        return Header(stamp=node.get_clock().now().to_msg(), frame_id=frame)
+
+    def physics() -> None:
+        """Step 10 ms of simulated time at a time, no faster than the wall clock (slower where the
+        physics cannot keep up: the arm follows its trajectories in simulated time); publish the joint
+        states after each, a cloud and the object's pose every 1 / cloud_hz."""
+        start, next_cloud, period = time.perf_counter(), 0.0, 1.0 / JOINT_STATE_HZ
+        try:
+            while not stop.is_set():
+                sim.step_to(sim.data.time + period)
+                positions, velocities = sim.joint_state()
+                joint_pub.publish(JointState(header=header(""), name=sim.joint_names, position=positions.tolist(),
+                                             velocity=velocities.tolist()))
+                if sim.data.time >= next_cloud:
+                    next_cloud += 1.0 / cloud_hz
+                    cloud_pub.publish(cloud_message(sim.optical_points(sim.depth()), header("slideplan_camera")))
+                    pose_pub.publish(pose_message(sim.object_pose(), header(WORLD_FRAME)))
+                stop.wait(max(0.0, sim.data.time - (time.perf_counter() - start)))
+        except Exception as error:  # the node must say why it stopped stepping
+            node.get_logger().error(f"simulation stopped: {error}")
+            stop.set()
+        finally:
+            sim.close()
+
+    thread = threading.Thread(target=physics, name="slideplan_sim physics", daemon=True)
+    thread.start()
+    log(f"slideplan_sim: {len(sim.joint_names)} joints ({', '.join(sim.joint_names)}); camera_pose "
+        + " ".join(f"{value:.6g}" for value in camera_pose_of(sim.camera)))
+    executor = MultiThreadedExecutor(num_threads=2)
+    executor.add_node(node)
+    try:
+        while rclpy.ok() and not stop.is_set():
+            executor.spin_once(timeout_sec=0.1)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        stop.set()
+        thread.join(timeout=5.0)
+        executor.shutdown()
+        node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+
+
+def camera_pose_of(camera: Camera) -> list[float]:
+    """The camera's optical frame as ``x y z roll pitch yaw`` (URDF rpy), the planning node's
+    ``camera_pose`` parameter."""
+    from scipy.spatial.transform import Rotation
+
+    pose = camera.optical_pose()
+    return [*pose[:3, 3].tolist(), *Rotation.from_matrix(pose[:3, :3]).as_euler("xyz").tolist()]
