@@ -309,6 +309,148 @@ def _pose_error(obj: ThinObject, first, second) -> tuple[float, float]:
             wrap_angle(float(first[2]) - float(second[2])))
 
 
+class Watch:
+    """What the closed loop makes of the camera's frames, for :func:`run` and the ROS node alike:
+    tracking from the predicted and from the last seen pose, a drift confirmed over ``CONFIRM`` looks,
+    the settled look at the end of a slide, and a re-plan from the arm's state with the object where
+    it was seen.
+
+    Args:
+        scene: the scene planned in.
+        perceived: the object as perceived before the slide (every motion is from its pose).
+        config: planner parameters; re-plans use ``replan_time_limit``.
+        camera: the fixed depth camera the frames come from.
+        threshold: (m, rad) a seen pose further than this from the predicted one is off it.
+        replan_time_limit: planning time limit of each re-plan (s).
+
+    Attributes:
+        looks, lost_looks: frames tracked, and of them those that did not show the object.
+        kept: confirmed drifts after which the rest of the slide still ended graspable.
+    """
+
+    def __init__(self, scene: Scene, perceived: ThinObject, config: PlannerConfig, camera: Camera,
+                 threshold, replan_time_limit: float) -> None:
+        self.scene, self.perceived, self.threshold = scene, perceived, threshold
+        self.replan_config = dataclasses.replace(config, time_limit_s=replan_time_limit)
+        self.tracker = Tracker(perceived, camera, table_height=scene.table.height)
+        self.looks = self.lost_looks = self.kept = 0
+        self._last: tuple | None = None  # (motion seen, fingertip pose then) of the last look that found the object
+        self._beyond: list = []  # the poses seen in the looks in a row off the predicted pose
+
+    def error(self, first, second) -> tuple[float, float]:
+        """Distance (m) between the object's centre of mass under two motions, and their yaw difference (rad)."""
+        return _pose_error(self.perceived, first, second)
+
+    def agree(self, first, second, factor: float = AGREE) -> bool:
+        """Two poses within ``factor`` thresholds of each other (two seen poses agree within AGREE: the
+        tracker's own scatter under the arm is about a threshold; its wrong fits are centimetres or tens
+        of degrees off)."""
+        error_m, error_yaw = self.error(first, second)
+        return error_m <= factor * self.threshold[0] and abs(error_yaw) <= factor * self.threshold[1]
+
+    def carried_last(self, tip: np.ndarray):
+        """The pose last seen, carried by the fingertip's motion since (Eq. 2), or None."""
+        return None if self._last is None else compose_planar(self._last[0], planar_motion(self._last[1], tip))
+
+    def look(self, frame: np.ndarray, tip: np.ndarray, predicted) -> Any:
+        """Track the object in ``frame`` (a depth image) with the fingertip measured at ``tip`` (4, 4), from
+        where Eq. 2 puts it and from where it was last seen carried along by the fingertip since (the
+        better fit wins): after a disturbance the prediction is centimetres off, and after a wrong fit
+        the last pose is."""
+        guesses = [predicted]
+        carried = self.carried_last(tip)
+        if carried is not None and not self.agree(carried, predicted):
+            guesses.append(carried)
+        # The finger presses on the object until the grasp: its measured position is on the object.
+        seen = max((self.tracker.track(frame, guess, contact=tip[:2, 3]) for guess in guesses),
+                   key=lambda fit: (fit.ok, fit.edge_points, -fit.rmse_m if fit.ok else 0.0))
+        self.looks += 1
+        if seen.ok:
+            self._last = (seen.motion, tip)
+        else:
+            self.lost_looks += 1
+        return seen
+
+    def settled(self, frames, predicted) -> Any:
+        """At the end of a slide, the arm at rest: frames (``frames()`` gives the next ``(depth, tip)``)
+        until two in a row agree (a single frame's fit can be a wrong one, and the grasp is made where
+        the object is seen). The pose last seen during the slide, carried to the end, counts as the
+        first of the two."""
+        frame, tip = frames()
+        carried = self.carried_last(tip)
+        seen = self.look(frame, tip, predicted)
+        if seen.ok and carried is not None and self.agree(carried, seen.motion):
+            return seen
+        for _ in range(END_LOOKS - 1):
+            again = self.look(*frames(), predicted)
+            if seen.ok and again.ok and self.agree(seen.motion, again.motion):
+                return again
+            seen = again
+        return dataclasses.replace(seen, ok=False, reason=f"no two of {END_LOOKS} frames agree") if seen.ok else seen
+
+    def drifted(self, seen, predicted, segment: _Segment, tip: np.ndarray) -> bool:
+        """Whether a look during a slide asks for a new plan: off the prediction in CONFIRM looks in a row
+        that agree with each other (one look's error alone is mostly the tracker's, with the arm hiding
+        much of the object), and the rest of the slide would not end graspable from there (re-planning
+        on the tracker's own error restarts the slide from rest again and again)."""
+        if self.agree(seen.motion, predicted, 1.0):
+            self._beyond.clear()
+        elif self._beyond and not self.agree(self._beyond[-1], seen.motion):
+            self._beyond[:] = [seen.motion]
+        else:
+            self._beyond.append(seen.motion)
+        if len(self._beyond) < CONFIRM:
+            return False
+        if segment.still_works(self.perceived, self.scene.table, self.replan_config, tip, seen.motion, self.threshold[0]):
+            self.kept += 1
+            return False
+        return True
+
+    def replan(self, trigger: str, elapsed: float, frames, predicted, start_config: np.ndarray, *,
+               segment: _Segment | None = None, tip: np.ndarray | None = None,
+               start_tip: np.ndarray | None = None) -> tuple[PlanResult | None, Replan | None, Any]:
+        """One look that may lead to a new plan.
+
+        Args:
+            trigger: ``"drift"`` (a look during the slide ``segment``, the fingertip commanded at ``tip``)
+                or ``"end"`` (the settled look after a slide).
+            elapsed: time into the slide, for the event (s).
+            frames: gives the next ``(depth, measured fingertip pose)``.
+            predicted: where Eq. 2 puts the object now (motion from its perceived pose).
+            start_config: the arm's configuration to plan from.
+            start_tip: its fingertip pose when it is later than the look's (``tip``): a moving arm goes
+                on while the loop plans, and the object as seen is carried there by Eq. 2; None: the same.
+
+        Returns:
+            (the new plan or None, the event or None (a drift look that asks for nothing), the look).
+        """
+        started = time.perf_counter()
+        if trigger == "end":
+            seen = self.settled(frames, predicted)
+        else:
+            seen = self.look(*frames(), predicted)
+        tracked = time.perf_counter()
+        error_m, error_yaw = self.error(seen.motion, predicted)
+        event = Replan(elapsed, trigger, error_m, math.degrees(error_yaw), tracked - started, 0.0, "lost", seen.reason)
+        if not seen.ok:
+            return None, (event if trigger == "end" else None), seen
+        if trigger == "drift" and not self.drifted(seen, predicted, segment, tip):
+            return None, None, seen
+        self._beyond.clear()
+        motion = seen.motion if start_tip is None else compose_planar(seen.motion, planar_motion(tip, start_tip))
+        try:
+            again = plan(self.scene, self.perceived.moved(motion), self.replan_config, start_config=start_config)
+        except InputError as error:
+            event.plan_s, event.outcome, event.detail = time.perf_counter() - tracked, "refused", error.problem
+            return None, event, seen
+        event.plan_s = time.perf_counter() - tracked
+        if not again.solved:
+            event.outcome = "timeout"
+            return None, event, seen
+        event.outcome, event.detail = ("grasp" if len(again.trajectory) == 1 else "slide"), ""
+        return again, event, dataclasses.replace(seen, motion=motion)
+
+
 def run(
     scene: Scene | str | Path,
     object_name: str | Path,
@@ -404,102 +546,18 @@ def run(
     depth_renderer = mujoco.Renderer(model, camera.height, camera.width)
     depth_renderer.enable_depth_rendering()
     noise_rng = np.random.default_rng([seed, 1])
-    tracker = Tracker(perceived, camera, table_height=scene.table.height)
     robot = build_robot(first.robot)
     recorder = Recorder(model, data, video, video_fps, (480, 640), plan_points(first, robot), progress=progress)
     runner = Runner(built, settings, recorder.after_step if recorder.active else None)
 
-    last: list = []  # (motion seen, fingertip pose then) of the last look that found the object
+    watch = Watch(scene, perceived, config, camera, threshold, replan_time_limit)
 
-    def measured_tip() -> np.ndarray:
-        return np.asarray(robot.fk(data.qpos[built.arm_qpos]))
-
-    def carried_last(tip: np.ndarray):
-        """The pose last seen, carried by the fingertip's motion since (Eq. 2), or None."""
-        return compose_planar(last[0][0], planar_motion(last[0][1], tip)) if last else None
-
-    def look(predicted) -> tuple:
-        """Track the object in a new frame, from where Eq. 2 puts it and from where it was last seen
-        carried along by the fingertip since (the better fit wins): after a disturbance the prediction
-        is centimetres off, and after a wrong fit the last pose is."""
+    def frames() -> tuple[np.ndarray, np.ndarray]:
+        """A new depth frame and the fingertip's measured pose."""
         frame = noisy_depth(camera_depth(depth_renderer, model, data, DEPTH_CAMERA), draws["depth_noise_at_1m"],
                             DEPTH_DROPOUT, noise_rng)
-        tip = measured_tip()
-        guesses = [predicted]
-        carried = carried_last(tip)
-        if carried is not None and not agree(carried, predicted):
-            guesses.append(carried)
-        # The finger presses on the object until the grasp: its measured position is on the object.
-        seen = max((tracker.track(frame, guess, contact=tip[:2, 3]) for guess in guesses),
-                   key=lambda fit: (fit.ok, fit.edge_points, -fit.rmse_m if fit.ok else 0.0))
-        if seen.ok:
-            last[:] = [(seen.motion, tip)]
-        return seen
+        return frame, np.asarray(robot.fk(data.qpos[built.arm_qpos]))
 
-    def agree(first, second, factor: float = AGREE) -> bool:
-        """Two poses within ``factor`` thresholds of each other (two seen poses agree within AGREE: the
-        tracker's own scatter under the arm is about a threshold; its wrong fits are centimetres or tens
-        of degrees off)."""
-        error_m, error_yaw = _pose_error(perceived, first, second)
-        return error_m <= factor * threshold[0] and abs(error_yaw) <= factor * threshold[1]
-
-    def settled_look(predicted):
-        """At the end of a slide, the arm at rest: frames until two in a row agree (a single frame's fit
-        can be a wrong one, and the grasp is made where the object is seen). The pose last seen during
-        the slide, carried to the end, counts as the first of the two."""
-        carried = carried_last(measured_tip())
-        seen = look(predicted)
-        if seen.ok and carried is not None and agree(carried, seen.motion):
-            return seen
-        for _ in range(END_LOOKS - 1):
-            again = look(predicted)
-            report["looks"] += 1
-            if seen.ok and again.ok and agree(seen.motion, again.motion):
-                return again
-            seen = again
-        return dataclasses.replace(seen, ok=False, reason=f"no two of {END_LOOKS} frames agree") if seen.ok else seen
-
-    def replan(trigger: str, elapsed: float, start_config: np.ndarray, predicted, tip=None) -> tuple[PlanResult | None, Replan, Any]:
-        started = time.perf_counter()
-        seen = settled_look(predicted) if trigger == "end" else look(predicted)
-        tracked = time.perf_counter()
-        error_m, error_yaw = _pose_error(perceived, seen.motion, predicted)
-        event = Replan(elapsed, trigger, error_m, math.degrees(error_yaw), tracked - started, 0.0, "lost", seen.reason)
-        report["looks"] += 1
-        if not seen.ok:
-            report["lost_looks"] += 1
-            return None, (event if trigger == "end" else None), seen
-        if trigger == "drift":
-            # A drift is a pose off the prediction in CONFIRM looks in a row that agree with each other:
-            # one look's error alone is mostly the tracker's, with the arm hiding much of the object.
-            if agree(seen.motion, predicted, 1.0):
-                beyond.clear()
-            elif beyond and not agree(beyond[-1], seen.motion):
-                beyond[:] = [seen.motion]
-            else:
-                beyond.append(seen.motion)
-            if len(beyond) < CONFIRM:
-                return None, None, seen
-            # A drift that leaves the rest of the slide ending graspable changes nothing worth a new plan:
-            # re-planning on the tracker's own error restarts the slide from rest again and again.
-            if segment.still_works(perceived, scene.table, config, tip, seen.motion, threshold[0]):
-                report["kept"] += 1
-                return None, None, seen
-        beyond.clear()
-        try:
-            again = plan(scene, perceived.moved(seen.motion),
-                         dataclasses.replace(config, time_limit_s=replan_time_limit), start_config=start_config)
-        except InputError as error:
-            event.plan_s, event.outcome, event.detail = time.perf_counter() - tracked, "refused", error.problem
-            return None, event, seen
-        event.plan_s = time.perf_counter() - tracked
-        if not again.solved:
-            event.outcome = "timeout"
-            return None, event, seen
-        event.outcome, event.detail = ("grasp" if len(again.trajectory) == 1 else "slide"), ""
-        return again, event, seen
-
-    beyond: list = []  # the poses seen in the looks in a row off the predicted pose
     disturbed = [disturbance is None]
     slide_start = [0.0]
 
@@ -532,8 +590,8 @@ def run(
                 next_look[0] += replan_period
                 path = np.asarray(segment.result.trajectory)
                 tip = segment.tip(robot, runner, elapsed)
-                again, event, seen = replan("drift", now, runner.commanded(path, segment.times, elapsed),
-                                            segment.predicted(tip), tip)
+                again, event, seen = watch.replan("drift", now, frames, segment.predicted(tip),
+                                                  runner.commanded(path, segment.times, elapsed), segment=segment, tip=tip)
                 if event is not None:
                     report["events"].append(event)
                 if again is None:
@@ -553,10 +611,10 @@ def run(
             end_config = np.asarray(segment.result.trajectory)[-1]
             predicted_end = segment.predicted(segment.tip(robot, runner, float(segment.times[-1])))
             if not closed:
-                seen_motion = look(predicted_end).motion
+                seen_motion = watch.look(*frames(), predicted_end).motion
                 grasp_plan = segment.result
                 break
-            again, event, seen = replan("end", data.time - slide_start[0], end_config, predicted_end)
+            again, event, seen = watch.replan("end", data.time - slide_start[0], frames, predicted_end, end_config)
             report["events"].append(event)
             seen_motion = seen.motion
             if again is None or ends >= end_replans:
@@ -580,6 +638,7 @@ def run(
     except Unstable as error:
         report.update(failed_stage="simulation", failure=str(error), lifted=False)
     finally:
+        report.update(looks=watch.looks, lost_looks=watch.lost_looks, kept=watch.kept)
         recorder.close()
         depth_renderer.close()
     planned = [event.latency_s for event in report["events"] if event.outcome in ("slide", "grasp", "refused", "timeout")]
