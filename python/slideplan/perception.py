@@ -31,7 +31,7 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiPoint, Polygon
 
-from ._fields import as_number
+from ._fields import as_number, as_numbers
 from .errors import InputError
 from .geometry import SupportSurface, area_centroid
 from .objects import checked_cloud
@@ -82,6 +82,8 @@ class Perception:
         obstacles: clutter on the table (clusters thicker than ``max_thickness``) as boxes.
         warnings: things a user should know, e.g. a cluster that looks like touching objects.
         cell_size: the xy grid used (m).
+        plane: the table plane z = a x + b y + c found, ``(a, b, c)`` (the next :func:`perceive` of the
+            same fixed camera can take it instead of searching again).
     """
 
     table: SupportSurface
@@ -90,6 +92,7 @@ class Perception:
     obstacles: list[BoxObstacle] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     cell_size: float = 0.0
+    plane: tuple[float, float, float] | None = None
 
     @property
     def edge_uncertainty(self) -> float:
@@ -205,6 +208,7 @@ def perceive(
     max_thickness: float = 0.03,
     min_object_area: float = 4e-4,
     cell_size: float | None = None,
+    table_plane=None,
     seed: int = 0,
     source: str = "",
 ) -> Perception:
@@ -221,6 +225,9 @@ def perceive(
         max_thickness: clusters thicker than this are clutter (box obstacles), not thin objects (m).
         min_object_area: smaller clusters are dropped as noise (m^2).
         cell_size: xy grid cell (m); default twice the mean point spacing on the table.
+        table_plane: ``(a, b, c)`` of a table plane z = a x + b y + c known from an earlier cloud of the
+            same camera (:attr:`Perception.plane`): no RANSAC search (most of the time of a call); it is
+            searched for anyway when it holds too few of the points (the camera moved).
         seed: seed of the RANSAC sampling.
         source: the file the points came from, for error messages.
 
@@ -249,7 +256,14 @@ def perceive(
         raise InputError(f"must be > min_height ({min_height:g}), got {max_thickness!r}", field="max_thickness")
     cloud = checked_cloud(points, source=source)
     problem = _Problem(source)
-    plane = _table_plane(cloud, plane_tolerance, min_table_area, max_tilt_deg, seed, problem)
+    plane = None
+    if table_plane is not None:
+        known = as_numbers(table_plane, 3, source="", field="table_plane")
+        on_known = np.abs(cloud[:, 2] - cloud[:, :2] @ known[:2] - known[2]) < plane_tolerance
+        if on_known.mean() >= _MIN_PLANE_FRACTION:  # as much as a plane found by RANSAC must hold
+            plane = _Plane(known, cloud[on_known])
+    if plane is None:
+        plane = _table_plane(cloud, plane_tolerance, min_table_area, max_tilt_deg, seed, problem)
     a, b, c = plane.coefficients
     heights = cloud[:, 2] - (a * cloud[:, 0] + b * cloud[:, 1] + c)
     on_plane = np.abs(heights) < plane_tolerance
@@ -297,7 +311,7 @@ def perceive(
     bare[bare] = ~ndimage.binary_dilation(occupied, iterations=2)[tuple(grid.index(cloud[bare, :2]).T)]
     offset = float(np.median(heights[bare]))
     # Hull of everything over the table: objects and clutter hide the table under them.
-    hull = MultiPoint(xy).convex_hull.simplify(_OUTLINE_TOLERANCE)
+    hull = _convex_hull(xy).simplify(_OUTLINE_TOLERANCE)
     center = hull.centroid
     table = SupportSurface.from_vertices(
         np.asarray(hull.exterior.coords), a * center.x + b * center.y + c + offset, field="table outline"
@@ -315,7 +329,8 @@ def perceive(
             )
         footprint = grid.polygon(near & (edge_field > half))
         objects.append(_thin_object(xy[members & (edge_at_point > half)], top - offset, table.height, footprint))
-    return Perception(table, plane.tilt_deg, objects, obstacles, warnings, grid.cell)
+    return Perception(table, plane.tilt_deg, objects, obstacles, warnings, grid.cell,
+                      tuple(float(value) for value in plane.coefficients))
 
 
 class _Problem:
@@ -360,7 +375,7 @@ def _table_mask(grid: _Grid, xy: np.ndarray) -> np.ndarray:
     labels, _ = ndimage.label(ndimage.binary_closing(support), structure=np.ones((3, 3)))  # closing bridges dropouts
     sizes = np.bincount(labels.ravel())
     sizes[0] = 0
-    hull = MultiPoint(grid.centers(labels == int(np.argmax(sizes)))).convex_hull.buffer(0.5 * grid.cell)
+    hull = _convex_hull(grid.centers(labels == int(np.argmax(sizes)))).buffer(0.5 * grid.cell)
     all_cells = np.ones(grid.shape, dtype=bool)
     return shapely.contains_xy(hull, *grid.centers(all_cells).T).reshape(grid.shape)
 
@@ -379,6 +394,18 @@ def _smoothed_heights(grid: _Grid, cells: np.ndarray, heights: np.ndarray, sigma
     height_sum = ndimage.gaussian_filter(grid.accumulate(cells, heights), sigma, mode="constant", truncate=2.0)
     count = ndimage.gaussian_filter(grid.accumulate(cells), sigma, mode="constant", truncate=2.0)
     return np.where(count > 1e-9, height_sum / np.maximum(count, 1e-9), 0.0)
+
+
+def _convex_hull(xy: np.ndarray) -> Polygon:
+    """The convex hull of many points (a table's tens of thousands): from qhull's vertices, since
+    shapely would first build one geometry per point (most of a perceive call's time)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        xy = xy[ConvexHull(xy).vertices]
+    except QhullError:  # flat or too few points: shapely's hull says what it is
+        pass
+    return MultiPoint(xy).convex_hull
 
 
 def _thin_object(xy: np.ndarray, thickness: float, table_height: float, footprint) -> PerceivedObject:

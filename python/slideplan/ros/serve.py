@@ -54,9 +54,11 @@ def cloud_in_world(points: np.ndarray, camera_pose) -> np.ndarray:
     return flat @ pose[:3, :3].T + pose[:3, 3]
 
 
-def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: int) -> tuple[Scene, ThinObject, int]:
-    """The perceived scene (its table and clutter, the robot from ``scene``), the object ``target`` and
-    how many objects were seen.
+def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: int,
+                   table_plane=None) -> tuple[Scene, ThinObject, int, tuple]:
+    """The perceived scene (its table and clutter, the robot from ``scene``), the object ``target``, how
+    many objects were seen, and the table plane (``table_plane``: the plane of an earlier cloud of the
+    same camera, :func:`slideplan.perception.perceive`'s).
 
     Raises:
         Refused: an empty cloud (``no_cloud``), nothing perceived (``perception``), or a target that is
@@ -67,7 +69,7 @@ def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: in
     if len(world_points) == 0:
         raise Refused("no_cloud", "the latest cloud on /camera/points has no finite points")
     try:
-        perception = perceive(world_points, seed=seed, source="/camera/points")
+        perception = perceive(world_points, seed=seed, table_plane=table_plane, source="/camera/points")
     except InputError as error:
         raise Refused("perception", error.problem) from None
     if not perception.objects:
@@ -77,7 +79,7 @@ def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: in
                                 f"{len(perception.objects) - 1}, largest first)")
     seen = perception.objects[target]
     obj = ThinObject.from_points(seen.points, table_height=perception.table.height, name=f"object {target}")
-    return perception.scene(scene), obj, len(perception.objects)
+    return perception.scene(scene), obj, len(perception.objects), perception.plane
 
 
 def _collision_world(result: PlanResult, obj: ThinObject):
@@ -167,11 +169,13 @@ class Task:
     scene: Scene
     reach: np.ndarray
     summary: dict = field(default_factory=dict)
+    table_plane: tuple | None = None
 
 
 def plan_task(scene: Scene, points: np.ndarray, joints: np.ndarray | None, *, camera_pose, target: int, seed: int,
-              time_limit: float) -> Task:
-    """Perceive a cloud (camera frame), plan for object ``target`` and the reach from ``joints``.
+              time_limit: float, table_plane=None) -> Task:
+    """Perceive a cloud (camera frame; ``table_plane`` as :func:`perceived_task`), plan for object
+    ``target`` and the reach from ``joints``.
 
     Raises:
         Refused: no joint state yet (``no_joint_state``), a failed perception, an unsolved plan
@@ -182,7 +186,7 @@ def plan_task(scene: Scene, points: np.ndarray, joints: np.ndarray | None, *, ca
     if joints is None:
         raise Refused("no_joint_state", "no message on /joint_states yet: the arm's configuration is unknown")
     started = time.perf_counter()
-    perceived_scene, obj, seen = perceived_task(scene, cloud_in_world(points, camera_pose), target, seed)
+    perceived_scene, obj, seen, plane = perceived_task(scene, cloud_in_world(points, camera_pose), target, seed, table_plane)
     perceived = time.perf_counter()
     config = PlannerConfig.for_scene(perceived_scene, seed=seed, time_limit_s=time_limit)
     try:
@@ -198,7 +202,7 @@ def plan_task(scene: Scene, points: np.ndarray, joints: np.ndarray | None, *, ca
     summary = {"status": "solved", "planning_time_s": round(result.planning_time_s, 4),
                "perceive_s": round(perceived - started, 4), "total_s": round(time.perf_counter() - started, 4),
                "overhang_m": round(result.overhang_m, 4), "objects_seen": seen, "replans": 0}
-    return Task(result, obj, perceived_scene, reach, summary)
+    return Task(result, obj, perceived_scene, reach, summary, plane)
 
 
 def one_line(content: dict) -> str:
@@ -237,6 +241,7 @@ class PlanningNode:
         self._joints = None  # (positions in robot_joints order, velocities)
         self._cloud_arrived = threading.Condition()
         self.task: Task | None = None
+        self._plane = None  # (camera_pose, the table plane seen from there): the table does not move
         sensors = ReentrantCallbackGroup()
         self._services = MutuallyExclusiveCallbackGroup()  # one request at a time
         node.create_subscription(PointCloud2, "/camera/points", self._on_cloud, qos_profile_sensor_data, callback_group=sensors)
@@ -298,9 +303,12 @@ class PlanningNode:
             raise Refused("no_cloud", "no cloud received on /camera/points yet")
         joints = self.joints()
         self.publish_status("plan")
-        task = plan_task(self.scene, cloud[1], None if joints is None else joints[0],
-                         camera_pose=self.parameter("camera_pose"), target=int(self.parameter("target")),
-                         seed=int(self.parameter("seed")), time_limit=float(self.parameter("time_limit")))
+        camera_pose = list(self.parameter("camera_pose"))
+        known = self._plane[1] if self._plane is not None and self._plane[0] == camera_pose else None
+        task = plan_task(self.scene, cloud[1], None if joints is None else joints[0], camera_pose=camera_pose,
+                         target=int(self.parameter("target")), seed=int(self.parameter("seed")),
+                         time_limit=float(self.parameter("time_limit")), table_plane=known)
+        self._plane = (camera_pose, task.table_plane)
         self._publish_markers(task.result)
         self.publish_status("planned", **task.summary)
         return task
