@@ -94,9 +94,10 @@ def tables(results: pd.DataFrame) -> str:
         group = pd.concat([ours, baselines])
         sections += [f"## Fig. 11 (preset {preset} for slideplan, {group['pose_index'].nunique()} poses per object): "
                      "success rate within a time budget [95% Wilson interval]", success_table(group)]
-    fig12 = runs[runs["experiment"] == "fig12"]
-    if not fig12.empty:
-        sections += ["## Fig. 12: planning time per N*", n_star_table(fig12)]
+    fig12 = runs[runs["experiment"] == "fig12"].fillna({"preset": "default"})
+    for preset, group in fig12.groupby("preset", sort=True):
+        sections += [f"## Fig. 12 (preset {preset}, {group['pose_index'].nunique()} poses per object): planning time per N*",
+                     n_star_table(group)]
     return "\n\n".join(sections) + "\n"
 
 

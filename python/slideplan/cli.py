@@ -732,6 +732,7 @@ def ros_serve_command(
         None, "--camera-pose", help="X Y Z ROLL PITCH YAW of the cloud's frame in the world (parameter camera_pose)."),
     target: int = typer.Option(0, "--target", help="Which object to slide, largest first (parameter target)."),
     closed: bool = typer.Option(True, "--closed-loop/--open-loop", help="Watch and re-plan while sliding (parameter closed_loop)."),
+    sim_time: bool = typer.Option(False, "--sim-time", help="Run on the simulator's /clock (parameter use_sim_time)."),
 ) -> None:
     """The planning node ``slideplan``: services /slideplan/plan and /slideplan/execute (docs/ros2.md).
     ROS arguments (remappings, parameters) go after --ros-args. Exit codes: 0 on Ctrl-C, 2 bad input."""
@@ -741,7 +742,7 @@ def ros_serve_command(
         scene = load_scene(scene_name)
     except (InputError, OSError, ValueError) as error:
         raise _fail(error) from None
-    parameters = {"target": target, "closed_loop": closed}
+    parameters = {"target": target, "closed_loop": closed, "use_sim_time": sim_time}
     if camera_pose is not None:
         parameters["camera_pose"] = [float(value) for value in camera_pose]
     serve.serve(scene, parameters, ros_args=ros_args, log=typer.echo)

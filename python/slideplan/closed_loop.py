@@ -9,7 +9,7 @@ where it is seen.
    ``replan_period`` of simulated time render a depth frame with the arm in view and track the object
    (:class:`~slideplan.tracking.Tracker`); when it is further than ``threshold`` from the pose Eq. 2
    predicts for the commanded configuration in two looks in a row, and the rest of the slide would not end
-   graspable from where it is seen (:meth:`_Segment.still_works`), plan again from that configuration (where
+   graspable from where it is seen (:meth:`Segment.still_works`), plan again from that configuration (where
    the servos' reference is, so it does not jump) with the object where it was seen, and follow the new plan;
 3. when a slide ends, track the object and plan from the final configuration with the object where it
    was seen: the plan is that configuration and its grasp when the object overhangs enough (else it
@@ -248,7 +248,7 @@ def _times(result: PlanResult, key: str, length: int) -> np.ndarray:
 
 
 @dataclass
-class _Segment:
+class Segment:
     """A slide being followed: the plan, its times and depths, and the object's seen motion (from its
     perceived pose) when the plan was made, which Eq. 2 moves along."""
 
@@ -278,9 +278,9 @@ class _Segment:
                 and table.edge_margin(end.centroid_xy) >= config.com_margin)
 
 
-def _segment(result: PlanResult, top: float, base) -> _Segment:
+def slide_segment(result: PlanResult, top: float, base) -> Segment:
     """A plan to follow, from where the object was seen (``base``) when it was made."""
-    return _Segment(result, _times(result, "trajectory", len(result.trajectory)),
+    return Segment(result, _times(result, "trajectory", len(result.trajectory)),
                     top - np.asarray(result.fingertip_poses)[:, 2], tuple(float(value) for value in base))
 
 
@@ -388,7 +388,7 @@ class Watch:
             seen = again
         return dataclasses.replace(seen, ok=False, reason=f"no two of {END_LOOKS} frames agree") if seen.ok else seen
 
-    def drifted(self, seen, predicted, segment: _Segment, tip: np.ndarray) -> bool:
+    def drifted(self, seen, predicted, segment: Segment, tip: np.ndarray) -> bool:
         """Whether a look during a slide asks for a new plan: off the prediction in CONFIRM looks in a row
         that agree with each other (one look's error alone is mostly the tracker's, with the arm hiding
         much of the object), and the rest of the slide would not end graspable from there (re-planning
@@ -407,7 +407,7 @@ class Watch:
         return True
 
     def replan(self, trigger: str, elapsed: float, frames, predicted, start_config: np.ndarray, *,
-               segment: _Segment | None = None, tip: np.ndarray | None = None,
+               segment: Segment | None = None, tip: np.ndarray | None = None,
                start_tip: np.ndarray | None = None) -> tuple[PlanResult | None, Replan | None, Any]:
         """One look that may lead to a new plan.
 
@@ -534,7 +534,7 @@ def run(
                                 f"({first.status})"}, sim_time_s=0.0, wall_time_s=time.perf_counter() - wall_start)
 
     top = scene.table.height + perceived.thickness
-    segment = _segment(first, top, (0.0, 0.0, 0.0))
+    segment = slide_segment(first, top, (0.0, 0.0, 0.0))
     slide_s = float(segment.times[-1])
     if disturbance is not None and disturbance.after_s > slide_s:
         raise InputError(f"{disturbance.after_s} s is after the planned slide ends ({slide_s:.2f} s)", field="--disturb")
@@ -606,7 +606,7 @@ def run(
                 if len(new.trajectory) == 1:  # already graspable where it was seen: the slide ends here
                     grasp_plan = new
                     break
-                segment = _segment(new, top, seen_motion)
+                segment = slide_segment(new, top, seen_motion)
                 continue
             end_config = np.asarray(segment.result.trajectory)[-1]
             predicted_end = segment.predicted(segment.tip(robot, runner, float(segment.times[-1])))
@@ -625,7 +625,7 @@ def run(
                 grasp_plan = again
                 break
             ends += 1
-            segment = _segment(again, top, seen.motion)
+            segment = slide_segment(again, top, seen.motion)
         _judge(report, scene.table, perceived, truth, config, seen_motion, runner)
         failure = runner.grasp(np.asarray(grasp_plan.grasp["approach"], dtype=float),
                                _times(grasp_plan, "approach", len(grasp_plan.grasp["approach"])),

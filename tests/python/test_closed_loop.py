@@ -107,14 +107,14 @@ def test_cli_bad_input_is_exit_2_with_one_line():
 
 
 def test_a_slide_is_kept_while_it_still_ends_graspable_from_where_the_object_is_seen():
-    from slideplan.closed_loop import _segment
+    from slideplan.closed_loop import slide_segment
 
     scene_name, name, pose = DEMO
     scene = load_scene(scene_name)
     obj = load_object(name, table_height=scene.table.height, pose=pose)
     config = PlannerConfig.for_scene(scene, seed=1)
     result = plan(scene, obj, config)
-    segment = _segment(result, scene.table.height + obj.thickness, (0.0, 0.0, 0.0))
+    segment = slide_segment(result, scene.table.height + obj.thickness, (0.0, 0.0, 0.0))
     middle = len(result.trajectory) // 2
     tip = row_to_pose(result.fingertip_poses[middle])
     where_planned = planar_motion(row_to_pose(result.fingertip_poses[0]), tip)

@@ -22,17 +22,32 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import jsontext
+from ..closed_loop import Watch, slide_segment
 from ..errors import InputError
+from ..execute.runner import reference
 from ..objects import ThinObject
 from ..planning import PlannerConfig, PlanResult, base_pose_matrix, plan, robot_model
+from ..rendering import Camera
 from ..scenes import Scene
 from ..timing import time_path
 
-HOVER_M = 0.03  # the reach comes down onto the first contact from this far above it
+HOVER_M = 0.03  # the reach comes down onto the first contact from this far above the object
+REACH_CLEARANCE_M = 0.15  # or by way of this much higher, where the direct move collides
 REACH_STEP_RAD = 0.02  # the reach is checked for collisions this densely (joint space)
-ARRIVED_RAD = 0.01  # a trajectory has arrived when every joint is this close to its last point
-STILL_RAD_S = 0.05  # and moves slower than this
+# A trajectory has arrived when the arm is still (every joint slower than STILL_RAD_S) after its duration,
+# every joint within GOAL_TOLERANCE_RAD of its last point: a servo pressing the finger on the object holds
+# a hundredth of a radian or two off it (the simulator's servos have no integral action); more is a block.
+STILL_RAD_S = 0.05
+GOAL_TOLERANCE_RAD = 0.05
 LIFT_M = 0.05
+# The closed loop, as slideplan run's defaults: a drift is 3 mm / 2 deg off the prediction; each re-plan has 1 s.
+THRESHOLD = (0.003, math.radians(2.0))
+REPLAN_TIME_LIMIT_S = 1.0
+END_REPLANS = 3
+CLOCK_STALL_S = 5.0
+CLOUD_WAIT_S = 10.0
+MIN_CHECK_POINTS = 30  # cloud points over the object's footprint that can tell whether it is there  # wall time: a simulator may run well below real time while the finger slides
+LOOKAHEAD_S = 0.15  # a re-plan starts where the arm will be this much later (grown to 1.5 x the slowest re-plan)
 DEFAULTS = {"camera_pose": [0.0] * 6, "target": 0, "controller": "joint_trajectory_controller", "closed_loop": True,
             "time_limit": 5.0, "seed": 0}  # the node's ROS parameters (docs/ros2.md)
 
@@ -108,33 +123,53 @@ def _dense(configs: list[np.ndarray]) -> np.ndarray:
 
 def reach_path(result: PlanResult, obj: ThinObject, current) -> np.ndarray:
     """From the arm's configuration ``current`` to the slide's first contact: joint-linear to a
-    configuration HOVER_M above it (every link clear of table, clutter and object), then down onto it
-    (the finger may touch the object, as while sliding).
+    configuration with the fingertip HOVER_M above the object there, or else by way of one
+    REACH_CLEARANCE_M higher still (every link
+    clear of table, clutter and object on the way), then down onto the contact (the finger may touch
+    the object there, as while sliding).
 
     Raises:
-        Refused: (``reach``) no IK above the contact, or a collision on the way, naming the links.
+        Refused: (``reach``) no IK above the contact, or a collision on every way, naming the links.
     """
     from .. import _core
 
     robot = result.robot_model()
     start = np.asarray(result.start_config, dtype=float)
-    above = np.asarray(robot.fk(start))
-    above[2, 3] += HOVER_M
-    hover = robot.ik(above, seed=start, rng_seed=0)
-    if hover is None:
-        raise Refused("reach", f"no inverse kinematics {100 * HOVER_M:.0f} cm above the first contact")
     world = _collision_world(result, obj)
+
+    top = float(result.table["height"]) + obj.thickness
+    tip = np.asarray(robot.fk(start))
+
+    def above(height: float, seed: np.ndarray) -> np.ndarray:
+        """The start's fingertip pose ``height`` above the object's top (the start presses below it)."""
+        target = tip.copy()
+        target[2, 3] = max(target[2, 3], top) + height
+        config = robot.ik(target, seed=seed, rng_seed=0)
+        if config is None:
+            raise Refused("reach", f"no inverse kinematics {100 * height:.0f} cm above the object at the first contact")
+        return np.asarray(config)
+
+    def blocked(path: np.ndarray, mode) -> list:
+        """The colliding pairs of the first configuration of ``path`` in collision, or []."""
+        for config in path:
+            if not world.is_valid(config, mode):
+                return world.collisions(config, mode)
+        return []
+
+    hover = above(HOVER_M, start)
+    down = _dense([hover, start])
+    if blocked(down, _core.ContactMode.SLIDING):
+        raise Refused("reach", f"the move down onto the first contact from {100 * HOVER_M:.0f} cm above collides")
     current = np.asarray(current, dtype=float)
-    down = _dense([np.asarray(hover), start])
-    for config in _dense([current, np.asarray(hover)]):
-        if not world.is_valid(config, _core.ContactMode.FREE):
-            pairs = ", ".join(f"{first}-{second}" for first, second in world.collisions(config, _core.ContactMode.FREE)[:3])
-            raise Refused("reach", f"the joint-space move from the current configuration to above the first contact "
-                                   f"collides ({pairs}): move the arm clear first")
-    for config in down:
-        if not world.is_valid(config, _core.ContactMode.SLIDING):
-            raise Refused("reach", "the move down onto the first contact collides")
-    return np.vstack([_dense([current, np.asarray(hover)]), down[1:]])
+    pairs: list = []
+    for way in ([current, hover], [current, above(HOVER_M + REACH_CLEARANCE_M, hover), hover]):
+        path = _dense(way)
+        pairs = blocked(path, _core.ContactMode.FREE)
+        if not pairs:
+            return np.vstack([path, down[1:]])
+    names = ", ".join(f"{first}-{second}" for first, second in pairs[:3])
+    raise Refused("reach", f"the joint-space move from the current configuration to above the first contact collides "
+                           f"({names}), also by way of {100 * (HOVER_M + REACH_CLEARANCE_M):.0f} cm above it: move the arm clear first")
 
 
 def lift_path(result: PlanResult) -> np.ndarray:
@@ -168,6 +203,7 @@ class Task:
     obj: ThinObject
     scene: Scene
     reach: np.ndarray
+    config: PlannerConfig
     summary: dict = field(default_factory=dict)
     table_plane: tuple | None = None
 
@@ -183,11 +219,11 @@ def plan_task(scene: Scene, points: np.ndarray, joints: np.ndarray | None, *, ca
     """
     from ..verify import verify
 
-    if joints is None:
-        raise Refused("no_joint_state", "no message on /joint_states yet: the arm's configuration is unknown")
     started = time.perf_counter()
     perceived_scene, obj, seen, plane = perceived_task(scene, cloud_in_world(points, camera_pose), target, seed, table_plane)
     perceived = time.perf_counter()
+    if joints is None:
+        raise Refused("no_joint_state", "no message on /joint_states yet: the arm's configuration is unknown")
     config = PlannerConfig.for_scene(perceived_scene, seed=seed, time_limit_s=time_limit)
     try:
         result = plan(perceived_scene, obj, config)
@@ -202,7 +238,7 @@ def plan_task(scene: Scene, points: np.ndarray, joints: np.ndarray | None, *, ca
     summary = {"status": "solved", "planning_time_s": round(result.planning_time_s, 4),
                "perceive_s": round(perceived - started, 4), "total_s": round(time.perf_counter() - started, 4),
                "overhang_m": round(result.overhang_m, 4), "objects_seen": seen, "replans": 0}
-    return Task(result, obj, perceived_scene, reach, summary, plane)
+    return Task(result, obj, perceived_scene, reach, config, summary, plane)
 
 
 def one_line(content: dict) -> str:
@@ -230,6 +266,10 @@ class PlanningNode:
         from trajectory_msgs.msg import JointTrajectory
         from visualization_msgs.msg import MarkerArray
 
+        # What the first request needs, loaded now (a cold import of scikit-learn alone takes seconds).
+        import scipy.ndimage  # noqa: F401
+        import sklearn.linear_model  # noqa: F401
+
         self.scene = scene
         self.robot_joints = list(robot_model(scene).joint_names)
         overrides = [Parameter(name, value=value) for name, value in (parameters or {}).items()]
@@ -253,6 +293,10 @@ class PlanningNode:
         node.create_service(Trigger, "/slideplan/plan", self._plan_service, callback_group=self._services)
         node.create_service(Trigger, "/slideplan/execute", self._execute_service, callback_group=self._services)
 
+    def now(self) -> float:
+        """ROS time (s): the simulator's /clock with use_sim_time, else the system clock."""
+        return self.node.get_clock().now().nanoseconds * 1e-9
+
     def parameter(self, name: str):
         return self.node.get_parameter(name).value
 
@@ -266,8 +310,9 @@ class PlanningNode:
         except InputError as error:
             self.node.get_logger().error(f"cloud ignored: {error.problem}")
             return
+        stamp = message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
         with self._cloud_arrived:
-            self._cloud = (time.monotonic(), points)
+            self._cloud = (stamp if stamp > 0 else self.now(), points)
             self._cloud_arrived.notify_all()
 
     def _on_joints(self, message) -> None:
@@ -284,18 +329,29 @@ class PlanningNode:
         with self._lock:
             return self._joints
 
-    def next_cloud(self, after: float, timeout: float = 2.0) -> np.ndarray | None:
-        """The first cloud that arrived after monotonic time ``after``, waiting up to ``timeout`` s."""
+    def newest_cloud(self) -> float:
+        """The latest cloud's stamp (ROS time, s), -inf before any."""
+        cloud = self._cloud
+        return -math.inf if cloud is None else cloud[0]
+
+    def latest_points(self) -> np.ndarray:
+        return self._cloud[1]
+
+    def next_cloud(self, after: float, timeout: float = 2.0) -> tuple[float, np.ndarray] | None:
+        """The first cloud stamped after ``after`` (ROS time, s) as (stamp, points), waiting up to
+        ``timeout`` wall s; None if none came."""
         with self._cloud_arrived:
             self._cloud_arrived.wait_for(lambda: self._cloud is not None and self._cloud[0] > after, timeout)
-            return self._cloud[1] if self._cloud is not None and self._cloud[0] > after else None
+            return self._cloud if self._cloud is not None and self._cloud[0] > after else None
 
     # --------------------------------------------------------------- services
 
     def publish_status(self, phase: str, **content) -> None:
         from std_msgs.msg import String
 
-        self.status.publish(String(data=one_line({"phase": phase, **content})))
+        line = one_line({"phase": phase, **content})
+        self.status.publish(String(data=line))
+        self.node.get_logger().info(line)
 
     def _plan(self) -> Task:
         cloud = self._cloud
@@ -351,37 +407,54 @@ class PlanningNode:
 
     # --------------------------------------------------------------- driving the robot
 
-    def send(self, result: PlanResult, path: np.ndarray, times: np.ndarray, phase: str) -> float:
-        """Publish a trajectory; return its monotonic start time."""
+    def send(self, joint_names: list[str], path: np.ndarray, timing: dict, phase: str, delay: float = 0.0) -> float:
+        """Publish a timed path (``timing``: ``time_from_start`` and ``velocities``, as a plan's timing
+        block), its first point ``delay`` s after arrival; return its start (ROS time, s)."""
         from std_msgs.msg import Header
 
         from .messages import trajectory_message
 
-        message = trajectory_message(result.joint_names, path, times, Header(stamp=self.node.get_clock().now().to_msg()))
+        times = np.asarray(timing["time_from_start"], dtype=float)
+        times = times - times[0] + delay
+        message = trajectory_message(joint_names, path, times, Header(), timing.get("velocities"))  # stamp 0: start on arrival
         self.publish_status(phase, duration_s=round(float(times[-1]), 3), points=len(path))
         self.trajectory.publish(message)
-        return time.monotonic()
+        return self.now()
+
+    def move(self, joint_names: list[str], path: np.ndarray, timing: dict, phase: str, delay: float = 0.0) -> None:
+        """:meth:`send`, then :meth:`wait_arrived`."""
+        duration = float(timing["time_from_start"][-1] - timing["time_from_start"][0]) + delay
+        self.wait_arrived(path[-1], self.send(joint_names, path, timing, phase, delay), duration, phase)
 
     def wait_arrived(self, final: np.ndarray, started: float, duration_s: float, phase: str, during=None) -> None:
         """Wait until the arm is at ``final`` and still (``during(elapsed)`` called every 10 ms meanwhile;
         it may return True to stop waiting).
 
         Raises:
-            Refused: (``phase``) not there within three times the duration plus 10 s (a simulated robot
-            may run slower than real time).
+            Refused: (``phase``) not there within twice the duration plus 10 s, or ROS time stopped for
+            CLOCK_STALL_S (a simulator's /clock, with use_sim_time).
         """
-        deadline = started + 3.0 * duration_s + 10.0
-        while time.monotonic() < deadline:
-            elapsed = time.monotonic() - started
+        deadline = started + 2.0 * duration_s + 10.0
+        ticked, ticked_at = self.now(), time.monotonic()
+        while self.now() < deadline:
+            if self.now() != ticked:
+                ticked, ticked_at = self.now(), time.monotonic()
+            elif time.monotonic() - ticked_at > CLOCK_STALL_S:
+                raise Refused(phase, f"ROS time stood still for {CLOCK_STALL_S:.0f} s during the {phase} (use_sim_time "
+                                     "is set: is the simulator publishing /clock?)")
+            elapsed = self.now() - started
             if during is not None and during(elapsed):
                 return
             joints = self.joints()
-            if joints is not None and elapsed >= duration_s and np.abs(joints[0] - final).max() < ARRIVED_RAD \
-                    and np.abs(joints[1]).max() < STILL_RAD_S:
+            if joints is not None and elapsed >= duration_s and np.abs(joints[1]).max() < STILL_RAD_S:
+                error = float(np.abs(joints[0] - final).max())
+                if error > GOAL_TOLERANCE_RAD:
+                    raise Refused(phase, f"the arm stopped {error:.3f} rad from the end of the {phase} "
+                                         f"(tolerance {GOAL_TOLERANCE_RAD} rad): blocked?")
                 return
             time.sleep(0.01)
         error = "no joint state" if self.joints() is None else f"{np.abs(self.joints()[0] - final).max():.3f} rad off"
-        raise Refused(phase, f"the arm did not reach the end of the {phase} within {deadline - started:.0f} s ({error})")
+        raise Refused(phase, f"the arm did not come to rest at the end of the {phase} within {deadline - started:.0f} s ({error})")
 
     def set_gripper(self, closed: bool) -> None:
         from std_srvs.srv import SetBool
@@ -403,35 +476,202 @@ class Execution:
 
     def __init__(self, node: PlanningNode, task: Task) -> None:
         self.node, self.task = node, task
+        self.events: list = []  # the closed loop's looks that asked for a plan (slideplan.closed_loop.Replan)
+        self.lookahead_s = LOOKAHEAD_S
+        self.judge: Watch | None = None
 
     def run(self) -> dict:
         node, task = self.node, self.task
         result = task.result
         node.set_gripper(False)
-        reach = timed(result, task.reach, "reach", capped=False)
-        node.wait_arrived(task.reach[-1], node.send(result, task.reach, reach["time_from_start"], "reach"),
-                          float(reach["time_from_start"][-1]), "reach")
-        result, replans = self.slide(result)
+        names = result.joint_names
+        node.move(names, task.reach, timed(result, task.reach, "reach", capped=False), "reach")
+        result, replans, expected = self.slide(result)
         approach = np.asarray(result.grasp["approach"], dtype=float)
         if len(approach):
-            times = np.asarray(result.timing["approach"]["time_from_start"], dtype=float)
-            node.wait_arrived(approach[-1], node.send(result, approach, times - times[0], "approach"),
-                              float(times[-1] - times[0]), "approach")
+            node.move(names, approach, result.timing["approach"], "approach")
+        self.look_before_closing(expected)
         node.publish_status("close")
         node.set_gripper(True)
         lift = lift_path(result)
-        lift_times = timed(result, lift, "lift", capped=True)["time_from_start"]
-        node.wait_arrived(lift[-1], node.send(result, lift, lift_times, "lift"), float(lift_times[-1]), "lift")
-        return {"status": "done", "replans": replans, "overhang_m": round(result.overhang_m, 4),
-                "planning_time_s": round(task.result.planning_time_s, 4)}
+        node.move(names, lift, timed(result, lift, "lift", capped=True), "lift")
+        checked = self.check_lifted(expected)
+        latencies = [event.latency_s for event in self.events if event.outcome in ("slide", "grasp", "refused", "timeout")]
+        return {"status": "done", "closed_loop": bool(node.parameter("closed_loop")), "replans": replans,
+                "looks": 0 if self.judge is None else self.judge.looks, "kept": 0 if self.judge is None else self.judge.kept,
+                "lift_checked": checked, "overhang_m": round(result.overhang_m, 4),
+                "planning_time_s": round(task.result.planning_time_s, 4),
+                "replan_latency_s": round(float(np.median(latencies)), 4) if latencies else None}
 
-    def slide(self, result: PlanResult) -> tuple[PlanResult, int]:
-        """Follow the slide open loop; return the plan whose grasp is made and the re-plans."""
-        path = np.asarray(result.trajectory, dtype=float)
-        times = np.asarray(result.timing["trajectory"]["time_from_start"], dtype=float)
-        self.node.wait_arrived(path[-1], self.node.send(result, path, times - times[0], "slide"),
-                               float(times[-1] - times[0]), "slide")
-        return result, 0
+    def slide(self, result: PlanResult) -> tuple[PlanResult, int, tuple]:
+        """Follow the slide; with ``closed_loop``, watch the object in each new cloud and switch to a new
+        plan when it drifts, and look again when a slide ends (as :func:`slideplan.closed_loop.run`).
+        Return the plan whose grasp is made, the re-plans followed, and where the object is expected
+        at the grasp (motion from its perceived pose: as last seen, or as Eq. 2 puts it)."""
+        node, task = self.node, self.task
+        closed = bool(node.parameter("closed_loop"))
+        watch = self.judge = self._watch() if closed else None
+        robot = result.robot_model()
+        top = task.scene.table.height + task.obj.thickness
+        segment = slide_segment(result, top, (0.0, 0.0, 0.0))
+        replans = ends = 0
+        delay = 0.0  # the first point of a re-planned slide is where the old one would be by then
+        while True:
+            path, times = np.asarray(segment.result.trajectory, dtype=float), segment.times
+            started = node.send(result.joint_names, path, segment.result.timing["trajectory"], "slide", delay)
+            switch: list = []
+            seen_at = [started]
+
+            def frames_after(stamp_box):
+                """The next cloud after the last one used, as (depth, measured fingertip pose)."""
+                def frames():
+                    cloud = node.next_cloud(stamp_box[0], timeout=CLOUD_WAIT_S)
+                    if cloud is None:
+                        raise Refused("slide", f"no new cloud on /camera/points for {CLOUD_WAIT_S:.0f} s while watching the slide")
+                    stamp_box[0] = cloud[0]
+                    return _depth(cloud[1]), np.asarray(robot.fk(node.joints()[0]))
+                return frames
+
+            def during(elapsed: float) -> bool:
+                """A look at each new cloud; True when the slide switches to a new plan."""
+                if watch is None or node.newest_cloud() <= seen_at[0]:
+                    return False
+                look = node.newest_cloud() - started - delay  # when the frame arrived, into this slide
+                ahead = look + self.lookahead_s
+                if look <= 0.0 or ahead >= times[-1]:
+                    return False
+                tip = np.asarray(robot.fk(reference(path, times, look)))
+                start_config = reference(path, times, ahead)
+                again, event, seen = watch.replan("drift", look, frames_after(seen_at), segment.predicted(tip), start_config,
+                                                  segment=segment, tip=tip, start_tip=np.asarray(robot.fk(start_config)))
+                if event is not None:
+                    self.record(event)
+                    if event.outcome in ("slide", "grasp"):
+                        self.lookahead_s = max(self.lookahead_s, 1.5 * event.latency_s)
+                if again is None:
+                    return False
+                switch.append((again, seen.motion, started + delay + ahead))
+                return True
+
+            node.wait_arrived(path[-1], started, float(times[-1] + delay), "slide", during)
+            if switch:
+                new, motion, starts_at = switch[0]
+                replans += 1
+                delay = max(0.0, starts_at - node.now())
+                node.publish_status("replan", trigger="drift", replans=replans, outcome=self.events[-1].outcome)
+                segment = slide_segment(new, top, motion)
+                if len(new.trajectory) == 1:  # graspable where it was seen: stop there
+                    stop = np.asarray(new.trajectory, dtype=float)
+                    node.move(new.joint_names, stop, {"time_from_start": np.zeros(1), "velocities": np.zeros_like(stop)},
+                              "slide", delay)
+                    return new, replans, motion
+                continue
+            if watch is None:
+                return segment.result, replans, segment.predicted(np.asarray(robot.fk(path[-1])))
+            delay = 0.0
+            predicted = segment.predicted(np.asarray(robot.fk(path[-1])))
+            again, event, seen = watch.replan("end", float(times[-1]), frames_after([node.now()]), predicted, path[-1])
+            self.record(event)
+            if again is None or ends >= END_REPLANS:  # its own grasp, from where Eq. 2 put the object
+                return segment.result, replans, seen.motion if seen.ok else predicted
+            replans += 1
+            node.publish_status("replan", trigger="end", replans=replans, outcome=event.outcome)
+            if len(again.trajectory) == 1:
+                return again, replans, seen.motion
+            ends += 1
+            segment = slide_segment(again, top, seen.motion)
+
+    def object_share(self, expected, phase: str) -> float | None:
+        """Of the next cloud's points over the object's footprint where it is expected (a motion from its
+        perceived pose; within 4 mm of its cloud), the share at the object's top rather than at the
+        table's; None where too few are in view to tell."""
+        from scipy.spatial import cKDTree
+
+        node, task = self.node, self.task
+        cloud = node.next_cloud(node.now(), timeout=CLOUD_WAIT_S)
+        if cloud is None:
+            raise Refused(phase, f"no cloud on /camera/points for {CLOUD_WAIT_S:.0f} s to check the {phase}")
+        world = cloud_in_world(cloud[1], node.parameter("camera_pose"))
+        footprint = cKDTree(task.obj.moved(expected).points[:, :2])
+        over = np.isfinite(footprint.query(world[:, :2], distance_upper_bound=0.004)[0])
+        height = world[over, 2] - task.scene.table.height
+        thickness = task.obj.thickness
+        on_object = int(np.sum((height > 0.5 * thickness) & (height < thickness + 0.005)))
+        on_table = int(np.sum(np.abs(height) < 0.5 * thickness))
+        return None if on_object + on_table < MIN_CHECK_POINTS else on_object / (on_object + on_table)
+
+    def look_before_closing(self, expected) -> None:
+        """With the hand around the object: it must be on the table where the grasp expects it.
+
+        Raises:
+            Refused: (``release``) the table is seen there instead (it fell when the finger let go, or
+                the slide left it elsewhere).
+        """
+        share = self.object_share(expected, "release")
+        if share is not None and share < 0.5:
+            raise Refused("release", f"the object is not where the grasp expects it (the table is seen over "
+                                     f"{100 * (1 - share):.0f}% of its footprint there): it fell or slid elsewhere")
+
+    def check_lifted(self, expected) -> bool:
+        """After the lift, look where the object was grasped: its top seen there on the table, the grasp
+        missed or let go. Return False when too little of the place is in view to tell.
+
+        Raises:
+            Refused: (``grasp``) the object is still on the table.
+        """
+        share = self.object_share(expected, "grasp")
+        if share is not None and share >= 0.5:
+            raise Refused("grasp", f"the object is still on the table after the lift (its top seen over "
+                                   f"{100 * share:.0f}% of its footprint): the grasp missed it or let it go")
+        return share is not None
+
+    def record(self, event) -> None:
+        """Keep a look that asked for a plan, and say what came of it on /slideplan/status."""
+        self.events.append(event)
+        self.node.publish_status("look", trigger=event.trigger, outcome=event.outcome, detail=event.detail,
+                                 off_m=round(event.position_error_m, 4), off_deg=round(event.yaw_error_deg, 2),
+                                 latency_s=round(event.latency_s, 4))
+
+    def _watch(self) -> Watch:
+        """The closed loop's judge for this task, its camera from the latest cloud.
+
+        Raises:
+            Refused: (``closed_loop``) the cloud is not an organized depth camera's.
+        """
+        node, task = self.node, self.task
+        camera = tracking_camera(node.latest_points(), node.parameter("camera_pose"))
+        return Watch(task.scene, task.obj, task.config, camera, THRESHOLD, REPLAN_TIME_LIMIT_S)
+
+
+def _depth(points: np.ndarray) -> np.ndarray:
+    """The depth image of an organized cloud in its optical frame (z forward), NaN where no return."""
+    depth = np.array(points[..., 2], dtype=float)
+    depth[~(depth > 0)] = np.nan
+    return depth
+
+
+def tracking_camera(points: np.ndarray, camera_pose) -> Camera:
+    """The pinhole camera that took an organized cloud given in its optical frame (x right, y down, z
+    forward) at ``camera_pose`` in the world: the focal length fitted to the points themselves
+    (column offset from the centre = f x / z).
+
+    Raises:
+        Refused: (``closed_loop``) an unorganized cloud, or too few points to fit.
+    """
+    rows, cols = points.shape[:2]
+    if rows < 2:
+        raise Refused("closed_loop", "closed_loop tracks the object in an organized depth cloud (height > 1) in the "
+                                     "camera's optical frame; this cloud is unorganized: set closed_loop to false")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = points[..., 0] / points[..., 2]
+    offset = np.broadcast_to(np.arange(cols) + 0.5 - 0.5 * cols, (rows, cols))
+    valid = np.isfinite(ratio) & (points[..., 2] > 0) & (np.abs(offset) > 1)
+    if valid.sum() < 100:
+        raise Refused("closed_loop", f"{int(valid.sum())} points with depth in the cloud: too few to fit the camera's focal length")
+    ratio, offset = ratio[valid], offset[valid]
+    focal = float(offset @ offset / (offset @ ratio))
+    return Camera.from_optical_pose(base_pose_matrix(camera_pose), width=cols, height=rows,
+                                    fovy_deg=math.degrees(2.0 * math.atan(0.5 * rows / focal)))
 
 
 def serve(scene: Scene, parameters: dict | None = None, *, ros_args: list[str] = (), log=print) -> None:

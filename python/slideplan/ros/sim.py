@@ -4,7 +4,7 @@
 It runs in real time where the physics keeps up (slower where it cannot: everything is timed in
 simulated time) and
 
-- publishes ``/joint_states`` (100 Hz, the arm's joints), ``/camera/points`` (an organized
+- publishes ``/clock`` (simulated time: run the planning node with ``use_sim_time``), ``/joint_states`` (100 Hz, the arm's joints), ``/camera/points`` (an organized
   ``PointCloud2`` of a rendered depth camera with noise and dropouts, in its optical frame
   ``slideplan_camera``, 5 Hz by default) and ``/slideplan_sim/object_pose`` (the object's true pose, its
   centre of mass, for tests and demos);
@@ -237,7 +237,9 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
     from rclpy.node import Node
     from rclpy.qos import qos_profile_sensor_data
+    from builtin_interfaces.msg import Time
     from geometry_msgs.msg import PoseStamped
+    from rosgraph_msgs.msg import Clock
     from sensor_msgs.msg import JointState, PointCloud2
     from std_msgs.msg import Header
     from std_srvs.srv import SetBool
@@ -251,6 +253,7 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
     joint_pub = node.create_publisher(JointState, "/joint_states", 10)
     cloud_pub = node.create_publisher(PointCloud2, "/camera/points", qos_profile_sensor_data)
     pose_pub = node.create_publisher(PoseStamped, "/slideplan_sim/object_pose", 10)
+    clock_pub = node.create_publisher(Clock, "/clock", 10)
 
     def on_trajectory(message: JointTrajectory) -> None:
         try:
@@ -271,8 +274,13 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
     node.create_service(SetBool, "/gripper/set", on_gripper, callback_group=group)
     stop = threading.Event()
 
+    def stamp() -> Time:
+        """Simulated time: what the planning node runs on with use_sim_time."""
+        nanoseconds = int(round(sim.data.time * 1e9))
+        return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+
     def header(frame: str) -> Header:
-        return Header(stamp=node.get_clock().now().to_msg(), frame_id=frame)
+        return Header(stamp=stamp(), frame_id=frame)
 
     def physics() -> None:
         """Step 10 ms of simulated time at a time, no faster than the wall clock (slower where the
@@ -282,6 +290,7 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
         try:
             while not stop.is_set():
                 sim.step_to(sim.data.time + period)
+                clock_pub.publish(Clock(clock=stamp()))
                 positions, velocities = sim.joint_state()
                 joint_pub.publish(JointState(header=header(""), name=sim.joint_names, position=positions.tolist(),
                                              velocity=velocities.tolist()))
@@ -290,8 +299,9 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
                     cloud_pub.publish(cloud_message(sim.optical_points(sim.depth()), header("slideplan_camera")))
                     pose_pub.publish(pose_message(sim.object_pose(), header(WORLD_FRAME)))
                 stop.wait(max(0.0, sim.data.time - (time.perf_counter() - start)))
-        except Exception as error:  # the node must say why it stopped stepping
-            node.get_logger().error(f"simulation stopped: {error}")
+        except Exception as error:  # the node must say why it stopped stepping (unless it is shutting down)
+            if rclpy.ok() and not stop.is_set():
+                node.get_logger().error(f"simulation stopped: {error}")
             stop.set()
         finally:
             sim.close()

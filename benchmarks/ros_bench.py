@@ -1,0 +1,124 @@
+"""Latency of the planning node (issue 25): ``/slideplan/plan`` from the request to the response over DDS.
+
+The node ``slideplan ros serve --scene square`` runs in its own process pinned to one core; this
+process publishes, on the other, a depth cloud of the demo scene (the crescent on the square table,
+rendered by the MuJoCo robot's camera with its noise, a new noise draw per cloud, 5 Hz) and the arm's
+joint state, and calls the service: first until it answers (the cold node), then ``--calls`` times
+(the warm node: the table plane known from the first cloud). Each answer's own timings (perceive,
+plan) are read from its JSON. Every call must solve.
+
+Prints and writes (docs/benchmarks/ros.md) median / p95 with the CPU named. Not a test: ``make bench``.
+
+    python benchmarks/ros_bench.py [--calls 30]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import itertools
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from plan_bench import cpu_name, write_report  # benchmarks/ is the script's directory, hence on sys.path
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--calls", type=int, default=30, help="warm calls")
+    parser.add_argument("--out", type=Path, default=Path("docs/benchmarks/ros.md"))
+    args = parser.parse_args()
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    domain = str(os.getpid() % 100 + 100)
+    os.environ.update(ROS_DOMAIN_ID=domain, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+
+    import rclpy
+    from sensor_msgs.msg import JointState, PointCloud2
+    from std_msgs.msg import Header
+    from std_srvs.srv import Trigger
+
+    from slideplan.closed_loop import default_camera
+    from slideplan.ros.messages import cloud_message
+    from slideplan.ros.sim import Sim, camera_pose_of
+    from slideplan.scenes import load_scene
+
+    scene = load_scene("square")
+    sim = Sim(scene, "crescent", (0.55, -0.08, 0.4))
+    sim.step_to(0.05)
+    clouds = [sim.optical_points(sim.depth()) for _ in range(5)]  # five noise draws, cycled
+    home, _ = sim.joint_state()
+    sim.close()
+    cores = sorted(os.sched_getaffinity(0))
+    node_core, client_cores = cores[-1], set(cores[:-1]) or {cores[-1]}
+    node = subprocess.Popen(
+        [sys.executable, "-m", "slideplan.cli", "ros", "serve", "--scene", "square",
+         "--camera-pose", *(f"{value:.9g}" for value in camera_pose_of(default_camera(scene)))],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=lambda: os.sched_setaffinity(0, {node_core}))
+    os.sched_setaffinity(0, client_cores)
+    rclpy.init()
+    client_node = rclpy.create_node("slideplan_bench")
+    cloud_pub = client_node.create_publisher(PointCloud2, "/camera/points", 5)
+    joint_pub = client_node.create_publisher(JointState, "/joint_states", 10)
+    stop = threading.Event()
+
+    def sensors() -> None:
+        for points in itertools.cycle(clouds):
+            if stop.is_set():
+                return
+            cloud_pub.publish(cloud_message(points, Header(frame_id="slideplan_camera")))
+            joint_pub.publish(JointState(name=sim.joint_names, position=home.tolist(), velocity=[0.0] * len(home)))
+            stop.wait(0.2)
+
+    threading.Thread(target=sensors, daemon=True).start()
+    service = client_node.create_client(Trigger, "/slideplan/plan")
+
+    def call() -> tuple[float, dict]:
+        started = time.perf_counter()
+        future = service.call_async(Trigger.Request())
+        rclpy.spin_until_future_complete(client_node, future, timeout_sec=60.0)
+        return time.perf_counter() - started, json.loads(future.result().message)
+
+    try:
+        assert service.wait_for_service(timeout_sec=60.0), "the node never served /slideplan/plan"
+        started = time.perf_counter()
+        while True:
+            cold_s, answer = call()
+            if answer["status"] == "solved":
+                break
+            if time.perf_counter() - started > 60.0:
+                raise SystemExit(f"the node does not plan: {answer}")
+            time.sleep(0.2)
+        warm = [call() for _ in range(args.calls)]
+    finally:
+        stop.set()
+        node.terminate()
+        node.wait(timeout=20)
+        client_node.destroy_node()
+        rclpy.shutdown()
+    unsolved = [answer for _, answer in warm if answer["status"] != "solved"]
+    if unsolved:
+        raise SystemExit(f"{len(unsolved)} of {args.calls} calls did not solve: {unsolved[0]}")
+    columns = {"request to response": [seconds for seconds, _ in warm],
+               "perceive (in the node)": [answer["perceive_s"] for _, answer in warm],
+               "plan (in the node)": [answer["planning_time_s"] for _, answer in warm]}
+    lines = [f"# Planning node latency ({datetime.date.today().isoformat()})", "",
+             f"CPU: {cpu_name()}, the node pinned to one core, the client on the other. "
+             f"`python benchmarks/ros_bench.py --calls {args.calls}`: `/slideplan/plan` (std_srvs/Trigger over "
+             "Fast DDS, localhost) on the demo scene's rendered 320 x 240 depth cloud; the warm node knows the "
+             "table plane from its first cloud.", "",
+             f"The first call of a fresh node (cold): {cold_s:.3f} s.", "",
+             "| warm node, per call | median | p95 |", "|---|---|---|"]
+    for name, values in columns.items():
+        lines.append(f"| {name} | {1000 * np.median(values):.0f} ms | {1000 * np.percentile(values, 95):.0f} ms |")
+    write_report(lines, args.out)
+
+
+if __name__ == "__main__":
+    main()
