@@ -76,6 +76,7 @@ bench: install
 	$(PYTHON) benchmarks/execute_bench.py
 	$(PYTHON) benchmarks/tracking_bench.py
 	$(PYTHON) benchmarks/replan_bench.py
+	$(PYTHON) benchmarks/ros_bench.py
 
 clean:
 	rm -rf build out $(VENV)

@@ -54,7 +54,7 @@ from .planning import PlannerConfig, PlanResult, build_robot, plan
 from .rendering import Camera, camera_depth, noisy_depth, place_objects, render_scene
 from .scenes import Scene, load_scene
 from .timing import resolve_limits
-from .tracking import Tracker
+from .tracking import NOT_UNDER_TIP, Tracker
 from .transforms import compose_planar, move_planar, row_to_pose, wrap_angle
 from .verify import overhang, planar_motion
 
@@ -352,17 +352,18 @@ class Watch:
         """The pose last seen, carried by the fingertip's motion since (Eq. 2), or None."""
         return None if self._last is None else compose_planar(self._last[0], planar_motion(self._last[1], tip))
 
-    def look(self, frame: np.ndarray, tip: np.ndarray, predicted) -> Any:
+    def look(self, frame: np.ndarray, tip: np.ndarray, predicted, *, under_tip: bool = True) -> Any:
         """Track the object in ``frame`` (a depth image) with the fingertip measured at ``tip`` (4, 4), from
         where Eq. 2 puts it and from where it was last seen carried along by the fingertip since (the
         better fit wins): after a disturbance the prediction is centimetres off, and after a wrong fit
-        the last pose is."""
+        the last pose is. ``under_tip``: only a fit with the object under the fingertip counts."""
         guesses = [predicted]
         carried = self.carried_last(tip)
         if carried is not None and not self.agree(carried, predicted):
             guesses.append(carried)
         # The finger presses on the object until the grasp: its measured position is on the object.
-        seen = max((self.tracker.track(frame, guess, contact=tip[:2, 3]) for guess in guesses),
+        contact = tip[:2, 3] if under_tip else None
+        seen = max((self.tracker.track(frame, guess, contact=contact) for guess in guesses),
                    key=lambda fit: (fit.ok, fit.edge_points, -fit.rmse_m if fit.ok else 0.0))
         self.looks += 1
         if seen.ok:
@@ -375,17 +376,21 @@ class Watch:
         """At the end of a slide, the arm at rest: frames (``frames()`` gives the next ``(depth, tip)``)
         until two in a row agree (a single frame's fit can be a wrong one, and the grasp is made where
         the object is seen). The pose last seen during the slide, carried to the end, counts as the
-        first of the two."""
+        first of the two. When no fit puts the object under the fingertip (a push took it from under the
+        finger), as many frames again without that test."""
         frame, tip = frames()
         carried = self.carried_last(tip)
         seen = self.look(frame, tip, predicted)
         if seen.ok and carried is not None and self.agree(carried, seen.motion):
             return seen
-        for _ in range(END_LOOKS - 1):
-            again = self.look(*frames(), predicted)
-            if seen.ok and again.ok and self.agree(seen.motion, again.motion):
-                return again
-            seen = again
+        for under_tip in (True, False):
+            for _ in range(END_LOOKS - 1 if under_tip else END_LOOKS):
+                again = self.look(*frames(), predicted, under_tip=under_tip)
+                if seen.ok and again.ok and self.agree(seen.motion, again.motion):
+                    return again
+                seen = again
+            if seen.reason != NOT_UNDER_TIP:
+                break
         return dataclasses.replace(seen, ok=False, reason=f"no two of {END_LOOKS} frames agree") if seen.ok else seen
 
     def drifted(self, seen, predicted, segment: Segment, tip: np.ndarray) -> bool:

@@ -129,8 +129,7 @@ class _Plane:
 
     def covered_area(self) -> float:
         """Area of the _AREA_CELL grid cells holding inliers (m^2)."""
-        cells = np.unique(np.floor(self.inliers[:, :2] / _AREA_CELL).astype(np.int64), axis=0)
-        return len(cells) * _AREA_CELL**2
+        return _occupied_cells(self.inliers[:, :2]) * _AREA_CELL**2
 
 
 def _fit_planes(sample: np.ndarray, tolerance: float, seed: int) -> list[_Plane]:
@@ -159,10 +158,19 @@ def _fit_planes(sample: np.ndarray, tolerance: float, seed: int) -> list[_Plane]
     return planes
 
 
+def _occupied_cells(xy: np.ndarray) -> int:
+    """How many _AREA_CELL cells hold points: distinct cells by one integer key each (numpy's unique
+    over rows is ten times slower)."""
+    if len(xy) == 0:
+        return 0
+    cells = np.floor(xy / _AREA_CELL).astype(np.int64)
+    cells -= cells.min(axis=0)
+    return len(np.unique(cells[:, 0] * (int(cells[:, 1].max()) + 1) + cells[:, 1]))
+
+
 def _cell_size(support_xy: np.ndarray) -> float:
     """Twice the mean point spacing of the table's points, clipped to [3, 10] mm."""
-    cells = np.unique(np.floor(support_xy / _AREA_CELL).astype(np.int64), axis=0)
-    spacing = math.sqrt(len(cells) * _AREA_CELL**2 / len(support_xy))
+    spacing = math.sqrt(_occupied_cells(support_xy) * _AREA_CELL**2 / len(support_xy))
     return float(np.clip(2.0 * spacing, 0.003, 0.01))
 
 

@@ -43,6 +43,8 @@ EXPLAINED = 0.85  # a fit from the guess explaining this fraction of the edge po
 NEAR_GUESS = (0.01, 0.1)  # m (the centre of mass), rad
 INLIER_M = 0.003  # an edge point this near the fitted outline is explained by it (about a pixel at 0.75 m)
 
+NOT_UNDER_TIP = "no fit puts the object under the fingertip"  # a TrackedPose reason
+
 
 @dataclass(frozen=True)
 class TrackedPose:
@@ -182,10 +184,10 @@ class Tracker:
             refined = self._icp(points, max(under or scouts, key=_score)[0], self.iterations)
             fits = [candidate for candidate in (fit, refined) if self._holds(candidate[0], contact)]
             if not fits:
-                return TrackedPose(False, guess, 0, math.nan, "no fit puts the object under the fingertip")
+                return TrackedPose(False, guess, 0, math.nan, NOT_UNDER_TIP)
             fit = max(fits, key=_score)
         elif not self._holds(fit[0], contact):
-            return TrackedPose(False, guess, 0, math.nan, "no fit puts the object under the fingertip")
+            return TrackedPose(False, guess, 0, math.nan, NOT_UNDER_TIP)
         motion, inliers, rmse = fit
         if inliers < MIN_EDGE_POINTS:
             return TrackedPose(False, guess, inliers, math.nan, "the fit lost the edge")

@@ -14,6 +14,7 @@ the numbers, or the ``reason`` it failed.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 import time
@@ -121,12 +122,12 @@ def _dense(configs: list[np.ndarray]) -> np.ndarray:
     return np.array(path)
 
 
-def reach_path(result: PlanResult, obj: ThinObject, current) -> np.ndarray:
+def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = False) -> np.ndarray:
     """From the arm's configuration ``current`` to the slide's first contact: joint-linear to a
     configuration with the fingertip HOVER_M above the object there, or else by way of one
-    REACH_CLEARANCE_M higher still (every link
-    clear of table, clutter and object on the way), then down onto the contact (the finger may touch
-    the object there, as while sliding).
+    REACH_CLEARANCE_M higher still (every link clear of table, clutter and object on the way), then
+    down onto the contact (the finger may touch the object there, as while sliding). ``pressed``: the
+    finger is on the table or the object now (a slide ended): it rises HOVER_M straight up first.
 
     Raises:
         Refused: (``reach``) no IK above the contact, or a collision on every way, naming the links.
@@ -140,9 +141,9 @@ def reach_path(result: PlanResult, obj: ThinObject, current) -> np.ndarray:
     top = float(result.table["height"]) + obj.thickness
     tip = np.asarray(robot.fk(start))
 
-    def above(height: float, seed: np.ndarray) -> np.ndarray:
-        """The start's fingertip pose ``height`` above the object's top (the start presses below it)."""
-        target = tip.copy()
+    def above(height: float, seed: np.ndarray, pose: np.ndarray = tip) -> np.ndarray:
+        """A fingertip pose (the start's) ``height`` above the object's top (the start presses below it)."""
+        target = pose.copy()
         target[2, 3] = max(target[2, 3], top) + height
         config = robot.ik(target, seed=seed, rng_seed=0)
         if config is None:
@@ -161,12 +162,18 @@ def reach_path(result: PlanResult, obj: ThinObject, current) -> np.ndarray:
     if blocked(down, _core.ContactMode.SLIDING):
         raise Refused("reach", f"the move down onto the first contact from {100 * HOVER_M:.0f} cm above collides")
     current = np.asarray(current, dtype=float)
+    rise = np.zeros((0, len(current)))
+    if pressed:
+        rise = _dense([current, above(HOVER_M, current, np.asarray(robot.fk(current)))])
+        if blocked(rise, _core.ContactMode.SLIDING):
+            raise Refused("reach", "lifting the finger off collides")
+        current, rise = rise[-1], rise[:-1]
     pairs: list = []
     for way in ([current, hover], [current, above(HOVER_M + REACH_CLEARANCE_M, hover), hover]):
         path = _dense(way)
         pairs = blocked(path, _core.ContactMode.FREE)
         if not pairs:
-            return np.vstack([path, down[1:]])
+            return np.vstack([rise, path, down[1:]])
     names = ", ".join(f"{first}-{second}" for first, second in pairs[:3])
     raise Refused("reach", f"the joint-space move from the current configuration to above the first contact collides "
                            f"({names}), also by way of {100 * (HOVER_M + REACH_CLEARANCE_M):.0f} cm above it: move the arm clear first")
@@ -572,10 +579,14 @@ class Execution:
             predicted = segment.predicted(np.asarray(robot.fk(path[-1])))
             again, event, seen = watch.replan("end", float(times[-1]), frames_after([node.now()]), predicted, path[-1])
             self.record(event)
+            outcome = event.outcome
+            if again is None and outcome == "refused" and ends < END_REPLANS:
+                # The finger is off the object as seen (pushed from under it): a new slide from a new contact.
+                again, outcome = self.new_contact(seen.motion), "new_contact"
             if again is None or ends >= END_REPLANS:  # its own grasp, from where Eq. 2 put the object
                 return segment.result, replans, seen.motion if seen.ok else predicted
             replans += 1
-            node.publish_status("replan", trigger="end", replans=replans, outcome=event.outcome)
+            node.publish_status("replan", trigger="end", replans=replans, outcome=outcome)
             if len(again.trajectory) == 1:
                 return again, replans, seen.motion
             ends += 1
@@ -624,6 +635,22 @@ class Execution:
             raise Refused("grasp", f"the object is still on the table after the lift (its top seen over "
                                    f"{100 * share:.0f}% of its footprint): the grasp missed it or let it go")
         return share is not None
+
+    def new_contact(self, motion):
+        """Plan a whole new slide for the object seen at ``motion`` and reach its first contact (the finger
+        lifted off first); None if there is no plan within the re-plan time limit."""
+        from ..verify import verify
+
+        node, task = self.node, self.task
+        seen = task.obj.moved(motion)
+        fresh = plan(task.scene, seen, dataclasses.replace(task.config, time_limit_s=REPLAN_TIME_LIMIT_S))
+        node.publish_status("look", trigger="new_contact", outcome=fresh.status, detail="", off_m=0.0, off_deg=0.0,
+                            latency_s=round(fresh.planning_time_s, 4))
+        if not fresh.solved or not verify(fresh).ok:
+            return None
+        reach = reach_path(fresh, seen, node.joints()[0], pressed=True)
+        node.move(fresh.joint_names, reach, timed(fresh, reach, "reach", capped=False), "reach")
+        return fresh
 
     def record(self, event) -> None:
         """Keep a look that asked for a plan, and say what came of it on /slideplan/status."""
