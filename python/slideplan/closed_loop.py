@@ -84,6 +84,21 @@ class Disturbance:
     dyaw: float
     after_s: float
 
+    def apply(self, built) -> None:
+        """Move the object of an execution model (:class:`slideplan.execute.model.Model`) by this much,
+        about its centre of mass, and leave it at rest."""
+        import mujoco
+
+        model, data = built.model, built.data
+        joint = model.body_jntadr[built.object_body]
+        address = model.jnt_qposadr[joint]
+        data.qpos[address:address + 2] += (self.dx, self.dy)
+        turn = np.array([math.cos(self.dyaw / 2), 0.0, 0.0, math.sin(self.dyaw / 2)])
+        quaternion = np.zeros(4)
+        mujoco.mju_mulQuat(quaternion, turn, data.qpos[address + 3:address + 7].copy())
+        data.qpos[address + 3:address + 7] = quaternion
+        data.qvel[model.jnt_dofadr[joint]:][:6] = 0.0
+
 
 @dataclass
 class Replan:
@@ -567,14 +582,7 @@ def run(
     slide_start = [0.0]
 
     def disturb() -> None:
-        """Move the object's free joint by the disturbance (about its centre of mass), at rest."""
-        address = model.jnt_qposadr[model.body_jntadr[built.object_body]]
-        data.qpos[address:address + 2] += (disturbance.dx, disturbance.dy)
-        turn = np.array([math.cos(disturbance.dyaw / 2), 0.0, 0.0, math.sin(disturbance.dyaw / 2)])
-        quaternion = np.zeros(4)
-        mujoco.mju_mulQuat(quaternion, turn, data.qpos[address + 3:address + 7].copy())
-        data.qpos[address + 3:address + 7] = quaternion
-        data.qvel[model.jnt_dofadr[model.body_jntadr[built.object_body]]:][:6] = 0.0
+        disturbance.apply(built)
         disturbed[0] = True
 
     grasp_plan, seen_motion = first, None

@@ -20,16 +20,18 @@ rclpy = pytest.importorskip("rclpy", reason="the ros extra is not installed (pip
 
 from geometry_msgs.msg import PoseStamped  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from sensor_msgs.msg import PointCloud2  # noqa: E402
+from sensor_msgs.msg import PointCloud2, PointField  # noqa: E402
 from std_msgs.msg import Header, String  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory  # noqa: E402
 from visualization_msgs.msg import Marker, MarkerArray  # noqa: E402
 
 from slideplan.closed_loop import default_camera  # noqa: E402
+from slideplan.errors import InputError  # noqa: E402
 from slideplan.objects import load_object  # noqa: E402
 from slideplan.planning import PlannerConfig, robot_model  # noqa: E402
-from slideplan.ros.messages import cloud_message, pose_matrix, seconds  # noqa: E402
+from slideplan.ros.messages import cloud_message, cloud_points, pose_matrix, seconds, trajectory_arrays, trajectory_message  # noqa: E402,E501
+from slideplan.ros.serve import Refused, cloud_in_world, tracking_camera  # noqa: E402
 from slideplan.ros.sim import Sim, camera_pose_of  # noqa: E402
 from slideplan.scenes import load_scene  # noqa: E402
 from slideplan.verify import overhang  # noqa: E402
@@ -233,3 +235,53 @@ def test_a_push_mid_slide_is_seen_re_planned_for_and_the_answer_is_true():
     assert response.success == lifted, (answer, lifted)
     if not response.success:
         assert answer["status"] in ("release", "grasp"), answer
+
+
+def test_clouds_round_trip_through_messages_with_other_fields_and_padded_rows():
+    rng = np.random.default_rng(0)
+    points = rng.normal(size=(4, 5, 3))
+    points[1, 2] = np.nan
+    plain = cloud_points(cloud_message(points, Header()))
+    assert np.allclose(plain, points, equal_nan=True, atol=1e-6)
+    # A driver's layout: x y z then rgb, 16-byte points, rows padded to 96 bytes.
+    message = cloud_message(points, Header())
+    record = np.zeros((4, 24), dtype=np.float32)
+    for row in range(4):
+        record[row, :20] = np.column_stack([points[row].astype(np.float32), np.full(5, 7.0, np.float32)]).ravel()
+    message.fields.append(PointField(name="rgb", offset=12, datatype=PointField.FLOAT32, count=1))
+    message.point_step, message.row_step, message.data = 16, 96, record.tobytes()
+    assert np.allclose(cloud_points(message), points, equal_nan=True, atol=1e-6)
+    message.fields = [field for field in message.fields if field.name != "z"]
+    with pytest.raises(InputError, match="missing or not float32: z"):
+        cloud_points(message)
+
+
+def test_trajectories_are_read_in_the_arm_s_joint_order_and_bad_ones_are_named():
+    names = ["a", "b", "c"]
+    path, times = np.array([[0.0, 1.0, 2.0], [0.5, 1.5, 2.5]]), np.array([0.0, 0.4])
+    message = trajectory_message(names, path, times, Header())
+    message.joint_names = ["c", "a", "b"]
+    for point in message.points:
+        point.positions = [point.positions[2], point.positions[0], point.positions[1]]
+    read, read_times = trajectory_arrays(message, names)
+    assert np.allclose(read, path) and np.allclose(read_times, times)
+    with pytest.raises(InputError, match=r"unknown \['d'\]"):
+        trajectory_arrays(trajectory_message(["a", "b", "d"], path, times, Header()), names)
+    with pytest.raises(InputError, match="non-decreasing"):
+        trajectory_arrays(trajectory_message(names, path, times[::-1], Header()), names)
+
+
+def test_the_tracking_camera_is_recovered_from_an_organized_cloud():
+    """The node knows only the cloud and camera_pose: the focal length it fits gives back the camera's
+    pixels, and an unorganized cloud is refused for the closed loop."""
+    scene = load_scene("square")
+    sim = Sim(scene, "crescent", POSE)
+    sim.step_to(0.05)
+    points = sim.optical_points(sim.depth())
+    sim.close()
+    camera = tracking_camera(points, camera_pose_of(sim.camera))
+    assert camera.fovy_deg == pytest.approx(sim.camera.fovy_deg, abs=1e-3)
+    world = cloud_in_world(points, camera_pose_of(sim.camera))[:100]
+    assert np.allclose(camera.pixels(world), sim.camera.pixels(world), atol=1e-3)
+    with pytest.raises(Refused, match="unorganized"):
+        tracking_camera(points.reshape(1, -1, 3), camera_pose_of(sim.camera))

@@ -643,7 +643,12 @@ class Execution:
 
         node, task = self.node, self.task
         seen = task.obj.moved(motion)
-        fresh = plan(task.scene, seen, dataclasses.replace(task.config, time_limit_s=REPLAN_TIME_LIMIT_S))
+        try:
+            fresh = plan(task.scene, seen, dataclasses.replace(task.config, time_limit_s=REPLAN_TIME_LIMIT_S))
+        except InputError as error:  # e.g. pushed mostly off the table: there is no slide from there
+            node.publish_status("look", trigger="new_contact", outcome="refused", detail=error.problem, off_m=0.0,
+                                off_deg=0.0, latency_s=0.0)
+            return None
         node.publish_status("look", trigger="new_contact", outcome=fresh.status, detail="", off_m=0.0, off_deg=0.0,
                             latency_s=round(fresh.planning_time_s, 4))
         if not fresh.solved or not verify(fresh).ok:

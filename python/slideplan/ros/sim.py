@@ -206,8 +206,6 @@ class Sim:
 
     def _maybe_disturb(self) -> None:
         """Move the object by the disturbance ``after_s`` after the pad first touched it."""
-        import mujoco
-
         if self.disturbance is None:
             return
         if self._touched is None:
@@ -220,13 +218,7 @@ class Sim:
         if self.data.time - self._touched < self.disturbance.after_s:
             return
         move, self.disturbance = self.disturbance, None
-        address = self.model.jnt_qposadr[self.model.body_jntadr[self.built.object_body]]
-        self.data.qpos[address:address + 2] += (move.dx, move.dy)
-        turn = np.array([math.cos(move.dyaw / 2), 0.0, 0.0, math.sin(move.dyaw / 2)])
-        quaternion = np.zeros(4)
-        mujoco.mju_mulQuat(quaternion, turn, self.data.qpos[address + 3:address + 7].copy())
-        self.data.qpos[address + 3:address + 7] = quaternion
-        self.data.qvel[self.model.jnt_dofadr[self.model.body_jntadr[self.built.object_body]]:][:6] = 0.0
+        move.apply(self.built)
 
 
 def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=print) -> None:
