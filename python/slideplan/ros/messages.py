@@ -48,10 +48,10 @@ def cloud_points(message: PointCloud2) -> np.ndarray:
     order = ">" if message.is_bigendian else "<"
     layout = np.dtype({"names": list("xyz"), "formats": [order + "f4"] * 3,
                        "offsets": [offsets[name].offset for name in "xyz"], "itemsize": message.point_step})
-    rows = np.frombuffer(bytes(message.data), dtype=np.uint8)
-    if message.row_step != message.width * message.point_step:  # padded rows
-        rows = rows[:message.height * message.row_step].reshape(message.height, message.row_step)[:, :message.width * message.point_step]
-    structured = np.frombuffer(np.ascontiguousarray(rows).tobytes()[:count * message.point_step], dtype=layout)
+    raw = np.frombuffer(message.data, dtype=np.uint8)
+    if message.row_step != message.width * message.point_step:  # padded rows: drop the padding (one copy)
+        raw = raw[:message.height * message.row_step].reshape(message.height, message.row_step)[:, :message.width * message.point_step]
+    structured = np.ascontiguousarray(raw).reshape(-1)[:count * message.point_step].view(layout)
     return np.stack([structured[name] for name in "xyz"], axis=-1).astype(float).reshape(message.height, message.width, 3)
 
 

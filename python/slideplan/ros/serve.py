@@ -367,6 +367,9 @@ class PlanningNode:
         joints = self.joints()
         self.publish_status("plan")
         camera_pose = list(self.parameter("camera_pose"))
+        if len(camera_pose) != 6 or not np.all(np.isfinite(np.asarray(camera_pose, dtype=float))):
+            raise Refused("camera_pose", f"parameter camera_pose must be 6 finite numbers (x y z roll pitch yaw), "
+                                         f"got {camera_pose}")
         known = self._plane[1] if self._plane is not None and self._plane[0] == camera_pose else None
         task = plan_task(self.scene, cloud[1], None if joints is None else joints[0], camera_pose=camera_pose,
                          target=int(self.parameter("target")), seed=int(self.parameter("seed")),
