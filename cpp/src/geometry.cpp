@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace slideplan
 {
@@ -14,11 +15,15 @@ namespace slideplan
             return a.x() * b.y() - a.y() * b.x();
         }
 
+        /// Sign of the turn a -> b -> c, 0 where rounding could decide it: Shewchuk's error bound of
+        /// the double-precision determinant (Robust Predicates, 1997, orient2d's first stage), relative
+        /// to the terms' size. A fixed epsilon called the turns of a fine circle's edges (1e-5 m) collinear.
         int orientation(const Eigen::Vector2d &a, const Eigen::Vector2d &b, const Eigen::Vector2d &c)
         {
-            const double value = cross(b - a, c - a);
-            constexpr double eps = 1e-14;
-            return value > eps ? 1 : (value < -eps ? -1 : 0);
+            const double left = (a.x() - c.x()) * (b.y() - c.y()), right = (a.y() - c.y()) * (b.x() - c.x());
+            const double value = left - right;
+            const double bound = 3.3306690738754716e-16 * (std::abs(left) + std::abs(right));
+            return value > bound ? 1 : (value < -bound ? -1 : 0);
         }
 
         bool onSegment(const Eigen::Vector2d &a, const Eigen::Vector2d &b, const Eigen::Vector2d &p)
@@ -32,7 +37,7 @@ namespace slideplan
         {
             const int o1 = orientation(p1, p2, q1), o2 = orientation(p1, p2, q2);
             const int o3 = orientation(q1, q2, p1), o4 = orientation(q1, q2, p2);
-            if (o1 != o2 && o3 != o4)
+            if (o1 * o2 < 0 && o3 * o4 < 0)  // proper crossing; a 0 (touching) is settled below
                 return true;
             return (o1 == 0 && onSegment(p1, p2, q1)) || (o2 == 0 && onSegment(p1, p2, q2)) ||
                    (o3 == 0 && onSegment(q1, q2, p1)) || (o4 == 0 && onSegment(q1, q2, p2));
@@ -49,6 +54,33 @@ namespace slideplan
                              const Eigen::Vector2d &c)
         {
             return cross(b - a, p - a) >= 0 && cross(c - b, p - b) >= 0 && cross(a - c, p - c) >= 0;
+        }
+
+        /// A pair of non-adjacent edges that meet, or (-1, -1). A sweep over x: only edges whose
+        /// x-ranges overlap are tested, so a table outline of thousands of vertices costs milliseconds.
+        std::pair<int, int> firstCrossing(const Polygon2 &v)
+        {
+            const int n = static_cast<int>(v.rows());
+            const auto lowX = [&](int e) { return std::min(v(e, 0), v((e + 1) % n, 0)); };
+            const auto highX = [&](int e) { return std::max(v(e, 0), v((e + 1) % n, 0)); };
+            std::vector<int> order(n), active;
+            for (int e = 0; e < n; ++e)
+                order[e] = e;
+            std::sort(order.begin(), order.end(), [&](int a, int b) { return lowX(a) < lowX(b); });
+            for (int e : order)
+            {
+                active.erase(std::remove_if(active.begin(), active.end(), [&](int a) { return highX(a) < lowX(e); }),
+                             active.end());
+                const Eigen::Vector2d p1 = v.row(e), p2 = v.row((e + 1) % n);
+                for (int a : active)
+                {
+                    const bool adjacent = std::abs(a - e) == 1 || std::abs(a - e) == n - 1;
+                    if (!adjacent && segmentsIntersect(p1, p2, v.row(a), v.row((a + 1) % n)))
+                        return {std::min(a, e), std::max(a, e)};
+                }
+                active.push_back(e);
+            }
+            return {-1, -1};
         }
 
         /// Ear clipping of a simple counter-clockwise polygon: O(n^2), fine for table outlines.
@@ -108,19 +140,16 @@ namespace slideplan
             throw std::invalid_argument("support polygon has a NaN or infinite vertex");
         if (!std::isfinite(height_))
             throw std::invalid_argument("support surface height is not finite");
-        for (int i = 0; i < n; ++i)
-            for (int j = i + 1; j < n; ++j)
-            {
-                const bool adjacent = j == i + 1 || (i == 0 && j == n - 1);
-                const Eigen::Vector2d p1 = vertices_.row(i), p2 = vertices_.row((i + 1) % n);
-                const Eigen::Vector2d q1 = vertices_.row(j), q2 = vertices_.row((j + 1) % n);
-                if (!adjacent && segmentsIntersect(p1, p2, q1, q2))
-                {
-                    std::ostringstream msg;
-                    msg << "support polygon is self-intersecting: edge " << i << " crosses edge " << j;
-                    throw std::invalid_argument(msg.str());
-                }
-            }
+        if (n > kMaxVertices)
+            throw std::invalid_argument("support polygon has " + std::to_string(n) + " vertices, at most " +
+                                        std::to_string(kMaxVertices) + " (simplify the outline)");
+        const auto [i, j] = firstCrossing(vertices_);
+        if (i >= 0)
+        {
+            std::ostringstream msg;
+            msg << "support polygon is self-intersecting: edge " << i << " crosses edge " << j;
+            throw std::invalid_argument(msg.str());
+        }
         double area = signedArea(vertices_);
         if (std::abs(area) < 1e-8)
             throw std::invalid_argument("support polygon is degenerate (zero area)");

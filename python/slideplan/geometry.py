@@ -22,6 +22,11 @@ def _signed_area(vertices: np.ndarray) -> float:
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
+def _check_vertex_count(count: int, fail) -> None:
+    if count > _core.SupportSurface.MAX_VERTICES:
+        raise fail(f"polygon has {count} vertices, at most {_core.SupportSurface.MAX_VERTICES} (simplify the outline)")
+
+
 def simple_polygon_vertices(vertices, *, source: str = "", field: str = "vertices") -> np.ndarray:
     """Validate the vertices of a simple polygon (one ring, no holes).
 
@@ -52,6 +57,7 @@ def simple_polygon_vertices(vertices, *, source: str = "", field: str = "vertice
         points = points[:-1]
     if len(points) < 3:
         raise fail(f"polygon needs at least 3 vertices, got {len(points)}")
+    _check_vertex_count(len(points), fail)
     polygon = Polygon(points)
     # Check collinear/coincident vertices before validity: GEOS would call them
     # self-intersecting, which is true but less helpful.
@@ -106,7 +112,9 @@ class SupportSurface:
         return cls(points, as_number(height, source=source, field="height"))
 
     @classmethod
-    def circle(cls, center, radius: float, points: int = 100, height: float = 0.0) -> SupportSurface:
+    def circle(
+        cls, center, radius: float, points: int = 100, height: float = 0.0, *, source: str = "", field: str = ""
+    ) -> SupportSurface:
         """A round table approximated by a regular polygon (the paper uses 100 edge points).
 
         Args:
@@ -114,17 +122,22 @@ class SupportSurface:
             radius: circumradius (m), > 0.
             points: number of vertices, >= 3.
             height: z of the table top (m).
+            source: file the circle came from, for error messages.
+            field: name of the field holding the circle (e.g. ``table.circle``), for error messages.
 
         Returns:
             The support surface.
 
         Raises:
-            InputError: bad centre, radius or point count.
+            InputError: bad centre, radius or point count (more than ``MAX_VERTICES`` is refused
+                before anything is allocated).
         """
-        center_xy = as_numbers(center, 2, source="", field="center")
-        radius = as_number(radius, source="", field="radius", positive=True)
+        prefix = f"{field}." if field else ""
+        center_xy = as_numbers(center, 2, source=source, field=prefix + "center")
+        radius = as_number(radius, source=source, field=prefix + "radius", positive=True)
         if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < 3:
-            raise InputError(f"expected an integer >= 3, got {points!r}", field="points")
+            raise InputError(f"expected an integer >= 3, got {points!r}", source=source, field=prefix + "points")
+        _check_vertex_count(points, lambda problem: InputError(problem, source=source, field=prefix + "points"))
         angles = 2.0 * np.pi * np.arange(points) / points
         vertices = center_xy + radius * np.column_stack([np.cos(angles), np.sin(angles)])
         return cls.from_vertices(vertices, height)

@@ -276,10 +276,15 @@ def perceive(
     heights = cloud[:, 2] - (a * cloud[:, 0] + b * cloud[:, 1] + c)
     on_plane = np.abs(heights) < plane_tolerance
     grid = _Grid(cloud[on_plane, :2], cell_size or _cell_size(cloud[on_plane, :2]))
-    table_mask = _table_mask(grid, cloud[on_plane, :2])
+    in_grid = grid.covers(cloud[:, :2])
+    thin_cells = grid.accumulate(grid.index(cloud[in_grid & (heights > min_height) & (heights <= max_thickness), :2])) > 0
+    # Two tables at one height are one plane: the largest of its patches with something thin on it.
+    tables = _table_masks(grid, cloud[on_plane, :2], min_table_area)
+    skipped = next((i for i, mask in enumerate(tables) if _holds_an_object(mask & thin_cells, grid.cell, min_object_area)), 0)
+    table_mask = tables[skipped]
 
     # Everything at or above the plane over the table: the table top, the objects, the clutter.
-    over = grid.covers(cloud[:, :2]) & (heights > -plane_tolerance)
+    over = in_grid & (heights > -plane_tolerance)
     over[over] = table_mask[tuple(grid.index(cloud[over, :2]).T)]
     xy, heights_over = cloud[over, :2], heights[over]
     cells = grid.index(xy)
@@ -325,8 +330,12 @@ def perceive(
         np.asarray(hull.exterior.coords), a * center.x + b * center.y + c + offset, field="table outline"
     )
 
-    objects, warnings = [], []
+    objects = []
+    warnings = [f"{skipped} larger table patch(es) at the same height with no object on them were passed over"] \
+        if skipped else []
     for _, top, members, near, inner_heights in sorted(thin, key=lambda item: -item[0]):
+        if top - offset < min_height:  # stray points lifted the smoothed field, the cluster is table
+            continue
         # The object's edge is where the edge field crosses half way from the table to its top.
         half = 0.5 * (top + offset)
         low, high = np.percentile(inner_heights, [5, 95]) - offset
@@ -336,7 +345,13 @@ def perceive(
                 "probably touching objects, reported as one"
             )
         footprint = grid.polygon(near & (edge_field > half))
-        objects.append(_thin_object(xy[members & (edge_at_point > half)], top - offset, table.height, footprint))
+        # A point of the object lies at its top's height: flying pixels over it do not (within the
+        # larger of half the thickness and three times the top's noise, a robust sigma from its MAD).
+        band = max(top - half, 3 * 1.4826 * float(np.median(np.abs(inner_heights - np.median(inner_heights)))))
+        own = (heights_over > half) & (heights_over < top + band)
+        objects.append(_thin_object(xy[members & own & (edge_at_point > half)], top - offset, table.height, footprint))
+    if not objects:
+        raise problem(f"no object on the table: nothing between {min_height:g} and {max_thickness:g} m above the table plane")
     return Perception(table, plane.tilt_deg, objects, obstacles, warnings, grid.cell,
                       tuple(float(value) for value in plane.coefficients))
 
@@ -371,8 +386,9 @@ def _table_plane(cloud: np.ndarray, tolerance: float, min_area: float, max_tilt_
     return plane
 
 
-def _table_mask(grid: _Grid, xy: np.ndarray) -> np.ndarray:
-    """The cells inside the convex hull of the largest connected patch of the plane's points.
+def _table_masks(grid: _Grid, xy: np.ndarray, min_area: float) -> list[np.ndarray]:
+    """Per connected patch of the plane's points covering at least ``min_area`` (and always the
+    largest), the cells inside its convex hull, largest first.
 
     The hull, not the patch: objects and clutter hide the table under them, and a tall box's
     shadow can reach the table's edge, so the patch has holes and bays that are table.
@@ -383,9 +399,20 @@ def _table_mask(grid: _Grid, xy: np.ndarray) -> np.ndarray:
     labels, _ = ndimage.label(ndimage.binary_closing(support), structure=np.ones((3, 3)))  # closing bridges dropouts
     sizes = np.bincount(labels.ravel())
     sizes[0] = 0
-    hull = _convex_hull(grid.centers(labels == int(np.argmax(sizes)))).buffer(0.5 * grid.cell)
-    all_cells = np.ones(grid.shape, dtype=bool)
-    return shapely.contains_xy(hull, *grid.centers(all_cells).T).reshape(grid.shape)
+    order = np.argsort(-sizes, kind="stable")
+    keep = [label for rank, label in enumerate(order) if sizes[label] > 0 and (rank == 0 or sizes[label] * grid.cell**2 >= min_area)]
+    all_cells = grid.centers(np.ones(grid.shape, dtype=bool)).T
+    return [shapely.contains_xy(_convex_hull(grid.centers(labels == label)).buffer(0.5 * grid.cell), *all_cells)
+            .reshape(grid.shape) for label in keep]
+
+
+def _holds_an_object(thin_cells: np.ndarray, cell: float, min_area: float) -> bool:
+    """Whether cells holding points at an object's height join into a patch of ``min_area``: a flying
+    pixel fills one cell, an object many that touch."""
+    from scipy import ndimage
+
+    labels, count = ndimage.label(thin_cells, structure=np.ones((3, 3)))
+    return count > 0 and np.bincount(labels.ravel())[1:].max() * cell**2 >= min_area
 
 
 def _smoothed_heights(grid: _Grid, cells: np.ndarray, heights: np.ndarray, sigma: float) -> np.ndarray:

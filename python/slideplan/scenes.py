@@ -203,10 +203,10 @@ def _read_table(fields: Fields) -> SupportSurface:
             table.xy_points("polygon"), height, source=fields.source, field=table.field("polygon")
         )
     circle = table.table("circle", allowed={"center", "radius", "points"})
-    points = circle.raw("points", 100)
-    if isinstance(points, bool) or not isinstance(points, int) or points < 3:
-        raise InputError(f"expected an integer >= 3, got {points!r}", source=fields.source, field=circle.field("points"))
-    return SupportSurface.circle(circle.numbers("center", 2), circle.number("radius", positive=True), points, height)
+    return SupportSurface.circle(
+        circle.numbers("center", 2), circle.number("radius", positive=True), circle.raw("points", 100), height,
+        source=fields.source, field=table.field("circle"),
+    )
 
 
 def package_search_dirs(extra=()) -> tuple[Path, ...]:

@@ -139,6 +139,47 @@ TEST(SupportSurface, RejectsBadPolygons)
     EXPECT_THROW(SupportSurface(nan, 0.0), std::invalid_argument);
 }
 
+namespace
+{
+    Polygon2 circle(double radius, int vertices)
+    {
+        Polygon2 v(vertices, 2);
+        for (int i = 0; i < vertices; ++i)
+            v.row(i) << 0.5 + radius * std::cos(2 * M_PI * i / vertices), radius * std::sin(2 * M_PI * i / vertices);
+        return v;
+    }
+
+    std::string rejection(const Polygon2 &vertices)
+    {
+        try
+        {
+            SupportSurface surface(vertices, 0.0);
+        }
+        catch (const std::invalid_argument &error)
+        {
+            return error.what();
+        }
+        return "";
+    }
+}  // namespace
+
+// The crossing test's turns are judged relative to their size: a fixed epsilon called the turns of a
+// fine circle's 3 micrometre edges collinear and the circle "self-intersecting: edge 0 crosses edge 2".
+TEST(SupportSurface, AcceptsAFineCircleAtAnyScaleAndFindsATinyCrossingInIt)
+{
+    for (const double radius : {0.005, 0.2, 5.0})
+        EXPECT_EQ(rejection(circle(radius, SupportSurface::kMaxVertices)), "") << "radius " << radius;
+    Polygon2 crossed = circle(0.005, SupportSurface::kMaxVertices);
+    crossed.row(5000).swap(crossed.row(5001));  // a bow-tie 3 micrometres wide
+    EXPECT_NE(rejection(crossed).find("self-intersecting: edge 4999 crosses edge 5001"), std::string::npos)
+        << rejection(crossed);
+}
+
+TEST(SupportSurface, RefusesMoreVerticesThanItsBound)
+{
+    EXPECT_NE(rejection(circle(0.2, SupportSurface::kMaxVertices + 1)).find("at most 10000"), std::string::npos);
+}
+
 TEST(ContactFrame, RotationHasTheRequestedAngles)
 {
     for (double yaw : {-2.5, -0.3, 0.0, 1.0, 3.0})

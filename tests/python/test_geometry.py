@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from shapely.geometry import Polygon
 
+from slideplan import _core
 from slideplan.errors import InputError
 from slideplan.geometry import SupportSurface
 
@@ -91,3 +92,15 @@ def test_circle_rejects_bad_arguments(radius, points, field):
     with pytest.raises(InputError, match=field):
         SupportSurface.circle((0.0, 0.0), radius, points=points)
 
+
+
+def test_the_core_accepts_every_fine_table_shapely_accepts_and_both_bound_the_vertex_count():
+    # A 1 cm circle of the most vertices: the core once called its 3 micrometre edges' turns collinear.
+    limit = _core.SupportSurface.MAX_VERTICES
+    fine = SupportSurface.circle((0.5, 0.0), 0.005, points=limit)
+    assert _core.SupportSurface(fine.vertices, 0.0).area == pytest.approx(fine.area)
+    vertices = np.vstack([fine.vertices, [[0.5 + 0.006, 0.0]]])
+    with pytest.raises(InputError, match=f"table.polygon: polygon has {limit + 1} vertices, at most {limit}"):
+        SupportSurface.from_vertices(vertices, field="table.polygon")
+    with pytest.raises(ValueError, match=f"at most {limit}"):
+        _core.SupportSurface(vertices, 0.0)

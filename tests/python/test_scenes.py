@@ -114,6 +114,9 @@ def test_circle_table_defaults_to_100_points(tmp_path):
         ("[table]\ncircle = { center = [0, 0], radius = -1 }\n", "table.circle.radius", "> 0"),
         ("[table]\ncircle = { center = [0, 0], radius = 1, points = 2 }\n", "table.circle.points", ">= 3"),
         ("[table]\ncircle = { radius = 1 }\n", "table.circle.center", "missing"),
+        # Refused before a billion vertices are allocated (it grew to 24 GB and was killed).
+        ("[table]\ncircle = { center = [0, 0], radius = 1, points = 1000000000 }\n", "table.circle.points",
+         "polygon has 1000000000 vertices, at most 10000"),
         (
             "[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\n[robot]\nbase_pose = [0, 0, 0, 0, 0]\n",
             "robot.base_pose",

@@ -25,8 +25,12 @@ namespace slideplan
     class SupportSurface
     {
     public:
-        /// \throws std::invalid_argument if there are fewer than 3 vertices, a vertex is not finite,
-        ///         the polygon is self-intersecting or its area is (nearly) zero.
+        /// Most vertices accepted: ear clipping (the table's collision triangles) is quadratic, and every
+        /// contains() and closestEdge() visits each edge. A table outline needs far fewer.
+        static constexpr int kMaxVertices = 10000;
+
+        /// \throws std::invalid_argument if there are fewer than 3 or more than kMaxVertices vertices, a
+        ///         vertex is not finite, the polygon is self-intersecting or its area is (nearly) zero.
         SupportSurface(const Polygon2 &vertices, double height);
 
         /// Point-in-polygon by the crossing-number test (the paper's [27]).

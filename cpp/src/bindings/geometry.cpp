@@ -22,7 +22,9 @@ namespace slideplan::bindings
         py::class_<SupportSurface>(module, "SupportSurface",
                                    "Support polygon Q at a height (paper IV-B); any simple polygon, stored CCW.")
             .def(py::init<const Polygon2 &, double>(), py::arg("vertices"), py::arg("height"),
-                 "Raises ValueError for < 3 vertices, non-finite values, self-intersection or zero area.")
+                 "Raises ValueError for < 3 or > MAX_VERTICES vertices, non-finite values, self-intersection or "
+                 "zero area.")
+            .def_readonly_static("MAX_VERTICES", &SupportSurface::kMaxVertices, "Most vertices a polygon may have.")
             .def("contains", &SupportSurface::contains, py::arg("point"), "Point-in-polygon test of a 2-D point.")
             .def("signed_distance", &SupportSurface::signedDistance, py::arg("point"),
                  "Distance to the boundary, positive inside.")
