@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <console_bridge/console.h>
 #include <fstream>
 #include <kdl/chain.hpp>
 #include <kdl/chainfksolverpos_recursive.hpp>
@@ -18,6 +19,64 @@ namespace slideplan
 {
     namespace
     {
+        /// urdfdom reports through console_bridge, to stderr by default. Installed once for the process:
+        /// what urdfdom says while a thread of ours parses goes to that thread's list (and becomes the
+        /// reason in our one error line); what anyone else logs goes where it went before.
+        class UrdfdomMessages : public console_bridge::OutputHandler
+        {
+        public:
+            /// Collects the errors logged in this thread while it lives.
+            class Capture
+            {
+            public:
+                Capture()
+                {
+                    instance();
+                    sink_ = &errors_;
+                }
+                ~Capture() { sink_ = nullptr; }
+                Capture(const Capture &) = delete;
+                Capture &operator=(const Capture &) = delete;
+
+                /// The errors joined by "; ", empty if there were none.
+                std::string reason() const
+                {
+                    std::string joined;
+                    for (const std::string &error : errors_)
+                        joined += (joined.empty() ? "" : "; ") + error;
+                    return joined;
+                }
+
+            private:
+                std::vector<std::string> errors_;
+            };
+
+            void log(const std::string &text, console_bridge::LogLevel level, const char *filename, int line) override
+            {
+                if (sink_ != nullptr)
+                {
+                    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR)
+                        sink_->push_back(text);
+                }
+                else if (previous_ != nullptr)
+                    previous_->log(text, level, filename, line);
+            }
+
+        private:
+            UrdfdomMessages() : previous_(console_bridge::getOutputHandler()) { console_bridge::useOutputHandler(this); }
+
+            static UrdfdomMessages &instance()
+            {
+                static UrdfdomMessages *const handler = new UrdfdomMessages;  // never destroyed: logging may outlive statics
+                return *handler;
+            }
+
+            console_bridge::OutputHandler *previous_;
+            static thread_local std::vector<std::string> *sink_;
+        };
+
+        thread_local std::vector<std::string> *UrdfdomMessages::sink_ = nullptr;
+
         KDL::Frame toKdl(const urdf::Pose &pose)
         {
             double x, y, z, w;
@@ -150,16 +209,25 @@ namespace slideplan
             throw std::invalid_argument(source + ": base_pose is not finite");
         if (!spec.tipOffset.matrix().allFinite())
             throw std::invalid_argument(source + ": tip_offset is not finite");
-        // urdfdom reports parse errors on stderr and returns null; it can also throw on bad numbers.
+        // urdfdom logs what it cannot parse and returns null, throws on some bad numbers, and drops a
+        // collision element it cannot read (e.g. radius="nan") with only a log line: any error it
+        // logs refuses the file, so that no link silently loses its collision geometry.
         urdf::ModelInterfaceSharedPtr model;
-        try
+        std::string reason;
         {
-            model = urdf::parseURDF(spec.urdf);
+            UrdfdomMessages::Capture capture;
+            try
+            {
+                model = urdf::parseURDF(spec.urdf);
+            }
+            catch (const std::exception &error)
+            {
+                throw std::invalid_argument(source + ": malformed URDF: " + error.what());
+            }
+            reason = capture.reason();
         }
-        catch (const std::exception &error)
-        {
-            throw std::invalid_argument(source + ": malformed URDF: " + error.what());
-        }
+        if (!reason.empty())
+            throw std::invalid_argument(source + ": malformed URDF: " + reason);
         if (!model || !model->getRoot())
             throw std::invalid_argument(source + ": malformed URDF (urdfdom could not parse it)");
 

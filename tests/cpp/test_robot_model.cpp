@@ -161,6 +161,35 @@ TEST(RobotModel, RejectsBadUrdfs)
     }
 }
 
+// urdfdom drops a collision element it cannot read with only a line on stderr: the link then had no
+// collision geometry and plans "verified" through it.
+TEST(RobotModel, AUrdfdomErrorRefusesTheFileWithItsReasonAndNothingOnStderr)
+{
+    const std::string urdf =
+        "<robot name='r'><link name='a'/><link name='b'><collision><geometry><sphere radius='nan'/></geometry>"
+        "</collision></link><joint name='j' type='revolute'><parent link='a'/><child link='b'/><axis xyz='0 0 1'/>"
+        "<limit lower='-1' upper='1' effort='1' velocity='1'/></joint></robot>";
+    for (const std::string &text : {urdf, std::string("<robot name='x'><link name='a'>")})
+    {
+        ::testing::internal::CaptureStderr();
+        std::string message;
+        try
+        {
+            RobotModel robot(text, "b", Eigen::Isometry3d::Identity(), "r.urdf");
+        }
+        catch (const std::invalid_argument &error)
+        {
+            message = error.what();
+        }
+        EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+        EXPECT_EQ(message.rfind("r.urdf: malformed URDF: ", 0), 0u) << message;
+        if (text == urdf)
+            EXPECT_NE(message.find("radius [nan] is not a valid float; Could not parse collision element for Link [b]"),
+                      std::string::npos)
+                << message;
+    }
+}
+
 TEST(RobotModel, KernelMatchesKdlForEveryLinkAndTheJacobian)
 {
     const auto robot = wamT42();
