@@ -224,7 +224,7 @@ def test_execute_over_dds_drives_the_arm_with_controller_messages_and_answers_tr
 
 def test_a_push_mid_slide_is_seen_re_planned_for_and_the_answer_is_true():
     """Pushed 3 cm and turned 10 deg 2 s after the finger lands (the open loop then drops or misses the
-    object): the node sees the push, each look says what came of it (a new plan from where the arm is or
+    object): the node notices the push, each look says what came of it (a new plan from where the arm is or
     from a new contact, or why not), and the answer says what happened: success only with the object
     lifted. Whether it recovers is measured, not asserted (docs/ros2.md)."""
     response, answer, client, log = _execute("--disturb", "0", "-0.03", "0.17", "2.0")
@@ -232,7 +232,9 @@ def test_a_push_mid_slide_is_seen_re_planned_for_and_the_answer_is_true():
              for before, after in zip(client.poses, client.poses[1:])]
     assert max(jumps) > 0.01, max(jumps)  # it was pushed (under the pressing finger it springs back part way)
     looks = [status for status in client.statuses if status["phase"] == "look"]
-    assert any(look["off_m"] > 0.02 for look in looks), looks  # seen off the plan by about the push
+    # Noticed: seen off the plan by about the push, or said to be lost from where it was looked for (pushed
+    # mostly off the table or out of view: docs/ros2.md counts both).
+    assert any(look["off_m"] > 0.02 or look["outcome"] == "lost" for look in looks), looks
     assert all(look["outcome"] in ("slide", "grasp", "refused", "timeout", "lost", "solved") for look in looks), looks
     assert all(look["detail"] for look in looks if look["outcome"] in ("refused", "lost")), looks  # each says why
     lifted, _ = _lifted_over_the_edge(client)
