@@ -465,7 +465,11 @@ def view_command(
                 typer.echo(str(view.record(result, record_out)))
                 return
             shown = view.open_view(result, host, port)
-    except (InputError, ImportError) as error:
+    except InputError as error:
+        if not error.source and not error.field.startswith("--"):  # a field of the plan file
+            error = InputError(error.problem, source=str(plan_file), field=error.field)
+        raise _fail(error) from None
+    except ImportError as error:
         raise _fail(error) from None
     except OSError as error:  # an unwritable --record
         raise _fail(InputError(str(error), field="--record")) from None

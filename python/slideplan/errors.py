@@ -24,3 +24,26 @@ class InputError(ValueError):
         self.source = str(source)
         self.field = field
         super().__init__(": ".join(part for part in (self.source, field, problem) if part))
+
+
+def require_type(value, kind, field: str, what: str) -> None:
+    """Refuse an argument of the wrong type where it enters the public API (deeper in it would be an
+    AttributeError or a TypeError that names neither the argument nor what it should be).
+
+    Args:
+        value: the argument.
+        kind: the type or tuple of types it must be an instance of.
+        field: the argument's name.
+        what: what it should be, in words, e.g. ``"a Scene (from load_scene)"``.
+
+    Raises:
+        InputError: ``value`` is not a ``kind``.
+    """
+    if not isinstance(value, kind):
+        raise InputError(f"expected {what}, got {type(value).__name__} {_shown(value)}", field=field)
+
+
+def _shown(value) -> str:
+    """A short form of a wrong argument for a message."""
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."

@@ -26,6 +26,7 @@ import numpy as np
 
 from . import jsontext
 from .errors import InputError
+from .verify import require_motion
 
 if TYPE_CHECKING:
     from .planning import PlanResult
@@ -132,13 +133,15 @@ def export_plan(result: PlanResult, fmt: str, out: Path) -> None:
         out: the output file (its directory is created).
 
     Raises:
-        InputError: unknown format, a plan that is not solved, or a timing failure.
+        InputError: unknown format, a plan that is not solved or whose motion cannot be run
+            (:func:`slideplan.verify.require_motion`), or a timing failure.
         OSError: the file cannot be written.
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r} (expected one of: {', '.join(FORMATS)})", field="--format")
     if not result.solved:
         raise InputError(f"the plan is not solved (status {result.status!r}): nothing to export", field="status")
+    require_motion(result)
     if result.timing is None:
         from .timing import parameterize
 

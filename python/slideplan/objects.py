@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -14,7 +15,7 @@ import shapely.affinity
 from shapely.geometry import Polygon
 
 from ._fields import Fields, as_number, as_numbers, as_xy_points, read_toml
-from .errors import InputError
+from .errors import InputError, require_type
 from .geometry import SupportSurface, area_centroid, simple_polygon_vertices
 from .paths import find_data_file
 from .transforms import move_planar, rotation_2d
@@ -41,6 +42,16 @@ class ThinObject:
     thickness: float
     name: str = ""
     outline: Polygon | None = None
+
+    def __post_init__(self) -> None:
+        """Refuse what the planner cannot take, for an object built directly rather than by a loader
+        (an (N, 2) cloud reached the core as an IndexError)."""
+        points = self.points
+        if not (isinstance(points, np.ndarray) and points.ndim == 2 and points.shape[1] == 3 and len(points) >= 3
+                and points.dtype.kind == "f" and np.isfinite(points).all()):
+            raise InputError(f"expected an (N, 3) float array of finite numbers, N >= 3, got "
+                             f"{type(points).__name__} {np.shape(points)}", field="points")
+        as_number(self.thickness, source="", field="thickness", positive=True)
 
     @classmethod
     def from_outline(
@@ -371,6 +382,7 @@ def load_object(
     Raises:
         InputError: anything wrong with the spec, the file, the pose or the scale.
     """
+    require_type(spec, (str, os.PathLike), "spec", "an object name or a file path")
     source = str(spec)
     if Path(source).suffix.lower() in CLOUD_SUFFIXES:
         if pose is not None:

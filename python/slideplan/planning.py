@@ -12,6 +12,7 @@ import dataclasses
 import functools
 import json
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,8 +21,8 @@ from xml.etree import ElementTree
 import numpy as np
 
 from . import _core, grasp_cache, jsontext
-from ._fields import as_numbers, is_number
-from .errors import InputError
+from ._fields import as_number, as_numbers, is_number
+from .errors import InputError, require_type
 from .objects import ThinObject
 from .scenes import Scene
 from .timing import TimingOptions, core_limits, robot_limits, timing_from_dict
@@ -212,6 +213,7 @@ class PlannerConfig:
         Raises:
             InputError: an unknown field or preset, or a bad value, naming the field.
         """
+        require_type(scene, Scene, "scene", "a Scene (from load_scene)")
         unknown = sorted(set(overrides) - {item.name for item in dataclasses.fields(cls)} - {"preset"})
         if unknown:
             raise InputError(f"unknown planner parameter(s) {unknown}", field="param")
@@ -448,36 +450,38 @@ class PlanResult:
         dof = len(data["joint_names"])
         try:
             _require_finite(data)
-            return cls(
+            result = cls(
                 status=data["status"],
                 planner=data["planner"],
                 seed=data["seed"],
                 planning_time_s=data["planning_time_s"],
                 params=dict(data["params"]),
-                table={**data["table"], "polygon": _array(data["table"]["polygon"], 2)},
+                table={**data["table"], "polygon": _array(data["table"]["polygon"], 2, "table.polygon")},
                 object={
                     **data["object"],
-                    "points": _array(data["object"]["points"], 3),
-                    "com_xy": _array(data["object"]["com_xy"]),
+                    "points": _array(data["object"]["points"], 3, "object.points"),
+                    "com_xy": _array(data["object"]["com_xy"], field="object.com_xy"),
                 },
                 robot=_robot_block(data["robot"]),
-                obstacles=[_obstacle_entry(entry) for entry in data["obstacles"]],
+                obstacles=[_obstacle_entry(entry, index) for index, entry in enumerate(data["obstacles"])],
                 object_motion=dict(data["object_motion"]),
                 overhang_m=data["overhang_m"],
                 joint_names=list(data["joint_names"]),
-                start_config=_array(data["start_config"]),
-                goal_config=_array(data["goal_config"]),
-                trajectory=_array(data["trajectory"], dof),
-                fingertip_poses=_array(data["fingertip_poses"], 7),
+                start_config=_array(data["start_config"], field="start_config"),
+                goal_config=_array(data["goal_config"], field="goal_config"),
+                trajectory=_array(data["trajectory"], dof, "trajectory"),
+                fingertip_poses=_array(data["fingertip_poses"], 7, "fingertip_poses"),
                 grasp={
                     **data["grasp"],
-                    "pose": _array(data["grasp"]["pose"]),
-                    "config": _array(data["grasp"]["config"]),
-                    "approach": _array(data["grasp"]["approach"], dof),
+                    "pose": _array(data["grasp"]["pose"], field="grasp.pose"),
+                    "config": _array(data["grasp"]["config"], field="grasp.config"),
+                    "approach": _array(data["grasp"]["approach"], dof, "grasp.approach"),
                 },
                 stats=dict(data["stats"]),
                 timing=_read_timing(data),
             )
+            _check_scene_blocks(result)
+            return result
         except InputError:
             raise
         except (KeyError, TypeError, ValueError) as error:
@@ -492,14 +496,21 @@ class PlanResult:
             InputError: naming the file (and the field): unreadable, not JSON, another schema, a
                 malformed plan, or a number that is NaN or infinite.
         """
+        require_type(path, (str, os.PathLike), "path", "a plan file's path")
         try:
             text = Path(path).read_text()
         except (OSError, UnicodeDecodeError) as error:
             raise InputError(f"cannot read the plan ({error})", source=str(path)) from None
         try:
-            return cls.from_json(text)
+            result = cls.from_json(text)
         except InputError as error:
             raise InputError(error.problem, source=str(path), field=error.field) from None
+        # A robot file named by a relative path is relative to the plan file, wherever it is opened from.
+        here = Path(path).absolute().parent
+        robot = result.robot
+        robot["urdf"] = _beside(here, robot["urdf"])
+        robot["attach"] = [_beside(here, fragment) for fragment in robot["attach"]]
+        return result
 
     @classmethod
     def from_json(cls, text: str) -> PlanResult:
@@ -508,6 +519,7 @@ class PlanResult:
         Raises:
             InputError: not JSON, or not a valid plan.
         """
+        require_type(text, (str, bytes, bytearray), "text", "plan JSON text")
         try:
             data = json.loads(text)
         except json.JSONDecodeError as error:
@@ -515,6 +527,30 @@ class PlanResult:
         except RecursionError:
             raise InputError("invalid JSON (nested too deeply)") from None
         return cls.from_dict(data)
+
+
+def _check_scene_blocks(result: PlanResult) -> None:
+    """The table, object and robot blocks of a plan hold what every reader of a plan (solved or not)
+    needs: a simple table polygon, an object of at least 3 points with a thickness, link names.
+
+    Raises:
+        InputError: naming the field.
+    """
+    from .geometry import SupportSurface
+
+    SupportSurface.from_vertices(result.table["polygon"], result.table["height"], field="table.polygon")
+    points = result.object["points"]
+    if len(points) < 3:
+        raise InputError(f"expected at least 3 points, got {len(points)}", field="object.points")
+    as_number(result.object["thickness"], source="", field="object.thickness", positive=True)
+    for key in ("urdf", "tip_link", "grasp_link"):
+        if not isinstance(result.robot.get(key), str) or not result.robot[key]:
+            raise InputError(f"expected a name, got {result.robot.get(key)!r}", field=f"robot.{key}")
+
+
+def _beside(directory: Path, name: str) -> str:
+    """A file path of a plan, relative to the plan's ``directory`` unless absolute or a URI."""
+    return name if "://" in name or Path(name).is_absolute() else os.path.normpath(directory / name)
 
 
 def _require_finite(data: dict[str, Any]) -> None:
@@ -550,12 +586,44 @@ def _numbers_or_none(value: list) -> np.ndarray | None:
         return None
 
 
-def _obstacle_entry(entry: dict[str, Any]) -> dict[str, Any]:
-    """An obstacle entry of a plan with arrays; older plans' entries (boxes) get their shape."""
+# Per obstacle shape, its plan entry's numeric keys: how many numbers (0: one), or "xy" (polygon rows),
+# and whether they must be > 0.
+_OBSTACLE_KEYS = {
+    "box": {"center": (3, False), "size": (3, True), "yaw": (0, False)},
+    "cylinder": {"center": (3, False), "radius": (0, True), "height": (0, True)},
+    "object": {"polygon": ("xy", False), "bottom": (0, False), "height": (0, True)},
+}
+
+
+def _obstacle_entry(entry: Any, index: int) -> dict[str, Any]:
+    """A checked obstacle entry of a plan with arrays; older plans' entries (boxes) get their shape.
+
+    Raises:
+        InputError: an unknown shape, a missing key or a value of the wrong size or sign, naming
+            ``obstacles[index].key``.
+    """
+    field = f"obstacles[{index}]"
+    if not isinstance(entry, dict):
+        raise InputError(f"expected a table of the obstacle's keys, got {entry!r}", field=field)
     entry = {"shape": "box", **entry}
-    for key, columns in (("center", None), ("size", None), ("polygon", 2)):
-        if key in entry:
-            entry[key] = _array(entry[key], columns)
+    keys = _OBSTACLE_KEYS.get(entry["shape"])
+    if keys is None:
+        raise InputError(f"unknown shape {entry['shape']!r} (expected one of {sorted(_OBSTACLE_KEYS)})", field=f"{field}.shape")
+    missing = sorted(set(keys) - entry.keys())
+    if missing:
+        raise InputError(f"a {entry['shape']} needs {missing}", field=field)
+    for key, (count, positive) in keys.items():
+        name = f"{field}.{key}"
+        if count == "xy":
+            entry[key] = _array(entry[key], 2, name)
+            if len(entry[key]) < 3:
+                raise InputError(f"expected at least 3 [x, y] vertices, got {len(entry[key])}", field=name)
+        elif count:
+            entry[key] = as_numbers(entry[key], count, source="", field=name)
+            if positive and not np.all(entry[key] > 0):
+                raise InputError(f"must be > 0, got {entry[key].tolist()}", field=name)
+        else:
+            entry[key] = as_number(entry[key], source="", field=name, positive=positive)
     return entry
 
 
@@ -565,7 +633,7 @@ def _robot_block(robot: dict[str, Any]) -> dict[str, Any]:
     block = {"attach": [], "base_link": "", "fixed_joints": {}, "package_dirs": [], "tip_offset": identity,
              "grasp_offset": identity, **robot}
     for key in ("base_pose", "tip_offset", "grasp_offset"):
-        block[key] = _array(block[key], 4)
+        block[key] = _array(block[key], 4, f"robot.{key}")
     return block
 
 
@@ -588,15 +656,25 @@ def _to_plain(value: Any) -> Any:
     return value
 
 
-def _array(value: Any, columns: int | None = None) -> np.ndarray:
-    """A float array; with ``columns``, 2-D with that many columns (an empty list becomes (0, columns))."""
-    array = np.asarray(value, dtype=float)
+def _array(value: Any, columns: int | None = None, field: str = "") -> np.ndarray:
+    """A float array; with ``columns``, 2-D with that many columns (an empty list becomes (0, columns)).
+
+    Raises:
+        InputError: (with ``field``) not numbers, or rows of another length; ValueError without.
+    """
+    def fail(problem: str) -> Exception:
+        return InputError(problem, field=field) if field else ValueError(problem)
+
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as error:
+        raise fail(f"expected numbers ({error})") from None
     if columns is None:
         return array
     if array.size == 0:
         return array.reshape(0, columns)
     if array.ndim != 2 or array.shape[1] != columns:
-        raise ValueError(f"expected rows of {columns} numbers, got shape {array.shape}")
+        raise fail(f"expected rows of {columns} numbers, got shape {array.shape}")
     return array
 
 
@@ -849,6 +927,9 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
     """
     from . import _core
 
+    require_type(scene, Scene, "scene", "a Scene (from load_scene)")
+    require_type(obj, ThinObject, "obj", "a ThinObject (from load_object)")
+    require_type(config, (PlannerConfig, type(None)), "config", "a PlannerConfig or None")
     config = config or PlannerConfig.for_scene(scene)
     sources = config.sources(scene)
     config = config.resolved(scene)

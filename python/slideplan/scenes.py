@@ -14,7 +14,7 @@ import shapely
 import shapely.geometry
 
 from ._fields import Fields, read_toml
-from .errors import InputError
+from .errors import InputError, require_type
 from .geometry import SupportSurface
 from .paths import data_dir, find_data_file
 from .transforms import move_planar
@@ -230,19 +230,19 @@ def package_search_dirs(extra=()) -> tuple[Path, ...]:
 
 def _resolve_robot_file(text: str, *, source: str, field: str, scene_dir: Path, package_dirs: tuple[Path, ...]) -> Path:
     """A URDF named in a scene: ``package://NAME/...``, else a path relative to the scene's directory,
-    then to ``data/robots``."""
+    then to ``data/robots``; absolute (a plan records it, and is opened from anywhere)."""
     from . import _core
 
     if text.startswith("package://"):
         try:
-            return Path(_core.resolve_uri(text, str(scene_dir), [str(path) for path in package_dirs]))
+            return Path(_core.resolve_uri(text, str(scene_dir), [str(path) for path in package_dirs])).absolute()
         except ValueError as error:
             raise InputError(str(error), source=source, field=field) from None
     urdf = Path(text)
     candidates = [urdf] if urdf.is_absolute() else [scene_dir / urdf, data_dir() / "robots" / urdf]
     for candidate in candidates:
         if candidate.is_file():
-            return candidate
+            return candidate.absolute()
     raise InputError(
         f"file not found (looked for {', '.join(str(candidate) for candidate in candidates)})", source=source, field=field
     )
@@ -392,6 +392,7 @@ def load_scene(name_or_path: str | Path) -> Scene:
         InputError: "file: field: what is wrong" for an unknown name, a missing file,
             bad TOML, or any unknown, missing or mistyped field.
     """
+    require_type(name_or_path, (str, os.PathLike), "name_or_path", "a scene name or a file path")
     path = find_data_file(name_or_path, "scenes")
     fields = Fields(read_toml(path), source=str(path), allowed={"table", "robot", "hand", "obstacles"})
     table = _read_table(fields)

@@ -13,19 +13,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
 from shapely.geometry import MultiPoint
 
+from .errors import InputError, require_type
 from .geometry import SupportSurface, area_centroid
-from .planning import core_obstacles
+from .planning import PlanResult, core_obstacles
 from .scenes import obstacle_footprint
 from .transforms import move_planar, rotation_2d, rotation_angle_between, row_to_pose, wrap_angle
-
-if TYPE_CHECKING:
-    from .planning import PlanResult
 
 POSE_TOLERANCE = 1e-6  # m and rad: recorded poses must be the forward kinematics (JSON keeps floats exact)
 DEPTH_TOLERANCE_M = 1e-3  # contact depth band slack (the planner projects to 1e-4)
@@ -103,11 +100,13 @@ def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_
     Returns:
         The verification; ``ok`` is False for any plan that is not solved.
     """
+    require_type(result, PlanResult, "result", "a PlanResult (from plan or PlanResult.load)")
     if result.status not in ("solved", "invalid"):
         return Verification([f"status is {result.status!r}: there is no plan to verify"])
     violations = check_shapes(result)
     if violations:
         return Verification(violations)  # the remaining checks index into the arrays
+    violations = check_ends(result)
     world = _rebuild_world(result)
     violations += check_sliding_path(result, world)
     violations += check_object_motion(result)
@@ -120,16 +119,16 @@ def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_
     return Verification(violations)
 
 
-def _rebuild_world(result: PlanResult) -> _PlanWorld:
-    """Load the plan's robot and build its table and collision world (sliding: no object)."""
+def _rebuild_world(result: PlanResult, collisions: bool = True) -> _PlanWorld:
+    """Load the plan's robot and build its table and, with ``collisions``, its collision world (sliding:
+    no object)."""
     from . import _core
 
     robot = result.robot_model()  # the parsed URDF, shared (immutable): a mesh robot takes 0.5 s to parse
     polygon = np.asarray(result.table["polygon"], dtype=float)
     height = float(result.table["height"])
-    obstacles = core_obstacles(result.obstacles)
-    collision_world = _core.CollisionWorld(
-        robot, _core.SupportSurface(polygon, height), obstacles, list(result.robot["contact_links"])
+    collision_world = None if not collisions else _core.CollisionWorld(
+        robot, _core.SupportSurface(polygon, height), core_obstacles(result.obstacles), list(result.robot["contact_links"])
     )
     return _PlanWorld(
         robot=robot,
@@ -140,6 +139,44 @@ def _rebuild_world(result: PlanResult) -> _PlanWorld:
     )
 
 
+def check_motion(result: PlanResult) -> list[str]:
+    """What a controller needs of a plan before it moves the arm, without the geometry (cheap): the
+    shapes, every waypoint of the slide and the approach within the joint limits, consecutive waypoints
+    within ``max_joint_step``, and the timing block within its limits (:func:`verify` checks all this
+    and the rest).
+
+    Returns:
+        Violations; none for a plan that is not solved (there is nothing to move).
+    """
+    require_type(result, PlanResult, "result", "a PlanResult (from plan or PlanResult.load)")
+    if result.status not in ("solved", "invalid"):
+        return []
+    violations = check_shapes(result)
+    if violations:
+        return violations
+    violations = check_ends(result)
+    world = _rebuild_world(result, collisions=False)
+    for name, path in (("trajectory", np.asarray(result.trajectory)), ("grasp.approach", np.asarray(result.grasp["approach"]))):
+        for index, config in enumerate(path):
+            violations += _joint_limit_violations(f"{name}[{index}]", config, world.robot)
+        violations += _density_violations(name, path, result.params["max_joint_step"])
+    return violations + check_timing(result, world)
+
+
+def require_motion(result: PlanResult) -> None:
+    """Refuse a plan that :func:`check_motion` finds fault with (``export``, ``execute`` and ``view`` run
+    it on every plan they read: a NaN, a joint jump or a velocity of 1e6 was once exported and executed).
+
+    Raises:
+        InputError: the first violations and how many there are, naming the plan's field.
+    """
+    violations = check_motion(result)
+    if violations:
+        more = f" (and {len(violations) - 3} more)" if len(violations) > 3 else ""
+        field = violations[0].split(":")[0].split("[")[0].split("->")[0]
+        raise InputError("the motion cannot be run: " + "; ".join(violations[:3]) + more, field=field)
+
+
 def check_shapes(result: PlanResult) -> list[str]:
     """Check that the plan's arrays fit together.
 
@@ -148,7 +185,7 @@ def check_shapes(result: PlanResult) -> list[str]:
 
     Returns:
         Violations: a trajectory without waypoints, arrays whose sizes disagree with the
-        joint count or with each other, or end configurations that are not the path's ends.
+        joint count or with each other.
     """
     dof = len(result.joint_names)
     violations = []
@@ -166,12 +203,23 @@ def check_shapes(result: PlanResult) -> list[str]:
     for name, (actual, expected) in shapes.items():
         if tuple(actual) != expected:
             violations.append(f"{name}: shape {tuple(actual)}, expected {expected}")
-    if violations:
-        return violations
+    return violations
+
+
+def check_ends(result: PlanResult) -> list[str]:
+    """Check that the plan's pieces join: the trajectory runs from ``start_config`` to ``goal_config``,
+    and the approach from there to ``grasp.config`` (arrays of the right shapes: :func:`check_shapes`)."""
+    violations = []
+    trajectory = np.asarray(result.trajectory)
     for name, config, index in (("start_config", result.start_config, 0), ("goal_config", result.goal_config, -1)):
         gap = float(np.max(np.abs(trajectory[index] - config)))
         if gap > CONFIG_TOLERANCE:
             violations.append(f"{name}: differs from trajectory[{index % len(trajectory)}] by {gap:.3g} rad")
+    approach = np.asarray(result.grasp["approach"])
+    for name, end, index in (("goal_config", result.goal_config, 0), ("grasp.config", result.grasp["config"], -1)):
+        gap = float(np.max(np.abs(approach[index] - end)))
+        if gap > CONFIG_TOLERANCE:
+            violations.append(f"approach[{index % len(approach)}]: differs from {name} by {gap:.3g} rad")
     return violations
 
 
@@ -179,7 +227,7 @@ def _joint_limit_violations(name: str, config: np.ndarray, robot) -> list[str]:
     """One violation per joint of ``config`` outside the robot's limits."""
     lower, upper = np.asarray(robot.lower_limits), np.asarray(robot.upper_limits)
     return [
-        f"{name}: joint {joint} = {config[joint]:.6f} rad outside its limits [{lower[joint]:.6f}, {upper[joint]:.6f}]"
+        f"{name}: joint {joint} = {config[joint]:.6g} rad outside its limits [{lower[joint]:.6f}, {upper[joint]:.6f}]"
         for joint in np.flatnonzero((config < lower - STEP_SLACK) | (config > upper + STEP_SLACK))
     ]
 
@@ -198,13 +246,13 @@ def _density_violations(name: str, path: np.ndarray, max_joint_step: float, tip_
     joint_steps = np.max(np.abs(np.diff(path, axis=0)), axis=1) if len(path) > 1 else np.zeros(0)
     for index in np.flatnonzero(joint_steps > max_joint_step + STEP_SLACK):
         violations.append(
-            f"{name}[{index}]->[{index + 1}]: a joint moves {joint_steps[index]:.6f} rad > max_joint_step {max_joint_step}"
+            f"{name}[{index}]->[{index + 1}]: a joint moves {joint_steps[index]:.6g} rad > max_joint_step {max_joint_step}"
         )
     if tip_positions is not None:
         tip_steps = np.linalg.norm(np.diff(tip_positions, axis=0), axis=1)
         for index in np.flatnonzero(tip_steps > max_tip_step + STEP_SLACK):
             violations.append(
-                f"{name}[{index}]->[{index + 1}]: fingertip moves {tip_steps[index]:.6f} m > max_tip_step {max_tip_step}"
+                f"{name}[{index}]->[{index + 1}]: fingertip moves {tip_steps[index]:.6g} m > max_tip_step {max_tip_step}"
             )
     return violations
 
@@ -564,7 +612,8 @@ def check_timing(result: PlanResult, world: _PlanWorld) -> list[str]:
             continue
         if max(np.abs(velocities[0]).max(), np.abs(velocities[-1]).max()) > 1e-9:
             violations.append(f"{label}: the first and last velocities must be zero")
-        excess = max(np.max(np.abs(velocities) / vmax), np.max(np.abs(np.diff(path, axis=0)) / dt[:, None] / vmax))
+        with np.errstate(over="ignore"):  # a position of 1e308 moves at inf x the limit, and is reported so
+            excess = max(np.max(np.abs(velocities) / vmax), np.max(np.abs(np.diff(path, axis=0)) / dt[:, None] / vmax))
         if excess > 1.0 + TIMING_SLACK:
             violations.append(f"{label}: a joint moves at {excess:.4f} x its velocity limit")
         if np.max(np.abs(accelerations) / amax) > 1.0 + TIMING_SLACK:
@@ -607,12 +656,6 @@ def check_grasp(result: PlanResult, world: _PlanWorld) -> list[str]:
     if mismatch:
         violations.append(f"grasp.pose: forward kinematics of {grasp_link} at grasp.config differs by {mismatch}")
     violations += _joint_limit_violations("grasp.config", config, world.robot)
-    if len(approach) == 0:
-        return violations + ["grasp.approach: empty"]
-    for name, end, index in (("goal_config", result.goal_config, 0), ("grasp.config", config, -1)):
-        gap = float(np.max(np.abs(approach[index] - end)))
-        if gap > CONFIG_TOLERANCE:
-            violations.append(f"approach[{index % len(approach)}]: differs from {name} by {gap:.3g} rad")
     tips = world.approach_tips
     violations += _density_violations("approach", approach, result.params["max_joint_step"], tips, result.params["max_tip_step"])
     reached = np.flatnonzero(tips[:, 2] >= world.object_top_z + result.params["grasp_lift"] - LIFT_SLACK_M)

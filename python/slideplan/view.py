@@ -32,7 +32,7 @@ from .errors import InputError
 from .framing import frame_points, view_direction
 from .planning import PlanResult
 from .transforms import move_planar, quaternion_from_matrix, row_to_pose
-from .verify import planar_motion
+from .verify import planar_motion, require_motion
 
 # Colours (RGB 0-255) with distinct hues, so that a screenshot can tell the parts apart (tests do).
 ROBOT_COLOR = (40, 160, 170)
@@ -426,8 +426,10 @@ def open_view(result: PlanResult, host: str = "127.0.0.1", port: int = 8080) -> 
         The view; ``view.server.stop()`` ends it.
 
     Raises:
-        InputError: nothing can listen on ``host``, the robot cannot be loaded or the plan cannot be timed.
+        InputError: nothing can listen on ``host``, the robot cannot be loaded, the plan's motion cannot
+            be run (:func:`slideplan.verify.require_motion`) or it cannot be timed.
     """
+    require_motion(result)
     server = _server(host, port)
     try:
         return PlanView(server, result)

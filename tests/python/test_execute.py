@@ -155,13 +155,13 @@ def test_cli_rejects_an_unsolved_plan(tmp_path, slide_plan):
     _assert_one_error_line(*_run(_write(tmp_path, data)), "status", "timeout")
 
 
-def test_cli_names_the_urdf_element_mujoco_rejects(tmp_path, slide_plan):
+def test_cli_names_the_urdf_element_that_cannot_be_read(tmp_path, slide_plan):
     urdf = tmp_path / "robot.urdf"
     text = open(slide_plan.robot["urdf"]).read()
     urdf.write_text(text.replace('<box size="0.06 0.10 0.08"/>', '<box size="0.06 0.10"/>'))
     data = slide_plan.to_dict()
     data["robot"]["urdf"] = str(urdf)
-    _assert_one_error_line(*_run(_write(tmp_path, data)), "MuJoCo cannot import", "box", str(urdf))
+    _assert_one_error_line(*_run(_write(tmp_path, data)), "malformed URDF", "[0.06 0.10]", "t42_palm", str(urdf))
 
 
 def test_cli_names_a_missing_mesh(tmp_path, slide_plan):
@@ -170,7 +170,7 @@ def test_cli_names_a_missing_mesh(tmp_path, slide_plan):
     urdf.write_text(text.replace('<box size="0.06 0.10 0.08"/>', '<mesh filename="meshes/palm.stl"/>'))
     data = slide_plan.to_dict()
     data["robot"]["urdf"] = str(urdf)
-    _assert_one_error_line(*_run(_write(tmp_path, data)), "t42_palm", "meshes/palm.stl", "not found")
+    _assert_one_error_line(*_run(_write(tmp_path, data)), "t42_palm", "meshes/palm.stl", "does not exist")
 
 
 def test_cli_rejects_a_bad_tip_speed(tmp_path, slide_plan):

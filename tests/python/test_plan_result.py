@@ -2,12 +2,14 @@
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from slideplan.errors import InputError
 from slideplan.planning import PLAN_SCHEMA, PlannerConfig, PlanResult, base_pose_matrix
+from slideplan.scenes import load_scene
 from slideplan.transforms import matrix_from_quaternion, pose_to_row, quaternion_from_matrix, rotation_from_rpy, row_to_pose
 
 DOF = 7
@@ -109,7 +111,16 @@ def test_json_has_the_design_fields():
         (lambda data: data.update(status="done"), "unknown status"),
         (lambda data: data.pop("trajectory"), "missing fields"),
         (lambda data: data.update(extra=1), "unknown fields"),
-        (lambda data: data.update(trajectory=[[1.0, 2.0]]), "malformed plan"),
+        (lambda data: data.update(trajectory=[[1.0, 2.0]]), "^trajectory: expected rows of 7 numbers"),
+        # Each of these once reached view or execute as a traceback or a numpy message naming nothing.
+        (lambda data: data["trajectory"][0].__setitem__(1, "x"), "^trajectory: expected numbers"),
+        (lambda data: data["obstacles"][0].pop("size"), r"^obstacles\[0\]: a box needs \['size'\]"),
+        (lambda data: data["obstacles"][0].update(size=[0.1, -0.1, 0.2]), r"^obstacles\[0\].size: must be > 0"),
+        (lambda data: data["obstacles"][0].update(shape="cone"), r"^obstacles\[0\].shape: unknown shape 'cone'"),
+        (lambda data: data["object"].update(points=[]), "^object.points: expected at least 3 points"),
+        (lambda data: data["object"].update(thickness=0.0), "^object.thickness: must be > 0"),
+        (lambda data: data["table"].update(polygon=[]), "^table.polygon: "),
+        (lambda data: data["robot"].update(tip_link=""), "^robot.tip_link: expected a name"),
     ],
 )
 def test_bad_plan_json_is_rejected(mutate, message):
@@ -229,3 +240,26 @@ def test_a_deeply_nested_plan_is_an_input_error_not_a_recursion_error(tmp_path):
     path.write_text('{"schema": "slideplan.plan/2", "status": "solved", "stats": ' + "[" * 100000 + "]" * 100000 + "}")
     with pytest.raises(InputError):
         PlanResult.load(path)
+
+
+def test_a_plan_is_opened_from_any_directory(tmp_path, monkeypatch, planned):
+    """A scene opened by a relative path records its robot file absolute (a plan once recorded it as
+    typed, so view, execute and verify failed from any other directory); a plan naming its robot file
+    relative to itself is read relative to itself, not to where it is opened from."""
+    urdf = Path(planned.robot["urdf"])
+    scenes = tmp_path / "scenes"
+    scenes.mkdir()
+    (scenes / urdf.name).write_text(urdf.read_text())
+    (scenes / "mine.toml").write_text(Path(load_scene("square").source).read_text())
+    monkeypatch.chdir(tmp_path)
+    assert load_scene("scenes/mine.toml").urdf_path == scenes / urdf.name
+
+    data = planned.to_dict()
+    data["robot"]["urdf"] = f"robot/{urdf.name}"
+    (tmp_path / "plans" / "robot").mkdir(parents=True)
+    (tmp_path / "plans" / "robot" / urdf.name).write_text(urdf.read_text())
+    (tmp_path / "plans" / "plan.json").write_text(json.dumps(data))
+    monkeypatch.chdir(scenes)
+    loaded = PlanResult.load("../plans/plan.json")
+    assert loaded.robot["urdf"] == str(tmp_path / "plans" / "robot" / urdf.name)
+    assert list(loaded.robot_model().joint_names) == planned.joint_names

@@ -279,6 +279,33 @@ def test_export_reports_a_missing_file_and_a_bad_format(planned, tmp_path):
     assert_bad_input(run("export", source, "--format", "yaml", "--out", tmp_path / "x"), "--format", "yaml")
 
 
+def _jump(data):
+    """Joint 0 jumps 3 rad between two slide waypoints."""
+    middle = len(data["trajectory"]) // 2
+    for waypoint in data["trajectory"][middle:] + [data["goal_config"], data["grasp"]["config"], *data["grasp"]["approach"]]:
+        waypoint[0] += 3.0
+
+
+@pytest.mark.parametrize("mutate, fragments", [
+    (_jump, ["trajectory", "a joint moves 3."]),
+    (lambda data: data["timing"]["trajectory"]["velocities"][1].__setitem__(0, 1e6), ["timing.trajectory", "velocity limit"]),
+    (lambda data: data["grasp"]["approach"][1].__setitem__(2, 1e308), ["grasp.approach", "outside its limits"]),
+])
+@pytest.mark.parametrize("command", [["export", "--format", "ros-json", "--out", "out.json"], ["execute"],
+                                     ["view", "--record", "out.html"]])
+def test_a_plan_whose_motion_cannot_be_run_is_refused_by_every_command_that_runs_it(planned, tmp_path, mutate,
+                                                                                   fragments, command):
+    # Once exported with exit 0 (and executed: "Nan, Inf or huge value in CTRL").
+    data = planned.to_dict()
+    mutate(data)
+    source = tmp_path / "plan.json"
+    source.write_text(json.dumps(data))
+    outputs = [tmp_path / name for name in command if name.startswith("out.")]
+    command = [str(tmp_path / name) if name.startswith("out.") else name for name in command]
+    assert_bad_input(run(command[0], source, *command[1:]), str(source), "the motion cannot be run", *fragments)
+    assert not any(path.exists() for path in outputs)
+
+
 def test_export_warns_on_one_line_about_defaulted_urdf_limits(planned, tmp_path):
     urdf = tmp_path / "robot.urdf"
     urdf.write_text(open(planned.robot["urdf"]).read().replace('effort="60" velocity="2.0"', 'effort="60" velocity="-2"', 1))

@@ -11,12 +11,12 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, require_type
 from ..geometry import SupportSurface
 from ..planning import PlanResult, build_robot
 from ..timing import parameterize, resolve_limits
 from ..transforms import move_planar, rotation_2d, wrap_angle
-from ..verify import overhang
+from ..verify import overhang, require_motion
 from .model import build_model
 from .report import Execution, path_features
 from .runner import SETTLE_S, Runner, Unstable, timing_of, timing_options
@@ -54,12 +54,15 @@ def execute(
         The report. An unstable simulation is a report with ``failed_stage == "simulation"``.
 
     Raises:
-        InputError: the plan is not solved, or its robot cannot be imported (naming the element),
+        InputError: the plan is not solved or its motion cannot be run
+            (:func:`slideplan.verify.require_motion`), or its robot cannot be imported (naming the element),
             or a mesh is missing, or the timing block does not fit the plan, or TOPP-RA finds no
             timing of a segment this function times itself.
     """
+    require_type(result, PlanResult, "result", "a PlanResult (from plan or PlanResult.load)")
     if result.status != "solved":
         raise InputError(f"plan status is {result.status!r}: only solved plans can be executed", field="status")
+    require_motion(result)
     settings = settings or ExecutionSettings()
     timing = timing if timing is not None else getattr(result, "timing", None)
     if video is not None and Path(video).suffix.lower() not in (".mp4", ".gif", ".png"):
