@@ -40,6 +40,8 @@ def read_toml(path: Path) -> dict[str, Any]:
         raise InputError(f"cannot read file ({error.strerror})", source=str(path)) from None
     except tomllib.TOMLDecodeError as error:
         raise InputError(f"invalid TOML ({error})", source=str(path)) from None
+    except UnicodeDecodeError as error:
+        raise InputError(f"not UTF-8 text ({error})", source=str(path)) from None
 
 
 def is_number(value: Any) -> bool:

@@ -176,8 +176,10 @@ def _sample_outline(outline: Polygon, resolution: float) -> np.ndarray:
     rings = [outline.exterior, *outline.interiors]
     expected = outline.area / resolution**2 + sum(ring.length for ring in rings) / resolution
     if expected > _MAX_SAMPLES:
+        min_x, min_y, max_x, max_y = outline.bounds
         raise InputError(
-            f"resolution {resolution:g} m would give about {expected:.3g} points (limit {_MAX_SAMPLES})",
+            f"the outline ({max_x - min_x:.3g} x {max_y - min_y:.3g} m) sampled every {resolution:g} m would give "
+            f"about {expected:.3g} points (limit {_MAX_SAMPLES}): is it in metres?",
             field="resolution",
         )
     min_x, min_y, max_x, max_y = outline.bounds
@@ -397,9 +399,12 @@ def load_object(
         raise InputError("an outline object needs a pose (x, y, yaw)", source=source, field="pose")
     scale = as_number(scale, source=source, field="scale", positive=True)
     outline = shapely.affinity.scale(outline, scale, scale, origin=(0.0, 0.0))
-    return ThinObject.from_outline(
-        outline, thickness=thickness, table_height=table_height, pose=pose, resolution=resolution, name=name
-    )
+    try:
+        return ThinObject.from_outline(
+            outline, thickness=thickness, table_height=table_height, pose=pose, resolution=resolution, name=name
+        )
+    except InputError as error:  # e.g. an outline too large to sample: say which object's
+        raise InputError(error.problem, source=error.source or source, field=error.field) from None
 
 
 def sample_pose_on_table(

@@ -13,6 +13,7 @@ import functools
 import json
 import math
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -727,7 +728,7 @@ def merge_urdf(urdf: Path, attach: list[Path]) -> str:
     def root(path: Path) -> ElementTree.Element:
         try:
             element = ElementTree.parse(path).getroot()
-        except (OSError, ElementTree.ParseError) as error:
+        except (OSError, ElementTree.ParseError, UnicodeDecodeError) as error:
             raise ValueError(f"{path}: cannot read URDF ({error})") from None
         if element.tag != "robot":
             raise ValueError(f"{path}: not a URDF (root element <{element.tag}>, expected <robot>)")
@@ -738,6 +739,8 @@ def merge_urdf(urdf: Path, attach: list[Path]) -> str:
             return urdf.read_text()
         except OSError as error:
             raise ValueError(f"{urdf}: cannot open URDF file ({error.strerror})") from None
+        except UnicodeDecodeError as error:
+            raise ValueError(f"{urdf}: not UTF-8 text ({error})") from None
     robot = root(urdf)
     for path in attach:
         robot.extend(list(root(path)))
@@ -759,17 +762,33 @@ def build_robot(description: dict[str, Any]):
     from . import _core
 
     urdf = Path(description["urdf"])
-    return _core.RobotModel.from_string(
-        merge_urdf(urdf, [Path(path) for path in description["attach"]]),
-        source=str(urdf),
-        directory=str(urdf.parent),
-        tip_link=description["tip_link"],
-        base_pose=np.asarray(description["base_pose"], dtype=float),
-        base_link=description["base_link"],
-        tip_offset=np.asarray(description["tip_offset"], dtype=float),
-        fixed_joints=dict(description["fixed_joints"]),
-        package_dirs=list(description["package_dirs"]),
-    )
+    attach = [Path(path) for path in description["attach"]]
+    try:
+        return _core.RobotModel.from_string(
+            merge_urdf(urdf, attach),
+            source=str(urdf),
+            directory=str(urdf.parent),
+            tip_link=description["tip_link"],
+            base_pose=np.asarray(description["base_pose"], dtype=float),
+            base_link=description["base_link"],
+            tip_offset=np.asarray(description["tip_offset"], dtype=float),
+            fixed_joints=dict(description["fixed_joints"]),
+            package_dirs=list(description["package_dirs"]),
+        )
+    except ValueError as error:
+        raise ValueError(_blame_fragment(str(error), urdf, attach)) from None
+
+
+def _blame_fragment(message: str, urdf: Path, attach: list[Path]) -> str:
+    """The core's message about the merged URDF, naming the attached file instead of ``urdf`` when the
+    link or joint it names comes from that file (the core sees one document)."""
+    named = set(re.findall(r"\[([^\]]+)\]|'([^']+)'", message))
+    named = {name for pair in named for name in pair if name}
+    for path in attach:
+        elements = ElementTree.parse(path).getroot()
+        if named & {element.get("name") for element in elements if element.tag in ("link", "joint")}:
+            return message.replace(f"{urdf}:", f"{path} (attached to {urdf.name}):", 1)
+    return message
 
 
 @functools.lru_cache(maxsize=16)

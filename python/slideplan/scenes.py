@@ -273,7 +273,8 @@ def _read_obstacle(obstacle: Fields, table: SupportSurface, scene_dir: Path) -> 
         try:
             thin = load_object(spec, table_height=table.height, pose=pose)
         except InputError as error:
-            raise InputError(error.problem, source=obstacle.source, field=f"{obstacle.field('object')} ({spec})") from None
+            inner = f": {error.field}" if error.field else ""  # the object file's own field, e.g. thickness
+            raise InputError(error.problem, source=obstacle.source, field=f"{obstacle.field('object')} ({spec}{inner})") from None
         hull = shapely.MultiPoint(thin.points[:, :2]).convex_hull
         if hull.geom_type != "Polygon":
             raise InputError("the object's footprint has no area", source=obstacle.source, field=obstacle.field("object"))

@@ -251,6 +251,15 @@ def test_bad_outline_toml_names_file_and_field(tmp_path, text, field, problem):
     assert problem in str(raised.value)
 
 
+def test_an_outline_too_large_to_sample_names_its_file_and_size(tmp_path):
+    # Once "resolution: resolution 0.005 m would give about 1.6e+09 points", naming no file (millimetres?).
+    path = tmp_path / "tray.toml"
+    path.write_text("thickness = 0.004\noutline = [[-100, -100], [100, -100], [100, 100], [-100, 100]]\n")
+    with pytest.raises(InputError, match=r"the outline \(200 x 200 m\) sampled every 0.005 m .* is it in metres") as raised:
+        load_object(path, table_height=0.0, pose=(0, 0, 0))
+    assert raised.value.source == str(path) and raised.value.field == "resolution"
+
+
 def test_unknown_object_raises():
     with pytest.raises(InputError, match="no such file"):
         load_object("no_such_object", table_height=0.0, pose=(0, 0, 0))

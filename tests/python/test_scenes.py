@@ -184,3 +184,41 @@ def test_robot_toml_writes_a_robot_and_hand_that_load_back_the_same(name, tmp_pa
     for key in ("base_link", "fixed_joints", "tip_link", "grasp_link", "contact_links"):
         assert reloaded[key] == original[key], key
     assert copy.hand.params == scene.hand.params
+
+
+def test_files_behind_a_scene_are_named_in_its_errors(tmp_path):
+    """Each once gave a message naming no file, or the wrong one: a scene, an object or a URDF that is
+    not UTF-8 ('utf-8' codec can't decode byte 0xff), an obstacle's object file with a bad field ("must
+    be > 0, got -1"), and an attached URDF fragment urdfdom cannot read (blamed on the main URDF)."""
+    from slideplan.planning import robot_model
+
+    table = "[table]\npolygon = [[0.3, -0.2], [0.7, -0.2], [0.7, 0.2], [0.3, 0.2]]\n"
+    binary = tmp_path / "binary.toml"
+    binary.write_bytes(table.encode() + b"# \xff\xfe\n")
+    with pytest.raises(InputError, match="not UTF-8") as raised:
+        load_scene(binary)
+    assert raised.value.source == str(binary)
+
+    (tmp_path / "thin.toml").write_text('name = "thin"\nthickness = -1\noutline = [[0, 0], [0.05, 0], [0, 0.05]]\n')
+    cluttered = tmp_path / "cluttered.toml"
+    cluttered.write_text(table + '[[obstacles]]\nshape = "object"\nobject = "thin.toml"\npose = [0.4, 0.1, 0]\n')
+    with pytest.raises(InputError, match=r"obstacles\[0\]\.object \(.*thin\.toml: thickness\): must be > 0"):
+        load_scene(cluttered)
+
+    (tmp_path / "binary.urdf").write_bytes(b'<robot name="x"> \xff </robot>')
+    robot = tmp_path / "robot.toml"
+    robot.write_text(table + '[robot]\nurdf = "binary.urdf"\n[hand]\ntip_link = "a"\ngrasp_link = "a"\ncontact_links = ["a"]\n')
+    with pytest.raises(InputError, match=f"{tmp_path / 'binary.urdf'}: not UTF-8"):
+        robot_model(load_scene(robot))
+
+    # A fragment adding a link to the WAM whose collision radius urdfdom cannot parse.
+    (tmp_path / "probe.urdf").write_text(
+        '<robot name="probe"><link name="probe"><collision><geometry><sphere radius="nan"/></geometry></collision>'
+        '</link><joint name="probe_joint" type="fixed"><parent link="wam_link7"/><child link="probe"/></joint></robot>')
+    attached = tmp_path / "attached.toml"
+    attached.write_text(Path(load_scene("square").source).read_text().replace(
+        'urdf = "wam_t42.urdf"', 'urdf = "wam_t42.urdf"\nattach = ["probe.urdf"]'))
+    with pytest.raises(InputError) as raised:
+        robot_model(load_scene(attached))
+    assert f"{tmp_path / 'probe.urdf'} (attached to wam_t42.urdf): malformed URDF" in str(raised.value)
+    assert "Link [probe]" in str(raised.value)
