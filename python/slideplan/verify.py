@@ -106,8 +106,11 @@ def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_
     violations = check_shapes(result)
     if violations:
         return Verification(violations)  # the remaining checks index into the arrays
-    violations = check_ends(result)
+    violations = check_names(result, result.robot_model())
+    if violations:
+        return Verification(violations)  # the remaining checks look these up
     world = _rebuild_world(result)
+    violations = check_ends(result)
     violations += check_sliding_path(result, world)
     violations += check_object_motion(result)
     violations += check_turning(result)
@@ -141,16 +144,18 @@ def _rebuild_world(result: PlanResult, collisions: bool = True) -> _PlanWorld:
 
 def check_motion(result: PlanResult) -> list[str]:
     """What a controller needs of a plan before it moves the arm, without the geometry (cheap): the
-    shapes, every waypoint of the slide and the approach within the joint limits, consecutive waypoints
+    robot's names (:func:`check_names`), the shapes, every waypoint of the slide and the approach within the joint limits, consecutive waypoints
     within ``max_joint_step``, and the timing block within its limits (:func:`verify` checks all this
     and the rest).
 
     Returns:
-        Violations; none for a plan that is not solved (there is nothing to move).
+        Violations; for a plan that is not solved only the robot's names (there is nothing to move).
     """
     require_type(result, PlanResult, "result", "a PlanResult (from plan or PlanResult.load)")
-    if result.status not in ("solved", "invalid"):
-        return []
+    robot = result.robot_model()
+    violations = check_names(result, robot)
+    if violations or result.status not in ("solved", "invalid"):
+        return violations
     violations = check_shapes(result)
     if violations:
         return violations
@@ -165,7 +170,8 @@ def check_motion(result: PlanResult) -> list[str]:
 
 def require_motion(result: PlanResult) -> None:
     """Refuse a plan that :func:`check_motion` finds fault with (``export``, ``execute`` and ``view`` run
-    it on every plan they read: a NaN, a joint jump or a velocity of 1e6 was once exported and executed).
+    it on every plan they read: a joint jump or a velocity of 1e6 was once exported and executed, and an
+    unknown grasp link a traceback in ``view``).
 
     Raises:
         InputError: the first violations and how many there are, naming the plan's field.
@@ -174,7 +180,19 @@ def require_motion(result: PlanResult) -> None:
     if violations:
         more = f" (and {len(violations) - 3} more)" if len(violations) > 3 else ""
         field = violations[0].split(":")[0].split("[")[0].split("->")[0]
-        raise InputError("the motion cannot be run: " + "; ".join(violations[:3]) + more, field=field)
+        raise InputError("the plan cannot be run: " + "; ".join(violations[:3]) + more, field=field)
+
+
+def check_names(result: PlanResult, robot) -> list[str]:
+    """Check that the links and joints the plan names are the robot's: its joints are the chain's, in
+    order, and the grasp and contact links are links of the URDF (the tip link the core checks)."""
+    violations = []
+    if list(result.joint_names) != list(robot.joint_names):
+        violations.append(f"joint_names: {list(result.joint_names)} are not the chain's joints {list(robot.joint_names)}")
+    links = set(robot.link_names)
+    for name, named in (("robot.grasp_link", [result.robot["grasp_link"]]), ("robot.contact_links", result.robot["contact_links"])):
+        violations += [f"{name}: {link!r} is not a link of the URDF" for link in named if link not in links]
+    return violations
 
 
 def check_shapes(result: PlanResult) -> list[str]:
