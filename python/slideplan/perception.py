@@ -42,6 +42,7 @@ _PLANE_SAMPLE = 20_000  # RANSAC runs on this many random points: plenty for a p
 _MAX_PLANES = 4  # floor, table, and a couple of box tops are all a tabletop scene has
 _MIN_PLANE_FRACTION = 0.05  # a plane with fewer inliers is clutter or chance, not a support surface
 _AREA_CELL = 0.01  # m; grid for estimating the area a plane's inliers cover
+_MAX_GRID_CELLS = 1e7  # a 9 m square table at 3 mm cells; beyond it the height grids take gigabytes
 _DETECTION_SIGMA = 1.0  # cells; averages ~15 points per cell at the default cell size
 _EDGE_SIGMA = 0.5  # cells
 _OUTLINE_TOLERANCE = 0.001  # m; the outline's simplification moves it at most this much
@@ -175,11 +176,20 @@ def _cell_size(support_xy: np.ndarray) -> float:
 
 
 class _Grid:
-    """An xy grid over a box, mapping points to cells."""
+    """An xy grid over a box, mapping points to cells.
 
-    def __init__(self, xy: np.ndarray, cell: float) -> None:
+    Raises:
+        InputError: (from ``problem``) more than ``_MAX_GRID_CELLS`` cells, before any is allocated.
+    """
+
+    def __init__(self, xy: np.ndarray, cell: float, problem: _Problem) -> None:
         self.cell = cell
         self.origin = xy.min(axis=0) - 2 * cell
+        extent = xy.max(axis=0) - xy.min(axis=0)
+        cells = np.prod(np.ceil(extent / cell) + 7)
+        if cells > _MAX_GRID_CELLS:
+            raise problem(f"the table plane's points span {extent[0]:.4g} x {extent[1]:.4g} m: {cells:.3g} grid cells of "
+                          f"{cell:g} m (limit {_MAX_GRID_CELLS:.0e}); slideplan reads metres: is the cloud in millimetres?")
         self.shape = tuple((np.ceil((xy.max(axis=0) - self.origin) / cell) + 3).astype(int))
 
     def covers(self, xy: np.ndarray) -> np.ndarray:
@@ -275,7 +285,7 @@ def perceive(
     a, b, c = plane.coefficients
     heights = cloud[:, 2] - (a * cloud[:, 0] + b * cloud[:, 1] + c)
     on_plane = np.abs(heights) < plane_tolerance
-    grid = _Grid(cloud[on_plane, :2], cell_size or _cell_size(cloud[on_plane, :2]))
+    grid = _Grid(cloud[on_plane, :2], cell_size or _cell_size(cloud[on_plane, :2]), problem)
     in_grid = grid.covers(cloud[:, :2])
     thin_cells = grid.accumulate(grid.index(cloud[in_grid & (heights > min_height) & (heights <= max_thickness), :2])) > 0
     # Two tables at one height are one plane: the largest of its patches with something thin on it.
@@ -312,7 +322,7 @@ def perceive(
         inner_members = members & inner[tuple(cells.T)]
         top = float(np.median(heights_over[inner_members if inner_members.any() else members]))
         if top > max_thickness:
-            obstacles.append(_box_obstacle(xy[members], heights_over[members], plane.coefficients))
+            obstacles.append(_box_obstacle(xy[members], heights_over[members], plane.coefficients, grid.cell))
         else:
             thin.append((int(mask.sum()), top, members, near_cluster == label, smoothed[inner]))
     if not thin:
@@ -322,7 +332,8 @@ def perceive(
     # The table height from its bare points (away from anything on it), so the objects do not lift it.
     bare = on_plane & over
     bare[bare] = ~ndimage.binary_dilation(occupied, iterations=2)[tuple(grid.index(cloud[bare, :2]).T)]
-    offset = float(np.median(heights[bare]))
+    # None bare (the objects cover the table): all its plane points, lifted a little by the objects' edges.
+    offset = float(np.median(heights[bare] if bare.any() else heights[on_plane & over]))
     # Hull of everything over the table: objects and clutter hide the table under them.
     hull = _convex_hull(xy).simplify(_OUTLINE_TOLERANCE)
     center = hull.centroid
@@ -455,13 +466,16 @@ def _thin_object(xy: np.ndarray, thickness: float, table_height: float, footprin
     return PerceivedObject(points, thickness, footprint, centroid, yaw)
 
 
-def _box_obstacle(xy: np.ndarray, heights: np.ndarray, coefficients: np.ndarray) -> BoxObstacle:
+def _box_obstacle(xy: np.ndarray, heights: np.ndarray, coefficients: np.ndarray, cell: float) -> BoxObstacle:
     """The box around a clutter cluster: the minimum rotated rectangle of its upper half, up to its 98th height percentile.
 
     The upper half only: the cluster's cells also hold table points around the clutter's foot.
     """
     top = float(np.percentile(heights, 98))
-    rectangle = MultiPoint(xy[heights > 0.5 * top]).minimum_rotated_rectangle
+    upper = MultiPoint(xy[heights > 0.5 * top])
+    rectangle = upper.minimum_rotated_rectangle
+    if not isinstance(rectangle, Polygon):  # its upper points on a line or in one spot: a box a cell thick
+        rectangle = upper.buffer(0.5 * cell, cap_style="square").minimum_rotated_rectangle
     corners = np.asarray(rectangle.exterior.coords)[:4]
     sides = np.diff(np.vstack([corners, corners[:1]]), axis=0)
     length = np.linalg.norm(sides, axis=1)

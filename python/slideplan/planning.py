@@ -20,6 +20,7 @@ from typing import Any
 from xml.etree import ElementTree
 
 import numpy as np
+import shapely
 
 from . import _core, grasp_cache, jsontext
 from ._fields import as_number, as_numbers, is_number
@@ -446,8 +447,13 @@ class PlanResult:
         unknown = sorted(data.keys() - names - {"schema"})
         if missing or unknown:
             raise InputError(f"missing fields {missing}, unknown fields {unknown}", field="plan")
+        for name, kind in _BLOCK_TYPES.items():
+            if not isinstance(data[name], kind) or isinstance(data[name], bool):
+                raise InputError(f"expected {_KIND_WORDS[kind]}, got {type(data[name]).__name__}", field=name)
         if data["status"] not in STATUSES:
             raise InputError(f"unknown status {data['status']!r} (expected one of {STATUSES})", field="status")
+        if not all(isinstance(name, str) for name in data["joint_names"]):
+            raise InputError("expected a list of joint names", field="joint_names")
         dof = len(data["joint_names"])
         try:
             _require_finite(data)
@@ -456,7 +462,7 @@ class PlanResult:
                 planner=data["planner"],
                 seed=data["seed"],
                 planning_time_s=data["planning_time_s"],
-                params=dict(data["params"]),
+                params=_read_params(data["params"]),
                 table={**data["table"], "polygon": _array(data["table"]["polygon"], 2, "table.polygon")},
                 object={
                     **data["object"],
@@ -465,7 +471,7 @@ class PlanResult:
                 },
                 robot=_robot_block(data["robot"]),
                 obstacles=[_obstacle_entry(entry, index) for index, entry in enumerate(data["obstacles"])],
-                object_motion=dict(data["object_motion"]),
+                object_motion=_object_motion(data["object_motion"]),
                 overhang_m=data["overhang_m"],
                 joint_names=list(data["joint_names"]),
                 start_config=_array(data["start_config"], field="start_config"),
@@ -530,6 +536,13 @@ class PlanResult:
         return cls.from_dict(data)
 
 
+# The plan JSON's fields that are not arrays, and what each must be.
+_BLOCK_TYPES = {"status": str, "planner": str, "seed": int, "planning_time_s": (int, float), "params": dict,
+                "table": dict, "object": dict, "robot": dict, "obstacles": list, "object_motion": dict,
+                "overhang_m": (int, float), "joint_names": list, "grasp": dict, "stats": dict}
+_KIND_WORDS = {str: "a string", int: "an integer", (int, float): "a number", dict: "a table of fields", list: "a list"}
+
+
 def _check_scene_blocks(result: PlanResult) -> None:
     """The table, object and robot blocks of a plan hold what every reader of a plan (solved or not)
     needs: a simple table polygon, an object of at least 3 points with a thickness, link names.
@@ -541,8 +554,15 @@ def _check_scene_blocks(result: PlanResult) -> None:
 
     SupportSurface.from_vertices(result.table["polygon"], result.table["height"], field="table.polygon")
     points = result.object["points"]
-    if len(points) < 3:
-        raise InputError(f"expected at least 3 points, got {len(points)}", field="object.points")
+    if len(points) < 3 or shapely.MultiPoint(points[:, :2]).convex_hull.area <= 0.0:
+        raise InputError(f"expected at least 3 points not on one line, got {len(points)}", field="object.points")
+    for name, rows in (("fingertip_poses", result.fingertip_poses), ("grasp.pose", result.grasp["pose"])):
+        if np.size(rows) % 7:
+            continue  # misshapen: check_shapes says so
+        norms = np.linalg.norm(np.reshape(rows, (-1, 7))[:, 3:], axis=1)
+        if np.any(np.abs(norms - 1.0) > 1e-6):
+            index = int(np.argmax(np.abs(norms - 1.0)))
+            raise InputError(f"the quaternion of row {index} has norm {norms[index]:.6g}, not 1", field=name)
     as_number(result.object["thickness"], source="", field="object.thickness", positive=True)
     for key in ("urdf", "tip_link", "grasp_link"):
         if not isinstance(result.robot.get(key), str) or not result.robot[key]:
@@ -554,9 +574,15 @@ def _beside(directory: Path, name: str) -> str:
     return name if "://" in name or Path(name).is_absolute() else os.path.normpath(directory / name)
 
 
+# No number in a plan is larger (metres, radians, seconds, counts): beyond it geometry loses its precision
+# (an object moved 1e300 m has no outline left) and it is a corrupted file, not a plan.
+MAX_MAGNITUDE = 1e9
+
+
 def _require_finite(data: dict[str, Any]) -> None:
-    """Refuse a plan dict holding a NaN or infinite number anywhere (JSON parsers accept ``NaN`` and
-    ``1e999``; a trajectory with one would be executed or exported as it is), naming where.
+    """Refuse a plan dict holding a NaN, an infinite or an implausibly large number (beyond
+    :data:`MAX_MAGNITUDE`) anywhere (JSON parsers accept ``NaN`` and ``1e999``; a trajectory with one
+    would be executed or exported as it is), naming where.
 
     Raises:
         InputError: the dotted field of the first such number.
@@ -571,12 +597,15 @@ def _require_finite(data: dict[str, Any]) -> None:
             numbers = _numbers_or_none(value)
             if numbers is None:
                 stack.extend((f"{name}[{index}]", item) for index, item in enumerate(value))
-            elif not np.isfinite(numbers).all():
-                first = np.argwhere(~np.isfinite(numbers))[0]
-                raise InputError(f"{numbers[tuple(first)]} is not a finite number",
-                                 field=name + "".join(f"[{index}]" for index in first))
-        elif isinstance(value, float) and not math.isfinite(value):
-            raise InputError(f"{value} is not a finite number", field=name)
+            elif not (np.abs(numbers) <= MAX_MAGNITUDE).all():
+                first = np.argwhere(~(np.abs(numbers) <= MAX_MAGNITUDE))[0]
+                raise InputError(_implausible(numbers[tuple(first)]), field=name + "".join(f"[{index}]" for index in first))
+        elif isinstance(value, float) and not abs(value) <= MAX_MAGNITUDE:  # integers (seeds, counts) may be larger
+            raise InputError(_implausible(value), field=name)
+
+
+def _implausible(value: float) -> str:
+    return f"{value} is not a finite number" if not math.isfinite(value) else f"{value:g} is beyond {MAX_MAGNITUDE:g} in magnitude"
 
 
 def _numbers_or_none(value: list) -> np.ndarray | None:
@@ -629,13 +658,54 @@ def _obstacle_entry(entry: Any, index: int) -> dict[str, Any]:
 
 
 def _robot_block(robot: dict[str, Any]) -> dict[str, Any]:
-    """A plan's robot block with 4x4 arrays; plans written before [hand] existed get its defaults."""
+    """A plan's checked robot block with 4x4 arrays; plans written before [hand] existed get its defaults.
+
+    Raises:
+        InputError: a name that is not a string, a list that is not of names, joint values that are
+            not numbers, naming ``robot.<key>``.
+    """
     identity = np.eye(4)
     block = {"attach": [], "base_link": "", "fixed_joints": {}, "package_dirs": [], "tip_offset": identity,
              "grasp_offset": identity, **robot}
+    for key in ("urdf", "base_link", "tip_link", "grasp_link"):
+        if not isinstance(block.get(key), str):
+            raise InputError(f"expected a name, got {block.get(key)!r}", field=f"robot.{key}")
+    for key in ("attach", "package_dirs", "contact_links"):
+        if not isinstance(block.get(key), list) or not all(isinstance(item, str) for item in block[key]):
+            raise InputError(f"expected a list of names, got {block.get(key)!r}", field=f"robot.{key}")
+    if not isinstance(block["fixed_joints"], dict) or not all(is_number(value) for value in block["fixed_joints"].values()):
+        raise InputError(f"expected joint names with numbers, got {block['fixed_joints']!r}", field="robot.fixed_joints")
     for key in ("base_pose", "tip_offset", "grasp_offset"):
         block[key] = _array(block[key], 4, f"robot.{key}")
     return block
+
+
+# What the readers of a plan take from its params block unguarded (the others have defaults).
+_REQUIRED_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "grasp_lift", "max_joint_step", "max_tip_step")
+
+
+def _read_params(params: dict[str, Any]) -> dict[str, Any]:
+    """A plan's params block, checked by the one validator of planner parameters.
+
+    Raises:
+        InputError: a parameter missing, of the wrong type or out of its bounds, naming ``params.<name>``.
+    """
+    missing = [name for name in _REQUIRED_PARAMS if name not in params]
+    if missing:
+        raise InputError(f"missing {missing}", field="params")
+    fields = {item.name for item in dataclasses.fields(PlannerConfig)} - {"planner", "seed"}
+    try:
+        PlannerConfig(**{name: value for name, value in params.items() if name in fields})
+    except InputError as error:
+        raise InputError(error.problem, field=f"params.{error.field}" if error.field else "params") from None
+    return dict(params)
+
+
+def _object_motion(motion: dict[str, Any]) -> dict[str, Any]:
+    """A plan's object_motion block: x, y (m) and yaw (rad)."""
+    for key in ("x", "y", "yaw"):
+        as_number(motion.get(key), source="", field=f"object_motion.{key}")
+    return dict(motion)
 
 
 def _read_timing(data: dict[str, Any]) -> dict[str, Any] | None:

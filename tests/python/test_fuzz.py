@@ -8,9 +8,13 @@ random seeds).
 
 from __future__ import annotations
 
+import functools
+import json
 import math
 import os
 import time
+from pathlib import Path
+from xml.etree import ElementTree
 
 import numpy as np
 import pytest
@@ -18,14 +22,16 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from slideplan import InputError, PlannerConfig, SupportSurface, ThinObject, load_object, load_scene, plan
+from slideplan import InputError, PlannerConfig, PlanResult, SupportSurface, ThinObject, load_object, load_scene, perceive, plan, verify
+from slideplan.export import export_plan
+from slideplan.planning import robot_model
+from slideplan.verify import require_motion
 
-settings.register_profile(
-    "ci", derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large]
-)
-settings.register_profile(
-    "fuzz", deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large]
-)
+# Fixtures (tmp_path_factory, capfd) serve every example: each example writes its own files or reads
+# what it alone printed.
+HEALTH = [HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.function_scoped_fixture]
+settings.register_profile("ci", derandomize=True, deadline=None, suppress_health_check=HEALTH)
+settings.register_profile("fuzz", deadline=None, suppress_health_check=HEALTH)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 FUZZ = os.environ.get("HYPOTHESIS_PROFILE") == "fuzz"
 
@@ -57,6 +63,15 @@ def clean(call):
     except InputError as error:
         assert str(error), "an InputError must say what is wrong"
         return None
+
+
+def planned_clean(scene, obj, config):
+    """:func:`clean` planning: a plan that solves passes the verifier."""
+    result = clean(lambda: plan(scene, obj, config))
+    if result is not None and result.solved:
+        verification = verify(result)
+        assert verification.ok, verification
+    return result
 
 
 def on_table_cloud(draw, count: int) -> np.ndarray:
@@ -113,7 +128,7 @@ def test_planning_any_cloud_is_a_plan_an_input_error_or_a_clean_timeout(cloud, t
     # first time) is the object's, computed once and kept; the time limit bounds planning.
     clean(lambda: obj.centroid_xy)
     started = time.perf_counter()
-    result = clean(lambda: plan(SCENE, obj, PlannerConfig(seed=1, time_limit_s=time_limit)))
+    result = planned_clean(SCENE, obj, PlannerConfig(seed=1, time_limit_s=time_limit))
     assert time.perf_counter() - started <= time_limit + SLACK_S + (0.0 if len(cloud) < 50_000 else 1.0)
     if result is not None:
         assert result.status in ("solved", "timeout")
@@ -165,7 +180,7 @@ def test_planning_on_any_valid_table_is_clean(vertices, tmp_path_factory):
     if obj is None:
         return
     started = time.perf_counter()
-    clean(lambda: plan(scene, obj, PlannerConfig(seed=2, time_limit_s=0.2)))
+    planned_clean(scene, obj, PlannerConfig(seed=2, time_limit_s=0.2))
     assert time.perf_counter() - started <= 0.2 + SLACK_S
 
 
@@ -256,7 +271,7 @@ def test_planning_with_parameters_at_and_beyond_their_limits_is_clean(name, scal
         return
     obj = load_object("square", table_height=SCENE.table.height, pose=(0.6, 0.0, 0.2))
     started = time.perf_counter()
-    clean(lambda: plan(SCENE, obj, config))
+    planned_clean(SCENE, obj, config)
     assert time.perf_counter() - started <= 0.2 + SLACK_S
 
 
@@ -268,3 +283,167 @@ def test_a_collinear_cloud_is_an_input_error_not_a_timeout():
     with pytest.raises(InputError, match="degenerate"):
         plan(SCENE, obj, PlannerConfig(seed=1, time_limit_s=5.0))
     assert time.perf_counter() - started < 1.0
+
+
+@st.composite
+def parameter_values(draw):
+    """A planner parameter and a value anywhere from far below to far above its default, on a log scale
+    (the validator's bounds fall somewhere in between), or at 0 and negative."""
+    name = draw(st.sampled_from(["beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "n_star",
+                                 "max_joint_step", "max_tip_step", "projection_tolerance", "projection_iterations",
+                                 "root_ik_attempts", "shortcut_attempts", "grasp_standoff", "grasp_lift",
+                                 "grasp_backoff", "contact_radius", "max_yaw_rate", "com_margin"]))
+    default = getattr(PlannerConfig.for_scene(SCENE).resolved(SCENE), name)
+    factor = draw(st.one_of(st.floats(-12, 12).map(lambda exponent: 10.0**exponent), st.sampled_from([0.0, -1.0])))
+    value = default * factor
+    return name, (max(0, min(round(value), 2**31)) if isinstance(default, int) else value)
+
+
+@settings(max_examples=examples(60))
+@given(parameter=parameter_values())
+def test_planning_with_any_parameter_value_is_clean_and_verified(parameter):
+    name, value = parameter
+    config = clean(lambda: PlannerConfig.for_scene(SCENE, seed=4, time_limit_s=0.2, **{name: value}))
+    if config is None:
+        return
+    obj = load_object("crescent", table_height=SCENE.table.height, pose=(0.55, -0.08, 0.4))
+    started = time.perf_counter()
+    planned_clean(SCENE, obj, config)
+    assert time.perf_counter() - started <= 0.2 + SLACK_S
+
+
+@functools.lru_cache(maxsize=1)
+def solved_plan_text() -> str:
+    """A real solved plan's JSON (the crescent on the square table)."""
+    obj = load_object("crescent", table_height=SCENE.table.height, pose=(0.55, -0.08, 0.4))
+    result = plan(SCENE, obj, PlannerConfig.for_scene(SCENE, seed=1, time_limit_s=10.0))
+    assert result.solved
+    return result.to_json()
+
+
+@st.composite
+def plan_edits(draw):
+    """1-3 edits of a plan's JSON as a hand or a faulty tool would make them: (path, how, value), a value
+    anywhere in it replaced by anything, scaled, turned into another type, or deleted."""
+    edits = []
+    for _ in range(draw(st.integers(1, 3))):
+        node, path = json.loads(solved_plan_text()), []
+        while isinstance(node, (dict, list)) and node and (not path or draw(st.integers(0, 3)) > 0):
+            key = draw(st.sampled_from(sorted(node) if isinstance(node, dict) else list(range(len(node)))))
+            node = node[key]
+            path.append(key)
+        edit = draw(st.sampled_from(["replace", "scale", "retype", "delete"]))
+        edits.append((tuple(path), edit, draw(anything) if edit == "replace" else
+                      draw(st.sampled_from([-1.0, 1e6, 1.0 + 1e-9, 0.0, 1e300])) if edit == "scale" else None))
+    return edits
+
+
+def edited(edits) -> str:
+    """The solved plan's JSON with ``edits`` (:func:`plan_edits`) made where they still apply."""
+    data = json.loads(solved_plan_text())
+    for path, edit, value in edits:
+        parent = data
+        try:
+            for key in path[:-1]:
+                parent = parent[key]
+            node = parent[path[-1]]
+        except (KeyError, IndexError, TypeError):
+            continue  # an earlier edit took this place away
+        if edit == "delete" and isinstance(parent, dict):
+            del parent[path[-1]]
+        elif edit == "scale" and isinstance(node, (int, float)) and not isinstance(node, bool):
+            parent[path[-1]] = node * value
+        elif edit == "retype":
+            parent[path[-1]] = {"value": node} if not isinstance(node, dict) else [node]
+        elif edit == "replace":
+            parent[path[-1]] = value
+    return json.dumps(data)
+
+
+@settings(max_examples=examples(300))
+@given(edits=plan_edits())
+def test_an_edited_plan_file_is_read_checked_and_verified_cleanly(edits, tmp_path_factory):
+    """What verify, export, execute and view do first with a plan file: read it, check its motion, verify it,
+    export it; each gives a result or an InputError."""
+    directory = tmp_path_factory.mktemp("plan")
+    (directory / "plan.json").write_text(edited(edits))
+    result = clean(lambda: PlanResult.load(directory / "plan.json"))
+    if result is None:
+        return
+    clean(lambda: require_motion(result))
+    verification = clean(lambda: verify(result))
+    assert verification is None or isinstance(verification.ok, bool)
+    if verification is not None and verification.ok:
+        clean(lambda: export_plan(result, "csv", directory / "plan.csv"))
+
+
+@st.composite
+def scene_clouds(draw):
+    """World-frame scene clouds: a table (tilted, small, in millimetres or not), objects on it, noise,
+    flying pixels, holes, NaNs."""
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    half = draw(st.sampled_from([0.05, 0.2, 0.4]))
+    spacing = 0.004
+    axis = np.arange(-half, half, spacing)
+    x, y = (grid.ravel() for grid in np.meshgrid(axis, axis))
+    tilt = draw(st.sampled_from([0.0, 0.02, 0.2]))
+    z = 0.7 + tilt * x
+    for _ in range(draw(st.integers(0, 3))):  # thin rectangles
+        cx, cy, size = rng.uniform(-half, half), rng.uniform(-half, half), rng.uniform(0.005, 0.1)
+        inside = (np.abs(x - cx) < size) & (np.abs(y - cy) < size / 2)
+        z = np.where(inside, z + draw(st.sampled_from([0.0005, 0.004, 0.02, 0.1])), z)
+    cloud = np.column_stack([x, y, z + rng.normal(0.0, draw(st.sampled_from([0.0, 0.001, 0.005])), len(x))])
+    outliers = int(draw(st.sampled_from([0.0, 0.01, 0.3])) * len(cloud))
+    cloud[rng.choice(len(cloud), outliers, replace=False)] += rng.uniform(-0.3, 0.3, (outliers, 3))
+    if draw(st.booleans()):
+        cloud = cloud[rng.random(len(cloud)) > draw(st.sampled_from([0.5, 0.99]))]
+    if draw(st.integers(0, 9)) == 0:
+        cloud[rng.integers(0, len(cloud))] = np.nan
+    return cloud * draw(st.sampled_from([1.0, 1.0, 1000.0]))
+
+
+@settings(max_examples=examples(150))
+@given(cloud=scene_clouds())
+def test_perceiving_any_scene_cloud_is_clean(cloud):
+    perception = clean(lambda: perceive(cloud, seed=0))
+    if perception is not None:
+        assert perception.objects, "a perception holds at least one object"
+        for obj in perception.objects:
+            assert np.isfinite(obj.points).all() and obj.thickness > 0
+
+
+URDF = Path(SCENE.urdf_path)
+BAD_TEXT = st.one_of(st.sampled_from(["nan", "inf", "-1", "0", "", "1 2", "1 2 3 4", "abc", "1e400", "0 0 nan",
+                                      "package://nowhere/x.stl", "1" * 400]), st.text(max_size=8))
+
+
+@st.composite
+def edited_urdfs(draw):
+    """The WAM + T42 URDF with 1-3 attributes set to bad text or elements removed."""
+    root = ElementTree.parse(URDF).getroot()
+    elements = [element for element in root.iter() if element is not root]
+    for _ in range(draw(st.integers(1, 3))):
+        element = draw(st.sampled_from(elements))
+        if element.attrib and draw(st.integers(0, 3)) > 0:
+            element.set(draw(st.sampled_from(sorted(element.attrib))), draw(BAD_TEXT))
+        else:
+            for parent in root.iter():
+                if element in list(parent):
+                    parent.remove(element)
+                    break
+            elements = [item for item in root.iter() if item is not root]
+    return ElementTree.tostring(root, encoding="unicode")
+
+
+@settings(max_examples=examples(150))
+@given(text=edited_urdfs())
+def test_an_edited_urdf_gives_a_robot_or_an_error_and_nothing_on_stderr(text, tmp_path_factory, capfd):
+    directory = tmp_path_factory.mktemp("urdf")
+    (directory / "robot.urdf").write_text(text)
+    (directory / "scene.toml").write_text(Path(SCENE.source).read_text().replace('urdf = "wam_t42.urdf"', 'urdf = "robot.urdf"'))
+    capfd.readouterr()
+    scene = clean(lambda: load_scene(directory / "scene.toml"))
+    robot = None if scene is None else clean(lambda: robot_model(scene))
+    if robot is not None:
+        assert robot.dof == len(robot.joint_names) and robot.dof > 0
+    assert capfd.readouterr().err == "", "a library wrote to stderr"

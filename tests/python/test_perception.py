@@ -271,3 +271,13 @@ def test_flying_pixels_make_no_phantom_object_and_no_stray_points(seed):
     assert abs(found.thickness - 0.004) < 0.0005
     strays = shapely.distance(plate, shapely.points(found.points[:, :2])) > 0.005
     assert strays.mean() < 0.005
+
+
+def test_a_table_plane_too_large_to_grid_is_refused_before_allocating():
+    # Three stray points 100 km away on the table's plane asked for a 20 GB grid (MemoryError).
+    rng = np.random.default_rng(0)
+    xy = rng.uniform([0.3, -0.2], [0.7, 0.2], size=(40_000, 2))
+    z = np.where(shapely.contains_xy(shapely.box(0.45, -0.04, 0.53, 0.04), *xy.T), 0.004, 0.0)
+    far = np.array([[1e5, 0.0, 0.0], [1e5, 1e5, 0.0], [0.0, 1e5, 0.0]])
+    with pytest.raises(InputError, match=r"span 1e\+05 x .* grid cells .* is the cloud in millimetres"):
+        perceive(np.vstack([np.column_stack([xy, z]), far]))

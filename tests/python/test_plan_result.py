@@ -15,6 +15,12 @@ from slideplan.transforms import matrix_from_quaternion, pose_to_row, quaternion
 DOF = 7
 
 
+def _unit_quaternions(rows):
+    """Pose rows (x, y, z, qx, qy, qz, qw) with their quaternions scaled to unit norm."""
+    rows[:, 3:] /= np.linalg.norm(rows[:, 3:], axis=1, keepdims=True)
+    return rows
+
+
 def make_plan(status="solved", waypoints=5, approach=3):
     """A hand-made plan with arbitrary (not physically valid) numbers in every field."""
     rng = np.random.default_rng(7)
@@ -49,9 +55,9 @@ def make_plan(status="solved", waypoints=5, approach=3):
         start_config=np.zeros(0) if empty else trajectory[0].copy(),
         goal_config=np.zeros(0) if empty else trajectory[-1].copy(),
         trajectory=trajectory,
-        fingertip_poses=rng.uniform(-1, 1, (waypoints, 7)),
+        fingertip_poses=_unit_quaternions(rng.uniform(-1, 1, (waypoints, 7))),
         grasp={
-            "pose": np.zeros(0) if empty else rng.uniform(-1, 1, 7),
+            "pose": np.zeros(0) if empty else _unit_quaternions(rng.uniform(-1, 1, (1, 7)))[0],
             "config": np.zeros(0) if empty else rng.uniform(-1, 1, DOF),
             "approach": rng.uniform(-1, 1, (approach, DOF)),
         },
