@@ -93,7 +93,7 @@ namespace slideplan
         std::vector<std::pair<int, int>> selfPairs;
         double tableTop{0.0};
         mutable std::vector<Eigen::Isometry3d> poses;
-        /// Per link asked of rigidFree: the shapes rigid with it and their poses in its frame.
+        /// Per link asked of rigidCollision: the shapes rigid with it and their poses in its frame.
         std::map<int, std::vector<std::pair<std::size_t, Eigen::Isometry3d>>> rigid;
 
         void pose(const RobotModel &robot, const JointsRef &q)
@@ -280,7 +280,7 @@ namespace slideplan
         return check(q, mode, nullptr, true);
     }
 
-    bool CollisionWorld::rigidFree(const std::string &link, const Eigen::Isometry3d &pose) const
+    std::string CollisionWorld::rigidCollision(const std::string &link, const Eigen::Isometry3d &pose) const
     {
         const int index = robot_->linkIndex(link);
         if (index < 0)
@@ -310,9 +310,9 @@ namespace slideplan
             object.computeAABB();
             for (std::size_t piece = 0; piece < impl_->firstObjectPiece; ++piece)
                 if (collide(object, *impl_->environment[piece].object))
-                    return false;
+                    return robot_->links()[impl_->shapes[s].link].name + "-" + impl_->environment[piece].name;
         }
-        return true;
+        return {};
     }
 
     std::vector<std::pair<std::string, std::string>> CollisionWorld::collisions(const JointsRef &q, ContactMode mode) const

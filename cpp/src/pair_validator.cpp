@@ -128,9 +128,15 @@ namespace slideplan
         return !graspUnreachable(task_->table->closestEdge(point));
     }
 
-    bool PairValidator::handClear(const Eigen::Isometry3d &grasp) const
+    std::string PairValidator::handCollision(const Eigen::Isometry3d &grasp) const
     {
-        return world_->rigidFree(task_->graspLink, grasp * task_->graspOffset.inverse());
+        return world_->rigidCollision(task_->graspLink, grasp * task_->graspOffset.inverse());
+    }
+
+    std::string PairValidator::inCollision(const std::string &what, const Eigen::VectorXd &q) const
+    {
+        const auto pairs = world_->collisions(q, ContactMode::Free);
+        return pairs.empty() ? what + " in collision" : what + " in collision (" + pairs[0].first + "-" + pairs[0].second + ")";
     }
 
     bool PairValidator::graspClear(const Overhang &overhang) const
@@ -146,11 +152,15 @@ namespace slideplan
         if (params_.graspFlip)
             orientations.push_back(rolled(grasp));
         std::size_t tried = 0;
+        std::string hit;  // what the hand met at the first orientation that met something
         for (const Eigen::Isometry3d &orientation : orientations)
         {
             // The hand against the table, checked before the IK that would only find it afterwards.
-            if (!handClear(orientation))
+            if (std::string meets = handCollision(orientation); !meets.empty())
+            {
+                hit = hit.empty() ? meets : hit;
                 continue;
+            }
             ++tried;
             if (graspIk(orientation, edge, seed, rng, solution))
             {
@@ -159,7 +169,7 @@ namespace slideplan
             }
         }
         if (tried == 0)
-            return "grasp configuration in collision";
+            return "grasp configuration in collision (" + hit + ")";
         // Only what IK ruled out holds for the whole stretch: the hand's collision depends on how far
         // beyond the edge the grasp is.
         if (tried == orientations.size() && params_.graspMap)
@@ -379,7 +389,7 @@ namespace slideplan
         const ObjectGuard guard{*world_};
         if (!world_->isValid(verdict.graspConfig, ContactMode::Free))
         {
-            verdict.reason = "grasp configuration in collision";
+            verdict.reason = inCollision("grasp configuration", verdict.graspConfig);
             return verdict;
         }
         IkOptions nearOptions;
@@ -388,10 +398,14 @@ namespace slideplan
         preGraspPose.translation() -= params_.graspBackoff * verdict.graspPose.linear().col(2);
         Eigen::VectorXd preGrasp;
         if (!robot.ikForLink(task_->graspLink, preGraspPose, verdict.graspConfig, rng, preGrasp, nearOptions,
-                            task_->graspOffset) ||
-            !world_->isValid(preGrasp, ContactMode::Free))
+                            task_->graspOffset))
         {
-            verdict.reason = "pre-grasp configuration unreachable or in collision";
+            verdict.reason = "pre-grasp configuration unreachable";
+            return verdict;
+        }
+        if (!world_->isValid(preGrasp, ContactMode::Free))
+        {
+            verdict.reason = inCollision("pre-grasp configuration", preGrasp);
             return verdict;
         }
 

@@ -110,26 +110,27 @@ namespace slideplan
             task.footprintXY.row(row) = (cell.first / cell.second).transpose();
             task.footprintWeight(row++) = cell.second;
         }
-        if (!task.objectClear(PlanarMotion()))
-            throw std::invalid_argument("an obstacle overlaps the object where it lies");
+        if (const int hit = task.overlappedObstacle(PlanarMotion()); hit >= 0)
+            throw std::invalid_argument("obstacles[" + std::to_string(hit) + "] overlaps the object where it lies");
         return task;
     }
 
-    bool SlidingTask::objectClear(const PlanarMotion &motion) const
+    int SlidingTask::overlappedObstacle(const PlanarMotion &motion) const
     {
         const Eigen::Isometry2d move = motion.transform();
-        for (const Obstacle &obstacle : obstacles)
+        for (std::size_t index = 0; index < obstacles.size(); ++index)
         {
+            const Obstacle &obstacle = obstacles[index];
             if (obstacle.bottom() >= surfaceZ)
                 continue;  // above the object: only the arm has to avoid it
             for (int i = 0; i < footprintXY.rows(); ++i)
                 if (obstacle.covers(move * footprintXY.row(i).transpose()))
-                    return false;
+                    return static_cast<int>(index);
             for (const Eigen::Vector2d &vertex : hullXY)
                 if (obstacle.covers(move * vertex))
-                    return false;
+                    return static_cast<int>(index);
         }
-        return true;
+        return -1;
     }
 
 }  // namespace slideplan

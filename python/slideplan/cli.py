@@ -191,14 +191,17 @@ def _load_object(scene: Scene, object_spec: str, pose, seed: int) -> tuple[ThinO
 
 
 def _summary(result: PlanResult) -> str:
-    """One line: status, time, overhang, roots and pairs."""
+    """One line: status, time, overhang, roots and pairs; for a plan not found, why pairs were rejected
+    most (a collision names its pair: what to move or retune)."""
     stats = result.stats
     counts = (
         f"roots {stats.get('start_roots', 0)} start / {stats.get('goal_roots', 0)} goal, "
         f"pairs {stats.get('pairs_checked', 0)} checked / {stats.get('pairs_rejected', 0)} rejected"
     )
     if not result.solved:
-        return f"{result.status} after {result.planning_time_s:.2f} s ({result.planner}; {counts})"
+        ranked = sorted(stats.get("rejections", {}).items(), key=lambda item: (-item[1], item[0]))[:3]
+        why = "; most rejected: " + ", ".join(f"{count} x {reason}" for reason, count in ranked) if ranked else ""
+        return f"{result.status} after {result.planning_time_s:.2f} s ({result.planner}; {counts}{why})"
     return (
         f"solved in {result.planning_time_s:.2f} s ({result.planner}): overhang {100 * result.overhang_m:.1f} cm, "
         f"{len(result.trajectory)} waypoints, {counts}"

@@ -467,7 +467,7 @@ class PlanResult:
                 object={
                     **data["object"],
                     "points": _array(data["object"]["points"], 3, "object.points"),
-                    "com_xy": _array(data["object"]["com_xy"], field="object.com_xy"),
+                    "com_xy": as_numbers(data["object"]["com_xy"], 2, source="", field="object.com_xy"),
                 },
                 robot=_robot_block(data["robot"]),
                 obstacles=[_obstacle_entry(entry, index) for index, entry in enumerate(data["obstacles"])],

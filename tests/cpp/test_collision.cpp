@@ -172,6 +172,15 @@ TEST(CollisionWorld, RigidFreeAnswersForTheHandAsTheFullCheck)
             handHits = handHits || (hand.count(link) > 0 && piece != "object" && robot->linkIndex(piece) < 0);
         const bool rigidFree = world.rigidFree("t42_grasp", robot->linkPose(q, "t42_grasp"));
         EXPECT_EQ(rigidFree, !handHits) << q.transpose();
+        // What it met, named as collisions() names it: a hand link and the table or the box.
+        const std::string named = world.rigidCollision("t42_grasp", robot->linkPose(q, "t42_grasp"));
+        EXPECT_EQ(named.empty(), rigidFree);
+        if (!named.empty())
+        {
+            const std::string link = named.substr(0, named.find('-')), piece = named.substr(named.find('-') + 1);
+            EXPECT_GT(hand.count(link), 0u) << named;
+            EXPECT_TRUE(piece == "table" || robot->linkIndex(piece) < 0 && piece != "object") << named;
+        }
         (rigidFree ? free : blocked) += 1;
     }
     EXPECT_GT(free, 30);  // both answers occur, so the comparison means something

@@ -120,3 +120,17 @@ def test_demo_writes_into_a_folder_it_makes(tmp_path):
     result = run("demo", "--out", str(out))
     assert result.exit_code == 0, result.output + result.stderr
     assert (out / "demo-plan.json").stat().st_size > 0 and (out / "demo-plan.png").stat().st_size > 0
+
+
+def test_a_plan_not_found_says_what_was_rejected_most(planned):
+    import dataclasses
+
+    from slideplan.cli import _summary
+
+    stats = {**planned.stats, "rejections": {"grasp pose unreachable": 40, "overhang below u*": 3,
+                                             "grasp configuration in collision (wam_link6-table)": 1204,
+                                             "pre-grasp configuration unreachable": 40}}
+    line = _summary(dataclasses.replace(planned, status="timeout", stats=stats))
+    assert line.endswith("; most rejected: 1204 x grasp configuration in collision (wam_link6-table), "
+                         "40 x grasp pose unreachable, 40 x pre-grasp configuration unreachable)"), line
+    assert "most rejected" not in _summary(planned)

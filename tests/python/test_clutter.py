@@ -91,7 +91,11 @@ def test_verify_catches_an_object_pushed_through_an_obstacle():
     ("obstacle", "message"),
     [
         ('[[obstacles]]\nshape = "cylinder"\ncenter = [0.5, 0.0]\nradius = 0.03\nheight = 0.1\n',
-         "an obstacle overlaps the object where it lies"),
+         "obstacles[0] overlaps the object where it lies"),
+        # Named: the second of two (it once said "an obstacle").
+        ('[[obstacles]]\nshape = "cylinder"\ncenter = [0.65, 0.15]\nradius = 0.02\nheight = 0.1\n'
+         '[[obstacles]]\nshape = "cylinder"\ncenter = [0.5, 0.0]\nradius = 0.03\nheight = 0.1\n',
+         "obstacles[1] overlaps the object where it lies"),
         ('[[obstacles]]\nshape = "cylinder"\ncenter = [0.9, 0.0]\nradius = 0.03\nheight = 0.1\n', "off the table"),
         ("[[obstacles]]\ncenter = [0.5, 0.15, 0.0]\nsize = [0.05, 0.05, 0.05]\n", "reaches into the table top"),
         ('[[obstacles]]\nshape = "sphere"\n', "unknown shape 'sphere'"),

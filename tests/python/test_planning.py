@@ -329,3 +329,23 @@ def test_a_pair_with_an_unset_partner_is_judged_with_the_scenes_hand():
     with pytest.raises(InputError) as error:
         PlannerConfig(delta_beta=2.0)  # no beta0 in (0, pi/2] exceeds it: refused at once
     assert error.value.field == "delta_beta"
+
+
+def test_collision_rejections_name_the_colliding_pair():
+    """A timeout once said only "grasp configuration in collision" thousands of times: every collision
+    rejection now names its first colliding pair (robot links, the table, the object or obstacleN), so the
+    counts in stats.rejections are per pair."""
+    scene = load_scene("panda_square")
+    links = set(robot_model(scene).link_names)
+    named = 0
+    for seed in range(3):
+        obj = load_object("crescent", table_height=scene.table.height, pose=(0.5, -0.05, 0.4))
+        result = plan(scene, obj, PlannerConfig.for_scene(scene, seed=seed, time_limit_s=10.0))
+        for reason, count in result.stats["rejections"].items():
+            if "in collision" not in reason:
+                continue
+            assert reason.endswith(")"), reason
+            first, second = reason[reason.rindex("(") + 1:-1].split("-", 1)
+            assert first in links and (second in links or second in ("table", "object") or second.startswith("obstacle")), reason
+            named += count
+    assert named > 0  # these seeds meet collisions (3 of them), so the check above means something

@@ -53,7 +53,9 @@ namespace slideplan
         /// pose `pose`, in any mode. Needs no configuration, so a grasp pose can be screened before its IK;
         /// the rest of the robot and the object are not checked. Not thread-safe, as isValid.
         /// \throws std::invalid_argument for an unknown link.
-        bool rigidFree(const std::string &link, const Eigen::Isometry3d &pose) const;
+        bool rigidFree(const std::string &link, const Eigen::Isometry3d &pose) const { return rigidCollision(link, pose).empty(); }
+        /// As rigidFree, naming what collides: "link-obstacle" (or "link-table") for the first hit, empty if clear.
+        std::string rigidCollision(const std::string &link, const Eigen::Isometry3d &pose) const;
 
         /// The colliding pairs at q, by link or obstacle name: for diagnostics and the verifier.
         std::vector<std::pair<std::string, std::string>> collisions(const JointsRef &q,

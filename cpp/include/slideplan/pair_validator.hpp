@@ -96,7 +96,11 @@ namespace slideplan
         /// remembered as unreachable.
         std::string reachGrasp(Eigen::Isometry3d &grasp, const EdgeQuery &edge, const Eigen::VectorXd &seed,
                                std::mt19937_64 &rng, Eigen::VectorXd &solution) const;
-        bool handClear(const Eigen::Isometry3d &grasp) const;
+        bool handClear(const Eigen::Isometry3d &grasp) const { return handCollision(grasp).empty(); }
+        /// What the hand's rigid parts meet at `grasp` ("link-obstacle"), empty if nothing.
+        std::string handCollision(const Eigen::Isometry3d &grasp) const;
+        /// `what` in collision at q, naming the first colliding pair: a rejection reason counted per pair.
+        std::string inCollision(const std::string &what, const Eigen::VectorXd &q) const;
         bool graspUnreachable(const EdgeQuery &edge) const;
         bool lift(const Eigen::VectorXd &goal, std::vector<Eigen::VectorXd> &path) const;
         bool straightMotion(const Eigen::VectorXd &from, const Eigen::VectorXd &to, std::vector<Eigen::VectorXd> &path) const;

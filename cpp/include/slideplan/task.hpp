@@ -42,7 +42,9 @@ namespace slideplan
         /// Whether the object, moved by `motion` (Eq. 2) from where it lies, overlaps no obstacle that
         /// reaches down to it: its fixed-resolution footprint and hull vertices against the obstacles'
         /// footprints (its outline, not its convex hull, so a crescent may wrap around a can).
-        bool objectClear(const PlanarMotion &motion) const;
+        bool objectClear(const PlanarMotion &motion) const { return overlappedObstacle(motion) < 0; }
+        /// The index in `obstacles` of the first obstacle the moved object overlaps (as objectClear), or -1.
+        int overlappedObstacle(const PlanarMotion &motion) const;
         double extent{0.0};      ///< largest distance between two points of P_o (over its convex hull)
         std::vector<Eigen::Vector2d> hullXY;  ///< convex hull of P_o, counter-clockwise
 
