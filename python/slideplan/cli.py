@@ -34,6 +34,7 @@ try:  # typer 0.28 carries its own copy of click; earlier releases use click its
 except ImportError:
     from click import exceptions as click_errors
 
+from ._fields import as_numbers
 from . import grasp_cache
 from .errors import InputError
 from .objects import CLOUD_SUFFIXES, ThinObject, load_object, load_outline, sample_pose_on_table
@@ -363,7 +364,12 @@ def demo_command(
 def perceive_command(
     cloud: Path = typer.Argument(..., help="Scene point cloud, world frame, z up (.ply, .npy, .csv or .pcd)."),
     out: Path = typer.Option(..., "--out", help="Directory for scene.toml and object_<i>.ply."),
-    robot_scene: str = typer.Option("square", "--robot-scene", help="Scene (name or TOML) whose robot mount scene.toml copies."),
+    robot_scene: str = typer.Option(
+        "square", "--robot-scene", help="Scene (name or TOML) whose robot scene.toml copies, its mount as high above the table top."
+    ),
+    robot_base_pose: Optional[Tuple[float, float, float, float, float, float]] = typer.Option(
+        None, "--robot-base-pose", help="X Y Z ROLL PITCH YAW: the robot's mount in the cloud's frame instead (m, rad)."
+    ),
     plan_target: Optional[int] = typer.Option(None, "--plan-target", help="Then plan for perceived object N (0 = largest)."),
     seed: int = typer.Option(0, "--seed", help="Random seed (RANSAC and planner)."),
     time_limit: float = typer.Option(60.0, "--time-limit", help="Planning time budget (s), with --plan-target."),
@@ -385,11 +391,13 @@ def perceive_command(
             load_scene(robot_scene)
         except InputError as error:
             raise InputError(error.problem, source=error.source, field="--robot-scene") from None
+        if robot_base_pose is not None:
+            as_numbers(list(robot_base_pose), 6, source="", field="--robot-base-pose")
         perception = perceive(load_point_cloud(cloud), seed=seed, source=str(cloud))
         if plan_target is not None and plan_target >= len(perception.objects):
             raise InputError(f"no object {plan_target}: the perceived objects are 0 to {len(perception.objects) - 1}",
                              field="--plan-target")
-        scene_path, cloud_paths = write_perception(perception, out, robot_scene=robot_scene)
+        scene_path, cloud_paths = write_perception(perception, out, robot_scene=robot_scene, base_pose=robot_base_pose)
     except (ImportError, InputError, OSError) as error:
         raise _fail(error) from None
     table = perception.table

@@ -26,7 +26,7 @@ from . import _core, grasp_cache, jsontext
 from ._fields import as_number, as_numbers, is_number
 from .errors import InputError, require_type
 from .objects import ThinObject
-from .scenes import Scene
+from .scenes import Scene, package_search_dirs
 from .timing import TimingOptions, core_limits, robot_limits, timing_from_dict
 from .transforms import homogeneous, pose_to_row, rotation_from_rpy, yawed_pose
 
@@ -817,6 +817,12 @@ def merge_urdf(urdf: Path, attach: list[Path]) -> str:
     return ElementTree.tostring(robot, encoding="unicode")
 
 
+def search_dirs(description: dict[str, Any]) -> list[str]:
+    """Where the ``package://`` URIs of a robot block resolve: its own ``package_dirs``, then this
+    machine's (:func:`~slideplan.scenes.package_search_dirs`; a plan records only its scene's own)."""
+    return [str(entry) for entry in package_search_dirs(tuple(Path(entry) for entry in description["package_dirs"]))]
+
+
 def build_robot(description: dict[str, Any]):
     """Build the C++ robot model from a :func:`robot_description` (or a plan's ``robot`` block).
 
@@ -843,7 +849,7 @@ def build_robot(description: dict[str, Any]):
             base_link=description["base_link"],
             tip_offset=np.asarray(description["tip_offset"], dtype=float),
             fixed_joints=dict(description["fixed_joints"]),
-            package_dirs=list(description["package_dirs"]),
+            package_dirs=search_dirs(description),
         )
     except ValueError as error:
         raise ValueError(_blame_fragment(str(error), urdf, attach)) from None

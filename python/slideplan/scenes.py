@@ -153,7 +153,10 @@ class Scene:
         base_link: root of the planned chain ("" : the URDF root); joints above it are held.
         fixed_joints: joints off the planned chain held at a value (m or rad); mimic joints follow.
             Other joints off the chain are held at 0 (clamped into their limits).
-        package_dirs: where ``package://NAME/...`` resolves (see :func:`package_search_dirs`).
+        package_dirs: the scene's own directories where ``package://NAME/...`` resolves first (absolute;
+            :func:`package_search_dirs` adds this machine's).
+        uris: the ``package://`` URIs the scene named its robot files by, by resolved path (a scene
+            written from this one names them so again, and opens on another machine).
         hand: the contact and grasp frames and the contact links.
         obstacles: boxes, cylinders and other thin objects: the arm avoids them, the sliding object
             does not overlap them.
@@ -171,6 +174,7 @@ class Scene:
     package_dirs: tuple[Path, ...] = ()
     obstacles: tuple[Obstacle, ...] = ()
     source: str = ""
+    uris: dict[Path, str] = field(default_factory=dict)
 
     def footprints(self, object_top: float):
         """The union of the footprints of the obstacles reaching below ``object_top`` (shapely), or None."""
@@ -242,7 +246,7 @@ def _resolve_robot_file(text: str, *, source: str, field: str, scene_dir: Path, 
     candidates = [urdf] if urdf.is_absolute() else [scene_dir / urdf, data_dir() / "robots" / urdf]
     for candidate in candidates:
         if candidate.is_file():
-            return candidate.absolute()
+            return Path(os.path.normpath(candidate.absolute()))
     raise InputError(
         f"file not found (looked for {', '.join(str(candidate) for candidate in candidates)})", source=source, field=field
     )
@@ -401,14 +405,20 @@ def load_scene(name_or_path: str | Path) -> Scene:
     obstacles = fields.array_of_tables(
         "obstacles", allowed={"shape", "center", "size", "yaw", "radius", "height", "object", "pose"}
     )
-    package_dirs = package_search_dirs(_read_package_dirs(robot, path.parent))
+    package_dirs = tuple(entry.absolute() for entry in _read_package_dirs(robot, path.parent))
     attach = robot.strings("attach") if robot.has("attach") else ()
+    uris: dict[Path, str] = {}
 
     def resolve(text: str, field: str) -> Path:
-        return _resolve_robot_file(text, source=str(path), field=field, scene_dir=path.parent, package_dirs=package_dirs)
+        resolved = _resolve_robot_file(text, source=str(path), field=field, scene_dir=path.parent,
+                                       package_dirs=package_search_dirs(package_dirs))
+        if text.startswith("package://"):
+            uris[resolved] = text
+        return resolved
 
     return Scene(
         name=path.stem,
+        uris=uris,
         table=table,
         urdf_path=resolve(robot.string("urdf"), robot.field("urdf")),
         attach=tuple(resolve(text, f"{robot.field('attach')}[{index}]") for index, text in enumerate(attach)),
@@ -422,13 +432,16 @@ def load_scene(name_or_path: str | Path) -> Scene:
     )
 
 
-def robot_toml(scene: Scene) -> list[str]:
-    """The scene's ``[robot]`` and ``[hand]`` sections as TOML lines (bundled files by name, others by
-    absolute path), so a
-    scene file written elsewhere (e.g. by ``slideplan perceive``) plans with the same robot and hand.
+def robot_toml(scene: Scene, directory: Path | None = None, base_pose=None) -> list[str]:
+    """The scene's ``[robot]`` and ``[hand]`` sections as TOML lines, so a scene file written elsewhere
+    (e.g. by ``slideplan perceive``) plans with the same robot and hand, on this machine or another:
+    robot files named by ``package://`` as the scene named them, bundled ones by name, others (and
+    ``package_dirs``) relative to ``directory`` (absolute without one).
 
     Args:
         scene: a loaded scene.
+        directory: where the written file will be.
+        base_pose: the mount to write instead of the scene's (6 numbers).
 
     Returns:
         The lines, without a trailing blank line.
@@ -443,16 +456,22 @@ def robot_toml(scene: Scene) -> list[str]:
     def strings(values) -> str:
         return "[" + ", ".join(text(str(value)) for value in values) + "]"
 
+    def located(path: Path) -> str:
+        return os.path.relpath(path.absolute(), directory.absolute()) if directory is not None else str(path.absolute())
+
     def reference(path: Path) -> str:
         # A bundled file by its name (load_scene also looks in data/robots/), so the scene file can move.
         bundled = data_dir() / "robots" / path.name
-        return path.name if bundled.is_file() and bundled.resolve() == path.resolve() else str(path.resolve())
+        if path in scene.uris:
+            return scene.uris[path]
+        return path.name if bundled.is_file() and bundled.resolve() == path.resolve() else located(path)
 
-    robot = ["[robot]", f"urdf = {text(reference(scene.urdf_path))}", f"base_pose = {numbers(scene.base_pose)}"]
+    mount = scene.base_pose if base_pose is None else base_pose
+    robot = ["[robot]", f"urdf = {text(reference(scene.urdf_path))}", f"base_pose = {numbers(mount)}"]
     if scene.attach:
         robot.append(f"attach = {strings(reference(path) for path in scene.attach)}")
     if scene.package_dirs:
-        robot.append(f"package_dirs = {strings(path.resolve() for path in scene.package_dirs)}")
+        robot.append(f"package_dirs = {strings(located(path) for path in scene.package_dirs)}")
     if scene.base_link:
         robot.append(f"base_link = {text(scene.base_link)}")
     if scene.fixed_joints:

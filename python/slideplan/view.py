@@ -273,11 +273,11 @@ class PlanView:
         from viser.extras import ViserUrdf
 
         from . import _core
-        from .planning import merge_urdf
+        from .planning import merge_urdf, search_dirs
 
         result, scene = self.result, self.server.scene
         path = Path(result.robot["urdf"])
-        package_dirs = [str(entry) for entry in result.robot["package_dirs"]]
+        package_dirs = search_dirs(result.robot)
 
         def mesh_file(fname: str) -> str:
             # The planner's resolver: package:// through the plan's package_dirs, else next to the URDF.

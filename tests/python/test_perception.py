@@ -281,3 +281,45 @@ def test_a_table_plane_too_large_to_grid_is_refused_before_allocating():
     far = np.array([[1e5, 0.0, 0.0], [1e5, 1e5, 0.0], [0.0, 1e5, 0.0]])
     with pytest.raises(InputError, match=r"span 1e\+05 x .* grid cells .* is the cloud in millimetres"):
         perceive(np.vstack([np.column_stack([xy, z]), far]))
+
+
+def _plate_on_a_table(height: float) -> np.ndarray:
+    """A synthetic scene cloud: the square table at ``height``, a 4 mm plate on it."""
+    rng = np.random.default_rng(0)
+    xy = rng.uniform([0.3, -0.2], [0.7, 0.2], size=(40_000, 2))
+    inside = shapely.contains_xy(shapely.box(0.45, -0.04, 0.53, 0.04), *xy.T)
+    return np.column_stack([xy, height + np.where(inside, 0.004, 0.0)])
+
+
+def test_the_robot_stands_as_high_above_the_perceived_table_as_in_its_scene(tmp_path):
+    # A cloud with the floor at z = 0 and the table at 0.72 m once got the WAM at z = 0.2, under the table.
+    perception = perceive(_plate_on_a_table(0.72))
+    scene_path, _ = write_perception(perception, tmp_path / "out", robot_scene="square")
+    scene = load_scene(scene_path)
+    assert scene.base_pose[2] - scene.table.height == pytest.approx(load_scene("square").base_pose[2], abs=1e-3)
+    given = (0.1, 0.2, 0.5, 0.0, 0.0, 1.0)
+    scene_path, _ = write_perception(perception, tmp_path / "given", robot_scene="square", base_pose=given)
+    assert load_scene(scene_path).base_pose == pytest.approx(given, abs=1e-9)
+
+
+def test_a_written_scene_opens_from_another_folder_and_names_no_machine_path(tmp_path):
+    """Robot files by package:// as the robot scene named them, bundled ones by name, the scene's own
+    files relative to the written scene; no package_dirs of this machine (it once wrote absolute paths
+    and every site-packages directory)."""
+    perception = perceive(_plate_on_a_table(0.0))
+    text = Path(write_perception(perception, tmp_path / "ur5", robot_scene="ur5_square")[0]).read_text()
+    assert 'urdf = "package://example-robot-data/robots/ur_description/urdf/ur5_robot.urdf"' in text
+    assert 'attach = ["ur5_finger.urdf"]' in text and "package_dirs" not in text and str(Path.home()) not in text
+    # A scene of one's own beside its URDF: the written scene names the URDF relative to itself.
+    own = tmp_path / "mine"
+    own.mkdir()
+    (own / "arm.urdf").write_text(load_scene("square").urdf_path.read_text())
+    (own / "arm.toml").write_text(Path(load_scene("square").source).read_text().replace('"wam_t42.urdf"', '"arm.urdf"'))
+    scene_path, _ = write_perception(perception, tmp_path / "out", robot_scene=own / "arm.toml")
+    assert 'urdf = "../mine/arm.urdf"' in scene_path.read_text()
+    moved = tmp_path / "elsewhere" / "deep"
+    moved.mkdir(parents=True)
+    (tmp_path / "elsewhere" / "mine").mkdir()
+    (tmp_path / "elsewhere" / "mine" / "arm.urdf").write_text((own / "arm.urdf").read_text())
+    (moved / "scene.toml").write_text(scene_path.read_text())
+    assert load_scene(moved / "scene.toml").urdf_path == tmp_path / "elsewhere" / "mine" / "arm.urdf"

@@ -15,7 +15,7 @@ from shapely.geometry import Polygon
 
 from ..errors import InputError
 from ..geometry import SupportSurface
-from ..planning import PlanResult, merge_urdf, robot_description
+from ..planning import PlanResult, merge_urdf, robot_description, search_dirs
 from ..transforms import quaternion_from_matrix
 from .settings import ExecutionSettings
 
@@ -50,7 +50,7 @@ def _urdf_for_mujoco(robot: dict[str, Any]) -> str:
                 for mesh in element.iter("mesh"):
                     uri = mesh.get("filename", "")
                     try:
-                        path = _core.resolve_uri(uri, str(urdf.parent), list(robot["package_dirs"]))
+                        path = _core.resolve_uri(uri, str(urdf.parent), search_dirs(robot))
                     except ValueError as error:
                         raise InputError(
                             f"link {link.get('name')!r}: {kind} mesh {uri!r} not found ({error})", source=str(urdf)
