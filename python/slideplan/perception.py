@@ -360,7 +360,10 @@ def perceive(
         # larger of half the thickness and three times the top's noise, a robust sigma from its MAD).
         band = max(top - half, 3 * 1.4826 * float(np.median(np.abs(inner_heights - np.median(inner_heights)))))
         own = (heights_over > half) & (heights_over < top + band)
-        objects.append(_thin_object(xy[members & own & (edge_at_point > half)], top - offset, table.height, footprint))
+        kept = xy[members & own & (edge_at_point > half)]
+        if len(kept) < 3 or _convex_hull(kept).area <= 0.0:
+            continue  # a cluster with no top of its own (noise lifted the smoothed field): not an object
+        objects.append(_thin_object(kept, top - offset, table.height, footprint))
     if not objects:
         raise problem(f"no object on the table: nothing between {min_height:g} and {max_thickness:g} m above the table plane")
     return Perception(table, plane.tilt_deg, objects, obstacles, warnings, grid.cell,
