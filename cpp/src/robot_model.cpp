@@ -19,6 +19,21 @@ namespace slideplan
 {
     namespace
     {
+        /// Drops every link's hold on its children when the model goes: a URDF whose joints form a loop
+        /// gives links that own each other, which would never be freed.
+        struct TreeRelease
+        {
+            urdf::ModelInterfaceSharedPtr model;
+            ~TreeRelease()
+            {
+                for (const auto &[name, link] : model->links_)
+                {
+                    link->child_links.clear();
+                    link->child_joints.clear();
+                }
+            }
+        };
+
         /// urdfdom reports through console_bridge, to stderr by default. Installed once for the process:
         /// what urdfdom says while a thread of ours parses goes to that thread's list (and becomes the
         /// reason in our one error line); what anyone else logs goes where it went before.
@@ -230,6 +245,14 @@ namespace slideplan
             throw std::invalid_argument(source + ": malformed URDF: " + reason);
         if (!model || !model->getRoot())
             throw std::invalid_argument(source + ": malformed URDF (urdfdom could not parse it)");
+        // urdfdom accepts a link that is the child of two joints, and a loop of joints away from the root:
+        // its links then hold each other (a leak), and walking the tree from the root never ends.
+        const TreeRelease release{model};
+        std::map<std::string, std::string> parentJoint;
+        for (const auto &[name, joint] : model->joints_)
+            if (const auto [at, fresh] = parentJoint.emplace(joint->child_link_name, name); !fresh)
+                throw std::invalid_argument(source + ": malformed URDF: link '" + joint->child_link_name +
+                                            "' is the child of two joints ('" + at->second + "', '" + name + "')");
 
         // Links in topological order, parents first.
         std::map<std::string, int> index;
@@ -268,6 +291,12 @@ namespace slideplan
             for (auto it = link->child_links.rbegin(); it != link->child_links.rend(); ++it)
                 stack.push_back(*it);
         }
+
+        if (links_.size() != model->links_.size())
+            for (const auto &[name, link] : model->links_)
+                if (index.count(name) == 0)
+                    throw std::invalid_argument(source + ": malformed URDF: link '" + name +
+                                                "' is not connected to the root (its joints form a loop)");
 
         const int tip = linkIndex(spec.tipLink);
         if (tip < 0)

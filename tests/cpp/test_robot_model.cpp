@@ -190,6 +190,37 @@ TEST(RobotModel, AUrdfdomErrorRefusesTheFileWithItsReasonAndNothingOnStderr)
     }
 }
 
+// urdfdom accepts a link that is the child of two joints (a loop a -> b -> c -> b: walking the tree never
+// ended and died of std::bad_alloc) and a loop away from the root (c -> d -> c: its links owned each other).
+TEST(RobotModel, AJointLoopIsRefusedNamingTheLink)
+{
+    const std::string links = "<robot name='r'><link name='a'/><link name='b'/><link name='c'/><link name='d'/>"
+                              "<joint name='ab' type='fixed'><parent link='a'/><child link='b'/></joint>";
+    const auto joint = [](const std::string &name, const std::string &parent, const std::string &child) {
+        return "<joint name='" + name + "' type='fixed'><parent link='" + parent + "'/><child link='" + child + "'/></joint>";
+    };
+    const std::vector<std::pair<std::string, std::string>> cases{
+        {links + joint("bc", "b", "c") + joint("cb", "c", "b") + joint("cd", "c", "d") + "</robot>",
+         "r.urdf: malformed URDF: link 'b' is the child of two joints ('ab', 'cb')"},
+        {links + joint("cd", "c", "d") + joint("dc", "d", "c") + "</robot>",
+         "r.urdf: malformed URDF: link 'c' is not connected to the root (its joints form a loop)"}};
+    for (const auto &[urdf, expected] : cases)
+    {
+        ::testing::internal::CaptureStderr();
+        std::string message;
+        try
+        {
+            RobotModel robot(urdf, "b", Eigen::Isometry3d::Identity(), "r.urdf");
+        }
+        catch (const std::invalid_argument &error)
+        {
+            message = error.what();
+        }
+        EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+        EXPECT_EQ(message, expected);
+    }
+}
+
 TEST(RobotModel, KernelMatchesKdlForEveryLinkAndTheJacobian)
 {
     const auto robot = wamT42();
