@@ -161,6 +161,27 @@ TEST(RobotModel, RejectsBadUrdfs)
     }
 }
 
+namespace
+{
+/// The message of the invalid_argument building a robot from `urdf` (tip link "b") raises, empty if none;
+/// nothing may reach stderr.
+std::string refusal(const std::string &urdf)
+{
+    ::testing::internal::CaptureStderr();
+    std::string message;
+    try
+    {
+        RobotModel robot(urdf, "b", Eigen::Isometry3d::Identity(), "r.urdf");
+    }
+    catch (const std::invalid_argument &error)
+    {
+        message = error.what();
+    }
+    EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+    return message;
+}
+}  // namespace
+
 // urdfdom drops a collision element it cannot read with only a line on stderr: the link then had no
 // collision geometry and plans "verified" through it.
 TEST(RobotModel, AUrdfdomErrorRefusesTheFileWithItsReasonAndNothingOnStderr)
@@ -171,17 +192,7 @@ TEST(RobotModel, AUrdfdomErrorRefusesTheFileWithItsReasonAndNothingOnStderr)
         "<limit lower='-1' upper='1' effort='1' velocity='1'/></joint></robot>";
     for (const std::string &text : {urdf, std::string("<robot name='x'><link name='a'>")})
     {
-        ::testing::internal::CaptureStderr();
-        std::string message;
-        try
-        {
-            RobotModel robot(text, "b", Eigen::Isometry3d::Identity(), "r.urdf");
-        }
-        catch (const std::invalid_argument &error)
-        {
-            message = error.what();
-        }
-        EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+        const std::string message = refusal(text);
         EXPECT_EQ(message.rfind("r.urdf: malformed URDF: ", 0), 0u) << message;
         if (text == urdf)
             EXPECT_NE(message.find("radius [nan] is not a valid float; Could not parse collision element for Link [b]"),
@@ -205,20 +216,7 @@ TEST(RobotModel, AJointLoopIsRefusedNamingTheLink)
         {links + joint("cd", "c", "d") + joint("dc", "d", "c") + "</robot>",
          "r.urdf: malformed URDF: link 'c' is not connected to the root (its joints form a loop)"}};
     for (const auto &[urdf, expected] : cases)
-    {
-        ::testing::internal::CaptureStderr();
-        std::string message;
-        try
-        {
-            RobotModel robot(urdf, "b", Eigen::Isometry3d::Identity(), "r.urdf");
-        }
-        catch (const std::invalid_argument &error)
-        {
-            message = error.what();
-        }
-        EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
-        EXPECT_EQ(message, expected);
-    }
+        EXPECT_EQ(refusal(urdf), expected);
 }
 
 TEST(RobotModel, KernelMatchesKdlForEveryLinkAndTheJacobian)
