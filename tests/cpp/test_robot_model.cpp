@@ -163,23 +163,23 @@ TEST(RobotModel, RejectsBadUrdfs)
 
 namespace
 {
-/// The message of the invalid_argument building a robot from `urdf` (tip link "b") raises, empty if none;
-/// nothing may reach stderr.
-std::string refusal(const std::string &urdf)
-{
-    ::testing::internal::CaptureStderr();
-    std::string message;
-    try
+    /// The message of the invalid_argument building a robot from `urdf` (tip link "b") raises, empty if none;
+    /// nothing may reach stderr.
+    std::string refusal(const std::string &urdf)
     {
-        RobotModel robot(urdf, "b", Eigen::Isometry3d::Identity(), "r.urdf");
+        ::testing::internal::CaptureStderr();
+        std::string message;
+        try
+        {
+            RobotModel robot(urdf, "b", Eigen::Isometry3d::Identity(), "r.urdf");
+        }
+        catch (const std::invalid_argument &error)
+        {
+            message = error.what();
+        }
+        EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+        return message;
     }
-    catch (const std::invalid_argument &error)
-    {
-        message = error.what();
-    }
-    EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
-    return message;
-}
 }  // namespace
 
 // urdfdom drops a collision element it cannot read with only a line on stderr: the link then had no
