@@ -123,12 +123,14 @@ def draw_plan(result: PlanResult, path: str | Path) -> Path:
             grasp = row_to_pose(result.grasp["pose"])
             approach = grasp[:2, 2]  # z of the grasp frame, seen from above
             if np.linalg.norm(approach) > 1e-6:
+                tail = grasp[:2, 3] - 0.06 * approach / np.linalg.norm(approach)
                 axes.annotate(
                     "",
                     xy=grasp[:2, 3],
-                    xytext=grasp[:2, 3] - 0.06 * approach / np.linalg.norm(approach),
+                    xytext=tail,
                     arrowprops={"arrowstyle": "-|>", "color": "tab:orange", "linewidth": 2},
                 )
+                axes.update_datalim([tail])  # annotations do not widen the view: the arrow ran into the title
             axes.plot(*grasp[:2, 3], marker="s", color="tab:orange", linestyle="none", label="grasp (approach arrow)")
         title += f", overhang {100 * result.overhang_m:.1f} cm"
     axes.set_title(title)
