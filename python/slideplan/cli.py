@@ -38,11 +38,12 @@ from ._fields import as_numbers
 from . import grasp_cache
 from .errors import InputError
 from .objects import CLOUD_SUFFIXES, ThinObject, load_object, load_outline, sample_pose_on_table
-from .planning import PLANNERS, PlannerConfig, PlanResult
+from .planning import PLANNERS, PlannerConfig, PlanResult, table_reach
 from .scenes import Scene, load_scene
 
 EXIT_SOLVED, EXIT_NOT_SOLVED, EXIT_BAD_INPUT, EXIT_INVALID_PLAN = 0, 1, 2, 3
 PICTURE_SUFFIXES = (".png", ".svg")
+MIN_TABLE_REACH = 0.5  # perceive warns when the fingertip reaches less of the table than this (planning.table_reach)
 VIDEO_SUFFIXES = (".mp4", ".gif", ".png")
 _SHOWN_VIOLATIONS = 20  # a broken plan can have thousands; the first ones tell the story
 
@@ -406,12 +407,20 @@ def perceive_command(
         x, y = perceived.centroid_xy
         typer.echo(f"object {index}: centre ({x:.3f}, {y:.3f}), thickness {1000 * perceived.thickness:.1f} mm, "
                    f"area {100 * 100 * perceived.footprint.area:.0f} cm^2 -> {path}")
-    for warning in perception.warnings:
+    try:
+        scene = load_scene(str(scene_path))
+        reach = table_reach(scene, max(perceived.thickness for perceived in perception.objects))
+    except (InputError, ValueError, OSError) as error:
+        raise _fail(error) from None
+    warnings = list(perception.warnings)
+    if reach < MIN_TABLE_REACH:  # a mount copied from a scene with its table elsewhere: every plan would time out
+        warnings.append(f"the fingertip reaches the table top at beta0 = {PlannerConfig.for_scene(scene).beta0:g} over only "
+                        f"{100 * reach:.0f}% of the table (a 5 x 5 grid): check the robot's mount (--robot-base-pose)")
+    for warning in warnings:
         typer.echo(f"slideplan: warning: {warning}", err=True)
     if plan_target is None:
         return
     try:
-        scene = load_scene(str(scene_path))
         config = _config_from_options(scene, seed, time_limit, None, "slideplan", [])
         # The plan must hold on the true geometry: the margins measured from the perceived edges grow
         # by how far those edges may be off.

@@ -892,6 +892,43 @@ def plan_robot(description: dict[str, Any]):
         raise InputError(f"cannot load robot ({error})", source=str(description["urdf"]), field="robot") from None
 
 
+def table_reach(scene: Scene, thickness: float, config: PlannerConfig | None = None, *, grid: int = 5,
+                yaws: int = 8) -> float:
+    """The share of the table where the contact frame reaches a thin object's top: on a ``grid`` x
+    ``grid`` lattice over the table's bounding box (the points inside the table count), the fingertip
+    at pitch ``beta0`` and the middle of the depth band, at any of ``yaws`` headings (the slide leaves
+    the heading free), by a configuration free of collisions but the finger's. What the start roots
+    need: near 0, the robot stands where it cannot slide.
+
+    Args:
+        scene: the scene.
+        thickness: the object's (m).
+        config: planner parameters (``beta0``, ``dz_min``, ``dz_max``); the scene's hand's by default.
+
+    Returns:
+        A fraction in [0, 1].
+    """
+    from . import _core
+
+    config = (config or PlannerConfig.for_scene(scene)).resolved(scene)
+    robot = robot_model(scene)
+    world = _core.CollisionWorld(robot, _core.SupportSurface(scene.table.vertices, scene.table.height),
+                                 core_obstacles([obstacle.to_dict() for obstacle in scene.obstacles]), list(scene.hand.contact_links))
+    depth = scene.table.height + thickness - 0.5 * (config.dz_min + config.dz_max)
+    low, high = scene.table.vertices.min(axis=0), scene.table.vertices.max(axis=0)
+    lattice = [low + (high - low) * np.array([i + 0.5, j + 0.5]) / grid for i in range(grid) for j in range(grid)]
+    inside = [point for point in lattice if scene.table.polygon.contains(shapely.Point(point))]
+    reached = 0
+    for point in inside:
+        for yaw in np.linspace(-math.pi, math.pi, yaws, endpoint=False):
+            target = homogeneous(np.asarray(_core.contact_rotation(float(yaw), config.beta0)), (*point, depth))
+            joints = robot.ik(target, rng_seed=0)
+            if joints is not None and world.is_valid(joints):
+                reached += 1
+                break
+    return reached / len(inside) if inside else 0.0
+
+
 def robot_model(scene: Scene):
     """Return the scene's C++ robot model (:func:`plan_robot` of its :func:`robot_description`).
 

@@ -323,3 +323,16 @@ def test_a_written_scene_opens_from_another_folder_and_names_no_machine_path(tmp
     (tmp_path / "elsewhere" / "mine" / "arm.urdf").write_text((own / "arm.urdf").read_text())
     (moved / "scene.toml").write_text(scene_path.read_text())
     assert load_scene(moved / "scene.toml").urdf_path == tmp_path / "elsewhere" / "mine" / "arm.urdf"
+
+
+def test_perceive_warns_when_the_robot_cannot_reach_the_table(tmp_path):
+    # The WAM given a mount 1 m below the table top: every plan ran to its time limit, with no hint.
+    cloud = tmp_path / "scene.npy"
+    np.save(cloud, _plate_on_a_table(0.72))
+    warned = runner.invoke(app, ["perceive", str(cloud), "--out", str(tmp_path / "low"), "--robot-base-pose",
+                                 "0", "0", "-0.28", "0", "0", "0"])
+    assert warned.exit_code == 0, warned.output
+    assert "slideplan: warning: the fingertip reaches the table top at beta0 = 1 over only 0% of the table" in warned.stderr
+    assert "--robot-base-pose" in warned.stderr
+    kept = runner.invoke(app, ["perceive", str(cloud), "--out", str(tmp_path / "kept")])  # the square scene's mount, lifted
+    assert kept.exit_code == 0 and "reaches the table top" not in kept.stderr, kept.stderr
