@@ -237,3 +237,16 @@ def test_the_picture_draws_the_object_along_the_slide_under_the_fingertip():
         # The finger presses on the object's top: at each drawn pose the object lies under the fingertip.
         footprint = shapely.MultiPoint(move_planar(start, motion)).convex_hull.buffer(1e-4)
         assert footprint.contains(shapely.Point(row_to_pose(tips[index])[:2, 3])), index
+
+
+def test_a_dense_clouds_point_spacing_comes_from_a_sample_and_still_bounds_the_start_contact():
+    # 40,000 points 2 mm apart: every point's nearest neighbour took seconds; a stride sample gives the
+    # same spacing, so a fingertip 1 cm off the plate is still refused and one on it is not.
+    from slideplan.verify import SPACING_SAMPLE, _start_contact_violations
+
+    axis = np.arange(200) * 0.002
+    cloud = np.column_stack([axis.repeat(200), np.tile(axis, 200)]) + [0.4, -0.2]
+    assert len(cloud) > 10 * SPACING_SAMPLE
+    assert _start_contact_violations(cloud, np.array([0.5, -0.1])) == []
+    (violation,) = _start_contact_violations(cloud, np.array([0.4 + 0.398 + 0.01, -0.1]))
+    assert "the fingertip is 0.0100 m from the nearest point of the object (point spacing 0.0020 m)" in violation
