@@ -94,12 +94,36 @@ namespace slideplan
         return result;
     }
 
-    Eigen::VectorXd GraspMap::probe(const std::pair<int, long> &stretch) const
+    long GraspMap::stretchCount(int edge) const
     {
         const SupportSurface &table = *geometry_.table;
-        const int next = (stretch.first + 1) % static_cast<int>(table.vertices().rows());
+        const long vertices = static_cast<long>(table.vertices().rows());
+        if (edge < 0 || edge >= vertices)
+            throw std::invalid_argument("edge " + std::to_string(edge) + " is not an edge of the table");
+        const Eigen::Vector2d a = table.vertices().row(edge).transpose();
+        const Eigen::Vector2d b = table.vertices().row((edge + 1) % vertices).transpose();
+        return static_cast<long>(std::floor((b - a).norm() / kStretch)) + 1;
+    }
+
+    Eigen::Isometry3d GraspMap::stretchGrasp(const std::pair<int, long> &stretch) const
+    {
+        const SupportSurface &table = *geometry_.table;
+        if (stretch.second < 0 || stretch.second >= stretchCount(stretch.first))
+            throw std::invalid_argument("cell " + std::to_string(stretch.second) + " is not a stretch of edge " +
+                                        std::to_string(stretch.first));
         const Eigen::Vector2d a = table.vertices().row(stretch.first).transpose();
-        const Eigen::Vector2d b = table.vertices().row(next).transpose();
+        const Eigen::Vector2d b = table.vertices().row((stretch.first + 1) % table.vertices().rows()).transpose();
+        const Eigen::Vector2d direction = (b - a).normalized();
+        EdgeQuery edge;
+        edge.edge = stretch.first;
+        edge.closest = a + std::min((stretch.second + 0.5) * kStretch, (b - a).norm()) * direction;
+        edge.outwardNormal = Eigen::Vector2d(direction.y(), -direction.x());  // as SupportSurface::closestEdge
+        const double beyond = std::max(params_.graspStandoff, 0.5 * params_.uStar);
+        return sideGraspPose(edge.closest + beyond * edge.outwardNormal, edge, table.height() + 0.5 * thickness_);
+    }
+
+    Eigen::VectorXd GraspMap::probe(const std::pair<int, long> &stretch) const
+    {
         // Stretches between two anchors (every kAnchor-th and the edge's last) take their anchors' word
         // where both are unreachable, and else try their grasps too: unreachable stretches come in runs,
         // and each costs every restart below. The eight scenes' maps (four tables for the WAM, two
@@ -107,7 +131,7 @@ namespace slideplan
         // against probing each one (gain 2), and whole maps cost 1.9-3.2x less on the square, triangle and
         // long tables (the round tables' short edges are mostly anchors: 0.93-1.0x).
         std::vector<Eigen::VectorXd> seeds;
-        const long last = static_cast<long>(std::floor((b - a).norm() / kStretch));
+        const long last = stretchCount(stretch.first) - 1;
         if (stretch.second % kAnchor != 0 && stretch.second < last)
         {
             const long before = stretch.second - stretch.second % kAnchor;
@@ -125,15 +149,7 @@ namespace slideplan
         // cost 2.2-2.9x less (the triangle table's 154 stretches: 405 -> 139 ms).
         constexpr int kAbandon = 30;
         const int restarts = params_.graspFlip ? 20 : 40;
-        const Eigen::Vector2d direction = (b - a).normalized();
-        EdgeQuery edge;
-        edge.edge = stretch.first;
-        edge.closest = a + std::min((stretch.second + 0.5) * kStretch, (b - a).norm()) * direction;
-        edge.outwardNormal = Eigen::Vector2d(direction.y(), -direction.x());  // as SupportSurface::closestEdge
-        // Where a grasp of an object pushed just far enough over this edge would be.
-        const double beyond = std::max(params_.graspStandoff, 0.5 * params_.uStar);
-        const double z = table.height() + 0.5 * thickness_;
-        const Eigen::Isometry3d grasp = sideGraspPose(edge.closest + beyond * edge.outwardNormal, edge, z);
+        const Eigen::Isometry3d grasp = stretchGrasp(stretch);
         std::mt19937_64 rng(0x5eed0000u + 1000003u * static_cast<std::uint64_t>(stretch.first) +
                             static_cast<std::uint64_t>(stretch.second));
         std::vector<Eigen::Isometry3d> poses{grasp};

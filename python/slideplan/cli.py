@@ -435,6 +435,30 @@ def perceive_command(
     raise _exit_for(result)
 
 
+@app.command("check-scene")
+def check_scene_command(
+    scene_name: str = typer.Argument(..., help="Built-in scene name or scene TOML."),
+    object_name: str = typer.Option("square", "--object", help="An object like the ones to slide (its thickness counts)."),
+    param: list[str] = typer.Option([], "--param", help="NAME=VALUE for any planner parameter; repeatable."),
+) -> None:
+    """Check a robot scene before planning: whether the fingertip reaches the table, which table edges admit
+    a side grasp and a clear pre-grasp, and why not, naming links, obstacles and parameters.
+
+    Exit codes: 0 the scene can plan, 1 it cannot (the first lines say why), 2 bad input.
+    """
+    from .check_scene import check_scene
+
+    try:
+        scene = load_scene(scene_name)
+        obj, _ = _load_object(scene, object_name, None, 0)
+        result = check_scene(scene, obj, PlannerConfig.for_scene(scene, **_parse_params(param)))
+    except (InputError, ValueError, OSError) as error:
+        raise _fail(error) from None
+    for line in result.lines:
+        typer.echo(line)
+    raise typer.Exit(EXIT_SOLVED if result.ok else EXIT_NOT_SOLVED)
+
+
 @app.command("export")
 def export_command(
     plan_file: Path = typer.Argument(..., help="A solved plan JSON (slideplan.plan/2, or /1: it is timed on export)."),

@@ -484,6 +484,21 @@ TEST(GraspMap, FitsOnlyItsOwnGeometryAndParameters)
     EXPECT_THROW(planSliding(make(kThickness + 0.001, squareTable()), params, 1, within(1.0), map), std::invalid_argument);
 }
 
+TEST(GraspMap, CountsItsStretchesAndRefusesOthers)
+{
+    const auto task = plateTask({0.6, 0.0});
+    const GraspMap map(*task, PlannerParams());
+    const SupportSurface &table = *task->table;
+    for (int i = 0; i < table.size(); ++i)
+    {
+        const double length = (table.vertices().row((i + 1) % table.size()) - table.vertices().row(i)).norm();
+        EXPECT_EQ(map.stretchCount(i), static_cast<long>(std::floor(length / GraspMap::kStretch)) + 1);
+        EXPECT_THROW(map.stretchGrasp({i, map.stretchCount(i)}), std::invalid_argument);
+    }
+    EXPECT_THROW(map.stretchCount(table.size()), std::invalid_argument);
+    EXPECT_THROW(map.stretchGrasp({0, -1}), std::invalid_argument);
+}
+
 TEST(GraspMap, ItsGraspSeedsGraspTheirStretches)
 {
     // Each reachable stretch keeps the grasp its probe found (the seed of grasps there): H_g of that
@@ -506,6 +521,10 @@ TEST(GraspMap, ItsGraspSeedsGraspTheirStretches)
                 continue;  // a corner's other edge
             const Eigen::VectorXd seed = map.graspSeed(edge);
             ASSERT_EQ(seed.size() > 0, map.reachable(edge)) << "edge " << i << " at " << along;
+            // What check-scene asks by stretch: the same answer, and the H_g the probe tries.
+            EXPECT_TRUE(map.answer(map.stretch(edge)).isApprox(seed, 0.0) || seed.size() == 0);
+            EXPECT_TRUE(map.stretchGrasp(map.stretch(edge))
+                            .isApprox(sideGraspPose(edge.closest + beyond * edge.outwardNormal, edge, z), 1e-9));
             if (seed.size() == 0)
             {
                 ++unreachable;

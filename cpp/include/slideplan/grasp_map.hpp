@@ -57,6 +57,14 @@ namespace slideplan
         /// The stretch of an edge point: (edge index, kStretch cell along the edge).
         std::pair<int, long> stretch(const EdgeQuery &edge) const;
 
+        /// How many stretches edge `edge` has (cells 0 .. n-1).
+        long stretchCount(int edge) const;
+        /// H_g the probe of a stretch tries (the hand as given): where a grasp of an object pushed just
+        /// far enough over the edge there would be (params.graspStandoff, u*/2 beyond it).
+        Eigen::Isometry3d stretchGrasp(const std::pair<int, long> &stretch) const;
+        /// The stretch's liftable grasp configuration, probed on first use; empty if none is reachable.
+        Eigen::VectorXd answer(const std::pair<int, long> &stretch) const;
+
         /// Whether this map answers for `task` under `params`: the same robot model, table, grasp frame,
         /// thickness, and the parameters the probes use.
         bool fits(const SlidingTask &task, const PlannerParams &params) const;
@@ -88,7 +96,6 @@ namespace slideplan
 
         /// The stretch's grasp configuration (empty: unreachable), probed on first use.
         Eigen::VectorXd lookUp(const EdgeQuery &edge) const;
-        Eigen::VectorXd answer(const std::pair<int, long> &stretch) const;
         Eigen::VectorXd probe(const std::pair<int, long> &stretch) const;
 
         static double micrometres(double metres) { return std::round(metres * 1e6) / 1e6; }

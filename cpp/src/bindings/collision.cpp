@@ -71,6 +71,15 @@ namespace slideplan::bindings
                 py::arg("outline_xy"), py::arg("top_z"),
                 "Add the object as a prism over the convex hull of outline_xy, from the table top to top_z.")
             .def("clear_object", &CollisionWorld::clearObject, "Remove the object.")
+            .def(
+                "rigid_collision",
+                [](const CollisionWorld &world, const std::string &link, const Eigen::Matrix4d &pose) {
+                    return world.rigidCollision(link, toIsometry(pose));
+                },
+                py::arg("link"), py::arg("pose"),
+                "What the links rigid with `link` meet with `link` at the world pose (4x4): 'link-obstacle' for the "
+                "first hit on the table or an obstacle, '' if nothing (the rest of the robot and the object are not "
+                "checked). Raises ValueError for an unknown link.")
             .def_property_readonly("self_pair_count", &CollisionWorld::selfPairCount, "Link pairs checked for self-collision.");
     }
 }  // namespace slideplan::bindings

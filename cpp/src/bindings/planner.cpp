@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
@@ -262,6 +263,27 @@ namespace slideplan::bindings
                  "the object's (m); params: PlannerParams (grasp_standoff, u_star, grasp_lift, grasp_flip are used). "
                  "Raises ValueError for an unknown grasp link or a negative thickness.")
             .def_property_readonly("probed", &GraspMap::probed, "Stretches probed so far.")
+            .def("stretch_count", &GraspMap::stretchCount, py::arg("edge"),
+                 "How many 1 cm stretches edge `edge` (from vertex edge to edge + 1) has. Raises ValueError for no such edge.")
+            .def(
+                "stretch_grasp",
+                [](const GraspMap &map, int edge, long cell) { return map.stretchGrasp({edge, cell}).matrix(); },
+                py::arg("edge"), py::arg("cell"),
+                "H_g (4x4) the probe of stretch `cell` of `edge` tries, the hand as given: grasp_standoff (at least "
+                "u*/2) beyond the edge, mid-thickness. Raises ValueError for no such stretch.")
+            .def(
+                "grasp_on",
+                [](const GraspMap &map, int edge, long cell) -> std::optional<Eigen::VectorXd> {
+                    map.stretchGrasp({edge, cell});  // refuses a stretch that is not there
+                    py::gil_scoped_release release;
+                    Eigen::VectorXd grasp = map.answer({edge, cell});
+                    if (grasp.size() == 0)
+                        return std::nullopt;
+                    return grasp;
+                },
+                py::arg("edge"), py::arg("cell"),
+                "The liftable grasp configuration of a stretch (probed on first use, as plans do), or None if no side "
+                "grasp is reachable there. Raises ValueError for no such stretch.")
             .def(
                 "entries",
                 [](const GraspMap &map) {

@@ -1,0 +1,149 @@
+"""``slideplan check-scene``: what stands between a new robot scene and its first plan, in plain lines
+that name links, obstacles and parameters, before any plan is tried.
+
+It asks what the planner asks, with the planner's own parts: whether the fingertip reaches the table
+top (:func:`slideplan.planning.table_reach`), which 1 cm stretches of each table edge admit a side
+grasp the arm reaches and can lift (the planner's grasp map), and, at those grasps, whether the
+pre-grasp ``grasp_backoff`` before them is reachable and clear; where an edge has no grasp at all, why
+not at its middle (the hand against the table, no arm configuration, the arm in collision).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import Counter
+
+import numpy as np
+
+from .objects import ThinObject
+from .planning import PlannerConfig, base_pose_matrix, core_obstacles, grasp_map, robot_model, table_reach
+from .scenes import Scene
+
+MIN_REACH = 0.5  # below this share of the table reached, plans mostly time out without start roots
+BACKOFFS = (0.05, 0.04, 0.03, 0.02, 0.01)  # shorter pre-grasp backoffs tried when the scene's fails (m)
+
+
+@dataclasses.dataclass
+class SceneCheck:
+    """What check-scene found.
+
+    Attributes:
+        lines: the report, one finding per line, the causes of failure first.
+        ok: the fingertip reaches at least :data:`MIN_REACH` of the table and some edge admits a side
+            grasp with a clear pre-grasp.
+    """
+
+    lines: list[str]
+    ok: bool
+
+
+def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> SceneCheck:
+    """Check a scene's robot and hand against its table for objects like ``obj`` (its thickness).
+
+    Args:
+        scene: the scene.
+        obj: an object on its table (only its thickness matters).
+        config: planner parameters; the scene's hand's by default.
+
+    Returns:
+        The findings.
+
+    Raises:
+        InputError: the robot cannot be loaded, naming the file.
+    """
+    from . import _core
+
+    config = (config or PlannerConfig.for_scene(scene)).resolved(scene)
+    robot = robot_model(scene)
+    hand = scene.hand
+    findings: list[str] = []
+    notes = [f"robot {scene.urdf_path.name}: {robot.dof} planned joints ({', '.join(robot.joint_names)}), "
+             f"fingertip {hand.tip_link}, grasp frame on {hand.grasp_link}, contact links {', '.join(hand.contact_links)}"]
+
+    reach = table_reach(scene, obj.thickness, config)
+    line = (f"fingertip: reaches the table top over {100 * reach:.0f}% of the table (5 x 5 grid, pitch beta0 = "
+            f"{config.beta0:g}, depth {1000 * 0.5 * (config.dz_min + config.dz_max):.0f} mm, any heading)")
+    if reach < MIN_REACH:
+        findings.append(line + ": too little for start roots; move the base ([robot] base_pose) or change beta0")
+    else:
+        notes.append(line)
+
+    world = _core.CollisionWorld(robot, _core.SupportSurface(scene.table.vertices, scene.table.height),
+                                 core_obstacles([obstacle.to_dict() for obstacle in scene.obstacles]), list(hand.contact_links))
+    to_link = np.linalg.inv(base_pose_matrix(hand.grasp_offset))
+    mapped = grasp_map(scene, obj, config)
+    graspable_edges, edges = 0, []  # one line per edge, in order
+    for edge in range(len(scene.table.vertices)):
+        start, end = scene.table.vertices[edge], scene.table.vertices[(edge + 1) % len(scene.table.vertices)]
+        cells = mapped.stretch_count(edge)
+        grasps = [(cell, mapped.grasp_on(edge, cell)) for cell in range(cells)]
+        reached = [(cell, grasp) for cell, grasp in grasps if grasp is not None]
+        name = f"edge {edge} ({start[0]:.2f}, {start[1]:.2f})-({end[0]:.2f}, {end[1]:.2f})"
+        if not reached:
+            edges.append(f"{name}: no side grasp on any of its {cells} stretches; at its middle: "
+                            + _why_no_grasp(robot, world, mapped, edge, cells // 2, hand.grasp_link, to_link))
+            continue
+        problems = Counter(_approach_problem(robot, world, grasp, config.grasp_backoff, hand.grasp_link, to_link) for cell, grasp in reached)
+        clear = problems.pop("", 0)
+        line = f"{name}: side grasps on {len(reached)} of {cells} stretches, grasp and pre-grasp clear at {clear} of them"
+        if clear:
+            graspable_edges += 1
+            edges.append(line)
+            continue
+        problem, count = problems.most_common(1)[0]
+        if problem.startswith("grasp"):
+            edges.append(f"{line}: the {problem} at {count}: a larger grasp_standoff moves the hand out past the "
+                         "edge (or grasp_offset puts the grasp frame inside the hand)")
+            continue
+        shorter = next((backoff for backoff in BACKOFFS if backoff < config.grasp_backoff and any(
+            _approach_problem(robot, world, grasp, backoff, hand.grasp_link, to_link) == ""
+            for cell, grasp in reached)), None)
+        hint = f"; at {shorter:g} some are clear: try grasp_backoff <= {shorter:g}" if shorter else ""
+        edges.append(f"{line}: grasp_backoff {config.grasp_backoff:g} leaves the {problem} at {count}{hint}")
+    if graspable_edges:
+        return SceneCheck(findings + notes + edges, reach >= MIN_REACH)
+    findings += ["no edge admits a side grasp with a clear pre-grasp: no plan can end in a grasp", *edges]
+    return SceneCheck(findings + notes, False)
+
+
+def _link_pose(frame: np.ndarray, to_link: np.ndarray) -> np.ndarray:
+    """The grasp link's pose that puts the grasp frame at ``frame``."""
+    return frame @ to_link
+
+
+def _why_no_grasp(robot, world, mapped, edge: int, cell: int, grasp_link: str, to_link: np.ndarray) -> str:
+    """Why the stretch's H_g (the hand as given) has no grasp: the hand's parts against the table or an
+    obstacle, no arm configuration reaching it, or the arm in collision there."""
+    from . import _core
+
+    link_pose = _link_pose(np.asarray(mapped.stretch_grasp(edge, cell)), to_link)
+    hit = world.rigid_collision(grasp_link, link_pose)
+    if hit:
+        return f"the hand meets the table or an obstacle ({hit}): a larger grasp_standoff moves it out"
+    joints = robot.ik(link_pose, rng_seed=0, link=grasp_link)
+    if joints is None:
+        return "no arm configuration reaches the grasp frame (out of reach from this mount)"
+    pairs = world.collisions(joints, _core.ContactMode.FREE)
+    if pairs:
+        return "the arm reaching it is in collision (" + ", ".join(f"{a}-{b}" for a, b in pairs[:3]) + ")"
+    return "reachable and clear in one configuration, but not liftable by grasp_lift from it"
+
+
+def _approach_problem(robot, world, grasp: np.ndarray, backoff: float, grasp_link: str, to_link: np.ndarray) -> str:
+    """'' if the grasp configuration ``grasp`` is free of collisions and the pre-grasp ``backoff`` before
+    its grasp frame (along the approach axis) is reachable from it and free of collisions; else what is
+    wrong, naming the first colliding pair."""
+    from . import _core
+
+    pairs = world.collisions(grasp, _core.ContactMode.FREE)
+    if pairs:
+        return f"grasp in collision ({pairs[0][0]}-{pairs[0][1]})"
+    pre = np.asarray(robot.link_pose(grasp, grasp_link)) @ np.linalg.inv(to_link)  # the grasp frame, as reached
+    pre[:3, 3] -= backoff * pre[:3, 2]
+    near = _core.IkOptions()
+    near.max_attempts = 1  # from the grasp configuration only, as the planner looks for it
+    joints = robot.ik(_link_pose(pre, to_link), seed=grasp, rng_seed=0, options=near, link=grasp_link)
+    if joints is None:
+        return "pre-grasp unreachable"
+    pairs = world.collisions(joints, _core.ContactMode.FREE)
+    return f"pre-grasp in collision ({pairs[0][0]}-{pairs[0][1]})" if pairs else ""

@@ -1,0 +1,65 @@
+"""slideplan check-scene: a scene that plans passes; a broken one (the base out of reach, the pre-grasp
+backoff too long, the grasp frame inside the hand) is named in the first lines, with the parameter to
+change."""
+
+from pathlib import Path
+
+from typer.testing import CliRunner
+
+from slideplan.cli import app
+from slideplan.scenes import load_scene
+
+runner = CliRunner()
+
+
+def check(*args):
+    result = runner.invoke(app, ["check-scene", *map(str, args)])
+    return result.exit_code, result.output.strip().splitlines()
+
+
+def edited_square(tmp_path: Path, old: str, new: str) -> Path:
+    """The square scene with one line changed, beside a copy of its URDF."""
+    scene = load_scene("square")
+    text = Path(scene.source).read_text()
+    assert old in text
+    path = tmp_path / "scene.toml"
+    path.write_text(text.replace(old, new).replace('"wam_t42.urdf"', f'"{scene.urdf_path}"'))
+    return path
+
+
+def test_a_scene_that_plans_passes_and_says_what_it_checked():
+    code, lines = check("square")
+    assert code == 0, lines
+    assert lines[0].startswith("robot wam_t42.urdf: 7 planned joints")
+    assert lines[1].startswith("fingertip: reaches the table top over 100% of the table")
+    edge = next(line for line in lines if line.startswith("edge 0 "))
+    clear = int(edge.split("clear at ")[1].split()[0])
+    assert clear > 0, edge
+
+
+def test_a_base_out_of_reach_is_the_first_line(tmp_path):
+    code, lines = check(edited_square(tmp_path, "base_pose = [0.0, 0.0, 0.20, 0.0, 0.0, 0.0]",
+                                      "base_pose = [0.0, 0.0, -1.0, 0.0, 0.0, 0.0]"))
+    assert code == 1
+    assert lines[0].startswith("fingertip: reaches the table top over 0% of the table") and "base_pose" in lines[0]
+
+
+def test_a_backoff_too_long_is_named_with_a_shorter_one_that_works():
+    code, lines = check("square", "--param", "grasp_backoff=0.3")
+    assert code == 1
+    assert lines[0] == "no edge admits a side grasp with a clear pre-grasp: no plan can end in a grasp"
+    assert "grasp_backoff 0.3 leaves the pre-grasp unreachable" in lines[1]
+    assert "try grasp_backoff <= 0.05" in lines[1]
+
+
+def test_a_grasp_frame_inside_the_hand_names_the_part_that_meets_the_table(tmp_path):
+    code, lines = check(edited_square(tmp_path, 'grasp_link = "t42_grasp"',
+                                      'grasp_link = "t42_grasp"\ngrasp_offset = [0.0, 0.0, -0.12, 0.0, 0.0, 0.0]'))
+    assert code == 1
+    assert lines[0].startswith("no edge admits")
+    assert "grasp in collision (t42_palm-table)" in lines[1] and "grasp_standoff" in lines[1]
+
+
+def test_bad_input_is_one_error_line():
+    result = runner.invoke(app, ["check-scene", "nosuch"])
+    assert result.exit_code == 2 and result.stderr.startswith("slideplan: error: nosuch: no such file")
