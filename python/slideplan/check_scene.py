@@ -16,7 +16,7 @@ from collections import Counter
 import numpy as np
 
 from .objects import ThinObject
-from .planning import PlannerConfig, base_pose_matrix, core_obstacles, grasp_map, robot_model, table_reach
+from .planning import PlannerConfig, base_pose_matrix, collision_world, grasp_map, robot_model, table_reach
 from .scenes import Scene
 
 MIN_REACH = 0.5  # below this share of the table reached, plans mostly time out without start roots
@@ -51,8 +51,6 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
     Raises:
         InputError: the robot cannot be loaded, naming the file.
     """
-    from . import _core
-
     config = (config or PlannerConfig.for_scene(scene)).resolved(scene)
     robot = robot_model(scene)
     hand = scene.hand
@@ -68,22 +66,20 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
     else:
         notes.append(line)
 
-    world = _core.CollisionWorld(robot, _core.SupportSurface(scene.table.vertices, scene.table.height),
-                                 core_obstacles([obstacle.to_dict() for obstacle in scene.obstacles]), list(hand.contact_links))
-    to_link = np.linalg.inv(base_pose_matrix(hand.grasp_offset))
+    world = collision_world(scene)
+    offset = base_pose_matrix(hand.grasp_offset)
     mapped = grasp_map(scene, obj, config)
     graspable_edges, edges = 0, []  # one line per edge, in order
     for edge in range(len(scene.table.vertices)):
         start, end = scene.table.vertices[edge], scene.table.vertices[(edge + 1) % len(scene.table.vertices)]
         cells = mapped.stretch_count(edge)
-        grasps = [(cell, mapped.grasp_on(edge, cell)) for cell in range(cells)]
-        reached = [(cell, grasp) for cell, grasp in grasps if grasp is not None]
+        reached = [grasp for grasp in (mapped.grasp_on(edge, cell) for cell in range(cells)) if grasp is not None]
         name = f"edge {edge} ({start[0]:.2f}, {start[1]:.2f})-({end[0]:.2f}, {end[1]:.2f})"
         if not reached:
             edges.append(f"{name}: no side grasp on any of its {cells} stretches; at its middle: "
-                            + _why_no_grasp(robot, world, mapped, edge, cells // 2, hand.grasp_link, to_link))
+                            + _why_no_grasp(robot, world, mapped, edge, cells // 2, hand.grasp_link, offset))
             continue
-        problems = Counter(_approach_problem(robot, world, grasp, config.grasp_backoff, hand.grasp_link, to_link) for cell, grasp in reached)
+        problems = Counter(_approach_problem(robot, world, grasp, config.grasp_backoff, hand.grasp_link, offset) for grasp in reached)
         clear = problems.pop("", 0)
         line = f"{name}: side grasps on {len(reached)} of {cells} stretches, grasp and pre-grasp clear at {clear} of them"
         if clear:
@@ -96,8 +92,7 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
                          "edge (or grasp_offset puts the grasp frame inside the hand)")
             continue
         shorter = next((backoff for backoff in BACKOFFS if backoff < config.grasp_backoff and any(
-            _approach_problem(robot, world, grasp, backoff, hand.grasp_link, to_link) == ""
-            for cell, grasp in reached)), None)
+            _approach_problem(robot, world, grasp, backoff, hand.grasp_link, offset) == "" for grasp in reached)), None)
         hint = f"; at {shorter:g} some are clear: try grasp_backoff <= {shorter:g}" if shorter else ""
         edges.append(f"{line}: grasp_backoff {config.grasp_backoff:g} leaves the {problem} at {count}{hint}")
     if graspable_edges:
@@ -106,17 +101,12 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
     return SceneCheck(findings + notes, False)
 
 
-def _link_pose(frame: np.ndarray, to_link: np.ndarray) -> np.ndarray:
-    """The grasp link's pose that puts the grasp frame at ``frame``."""
-    return frame @ to_link
-
-
-def _why_no_grasp(robot, world, mapped, edge: int, cell: int, grasp_link: str, to_link: np.ndarray) -> str:
+def _why_no_grasp(robot, world, mapped, edge: int, cell: int, grasp_link: str, offset: np.ndarray) -> str:
     """Why the stretch's H_g (the hand as given) has no grasp: the hand's parts against the table or an
     obstacle, no arm configuration reaching it, or the arm in collision there."""
     from . import _core
 
-    link_pose = _link_pose(np.asarray(mapped.stretch_grasp(edge, cell)), to_link)
+    link_pose = np.asarray(mapped.stretch_grasp(edge, cell)) @ np.linalg.inv(offset)
     hit = world.rigid_collision(grasp_link, link_pose)
     if hit:
         return f"the hand meets the table or an obstacle ({hit}): a larger grasp_standoff moves it out"
@@ -129,7 +119,7 @@ def _why_no_grasp(robot, world, mapped, edge: int, cell: int, grasp_link: str, t
     return "reachable and clear in one configuration, but not liftable by grasp_lift from it"
 
 
-def _approach_problem(robot, world, grasp: np.ndarray, backoff: float, grasp_link: str, to_link: np.ndarray) -> str:
+def _approach_problem(robot, world, grasp: np.ndarray, backoff: float, grasp_link: str, offset: np.ndarray) -> str:
     """'' if the grasp configuration ``grasp`` is free of collisions and the pre-grasp ``backoff`` before
     its grasp frame (along the approach axis) is reachable from it and free of collisions; else what is
     wrong, naming the first colliding pair."""
@@ -138,11 +128,11 @@ def _approach_problem(robot, world, grasp: np.ndarray, backoff: float, grasp_lin
     pairs = world.collisions(grasp, _core.ContactMode.FREE)
     if pairs:
         return f"grasp in collision ({pairs[0][0]}-{pairs[0][1]})"
-    pre = np.asarray(robot.link_pose(grasp, grasp_link)) @ np.linalg.inv(to_link)  # the grasp frame, as reached
+    pre = np.asarray(robot.frame_pose(grasp, grasp_link, offset))  # the grasp frame, as reached
     pre[:3, 3] -= backoff * pre[:3, 2]
     near = _core.IkOptions()
     near.max_attempts = 1  # from the grasp configuration only, as the planner looks for it
-    joints = robot.ik(_link_pose(pre, to_link), seed=grasp, rng_seed=0, options=near, link=grasp_link)
+    joints = robot.ik(pre @ np.linalg.inv(offset), seed=grasp, rng_seed=0, options=near, link=grasp_link)
     if joints is None:
         return "pre-grasp unreachable"
     pairs = world.collisions(joints, _core.ContactMode.FREE)

@@ -892,6 +892,14 @@ def plan_robot(description: dict[str, Any]):
         raise InputError(f"cannot load robot ({error})", source=str(description["urdf"]), field="robot") from None
 
 
+def collision_world(scene: Scene):
+    """The scene's robot, table and obstacles as a ``_core.CollisionWorld`` (its contact links may touch)."""
+    from . import _core
+
+    return _core.CollisionWorld(robot_model(scene), _core.SupportSurface(scene.table.vertices, scene.table.height),
+                                core_obstacles([obstacle.to_dict() for obstacle in scene.obstacles]), list(scene.hand.contact_links))
+
+
 def table_reach(scene: Scene, thickness: float, config: PlannerConfig | None = None, *, grid: int = 5,
                 yaws: int = 8) -> float:
     """The share of the table where the contact frame reaches a thin object's top: on a ``grid`` x
@@ -912,8 +920,7 @@ def table_reach(scene: Scene, thickness: float, config: PlannerConfig | None = N
 
     config = (config or PlannerConfig.for_scene(scene)).resolved(scene)
     robot = robot_model(scene)
-    world = _core.CollisionWorld(robot, _core.SupportSurface(scene.table.vertices, scene.table.height),
-                                 core_obstacles([obstacle.to_dict() for obstacle in scene.obstacles]), list(scene.hand.contact_links))
+    world = collision_world(scene)
     depth = scene.table.height + thickness - 0.5 * (config.dz_min + config.dz_max)
     low, high = scene.table.vertices.min(axis=0), scene.table.vertices.max(axis=0)
     lattice = [low + (high - low) * np.array([i + 0.5, j + 0.5]) / grid for i in range(grid) for j in range(grid)]
