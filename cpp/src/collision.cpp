@@ -1,11 +1,13 @@
 #include "slideplan/collision.hpp"
 
 #include <algorithm>
+#include <fcl/geometry/bvh/BVH_model.h>
 #include <fcl/geometry/shape/box.h>
 #include <fcl/geometry/shape/convex.h>
 #include <fcl/geometry/shape/cylinder.h>
 #include <fcl/geometry/shape/sphere.h>
 #include <fcl/narrowphase/collision.h>
+#include <fcl/math/bv/OBBRSS.h>
 #include <fcl/narrowphase/collision_object.h>
 #include <map>
 #include <random>
@@ -28,6 +30,18 @@ namespace slideplan
                     return std::make_shared<fcl::Sphered>(shape.size.x());
                 case LinkShape::Type::Mesh:
                 {
+                    if (shape.surface)  // the hull would fill a concavity (kConcaveHullRatio)
+                    {
+                        auto model = std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>();
+                        std::vector<fcl::Triangle> triangles;
+                        triangles.reserve(shape.surface->triangles.size());
+                        for (const Eigen::Vector3i &t : shape.surface->triangles)
+                            triangles.emplace_back(t.x(), t.y(), t.z());
+                        model->beginModel();
+                        model->addSubModel(shape.surface->vertices, triangles);
+                        model->endModel();
+                        return model;
+                    }
                     // The convex hull: GJK on its vertices is several times faster than a BVH of the
                     // triangles (bench_core), and a hull only adds clearance.
                     auto vertices = std::make_shared<std::vector<Eigen::Vector3d>>(shape.mesh->vertices);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -55,7 +56,7 @@ namespace slideplan
         Assimp::Importer importer;
         // Keep the file's own units: URDF meshes are in metres times <mesh scale>; COLLADA's <unit>
         // is applied by assimp to the root node transform, which the walk below includes. No vertex
-        // joining: only the convex hull is used, and joining took most of the load time.
+        // joining: the hull and the BVH need none, and joining took most of the load time.
         const aiScene *scene = importer.ReadFile(file, aiProcess_Triangulate);
         if (!scene || !scene->mRootNode)
             throw std::invalid_argument(where + ": cannot read mesh '" + file + "' (" + importer.GetErrorString() + ")");
@@ -87,6 +88,14 @@ namespace slideplan
             if (!v.allFinite())
                 throw std::invalid_argument(where + ": mesh '" + file + "' has non-finite vertices");
         return mesh;
+    }
+
+    double meshVolume(const TriangleMesh &mesh)
+    {
+        double sixfold = 0.0;
+        for (const Eigen::Vector3i &t : mesh.triangles)
+            sixfold += mesh.vertices[t.x()].dot(mesh.vertices[t.y()].cross(mesh.vertices[t.z()]));
+        return std::abs(sixfold) / 6.0;
     }
 
     std::shared_ptr<const TriangleMesh> convexHull(const TriangleMesh &mesh, const std::string &where)

@@ -181,7 +181,12 @@ namespace slideplan
                         throw std::invalid_argument(where + ": scale must be positive");
                     shape.type = LinkShape::Type::Mesh;
                     shape.meshFile = resolveMeshUri(mesh.filename, spec.directory, spec.packageDirs, where);
-                    shape.mesh = convexHull(*loadMesh(shape.meshFile, scale, where), where);
+                    const std::shared_ptr<const TriangleMesh> triangles = loadMesh(shape.meshFile, scale, where);
+                    shape.mesh = convexHull(*triangles, where);
+                    const double volume = meshVolume(*triangles);
+                    shape.hullRatio = volume > 0.0 ? meshVolume(*shape.mesh) / volume : HUGE_VAL;
+                    if (shape.hullRatio > kConcaveHullRatio)
+                        shape.surface = triangles;
                     break;
                 }
                 default:
@@ -400,6 +405,20 @@ namespace slideplan
         }
 
         tip_ = framePath(spec.tipLink, spec.tipOffset);
+
+        // Only the hand's concavities matter: the object enters the hand (between its jaws), while an
+        // arm link's hull only adds clearance, and checking its triangles slows every plan (the UR5's
+        // forearm, hull 1.55 x its volume, more than doubled the planning time: docs/benchmarks/robots.md).
+        const int wrist = static_cast<int>(dof()) - 1;
+        for (std::size_t i = 0; i < links_.size(); ++i)
+        {
+            bool inHand = false;
+            for (int j = static_cast<int>(i); j >= 0 && !inHand; j = links_[j].parent)
+                inHand = links_[j].jointIndex == wrist;
+            for (LinkShape &shape : links_[i].shapes)
+                if (!inHand)
+                    shape.surface = nullptr;
+        }
     }
 
     RobotModel RobotModel::fromFile(const std::string &path, const std::string &tipLink, const Eigen::Isometry3d &basePose)

@@ -36,7 +36,7 @@ except ImportError:
 
 from ._fields import as_numbers
 from . import grasp_cache
-from .errors import InputError
+from .errors import InputError, SlideplanWarning
 from .objects import CLOUD_SUFFIXES, ThinObject, load_object, load_outline, sample_pose_on_table
 from .planning import PLANNERS, PlannerConfig, PlanResult, table_reach
 from .scenes import Scene, load_scene
@@ -111,15 +111,13 @@ def _fail(error: Exception) -> typer.Exit:
 def _warnings_as_lines():
     """Print slideplan's own warnings raised inside (e.g. a URDF limit replaced by a default) as
     ``slideplan: warning: ...`` lines; the libraries' deprecation notices are not the user's concern."""
-    from .timing import LimitWarning
-
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
             yield
         finally:
             for warning in caught:
-                if issubclass(warning.category, LimitWarning):
+                if issubclass(warning.category, SlideplanWarning):
                     typer.echo(f"slideplan: warning: {' '.join(str(warning.message).split())}", err=True)
 
 

@@ -3,6 +3,16 @@
 from __future__ import annotations
 
 
+class SlideplanWarning(UserWarning):
+    """Something the user should know that does not stop the work (the CLI prints each as one
+    ``slideplan: warning: ...`` line)."""
+
+
+class MeshWarning(SlideplanWarning):
+    """A hand link's collision mesh is checked as its triangles because its convex hull would fill a
+    concavity: exact, but slower than a hull."""
+
+
 class InputError(ValueError):
     """Bad input: a file, a field in it, or a value passed to a loader is wrong.
 

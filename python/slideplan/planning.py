@@ -14,6 +14,7 @@ import json
 import math
 import os
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,7 +25,7 @@ import shapely
 
 from . import _core, grasp_cache, jsontext
 from ._fields import as_number, as_numbers, is_number
-from .errors import InputError, require_type
+from .errors import InputError, MeshWarning, require_type
 from .objects import ThinObject
 from .scenes import Scene, package_search_dirs
 from .timing import TimingOptions, core_limits, robot_limits, timing_from_dict
@@ -834,13 +835,16 @@ def build_robot(description: dict[str, Any]):
 
     Raises:
         ValueError: naming the file and the key, from the reader or the core.
+
+    Warns:
+        MeshWarning: for each hand mesh checked as its triangles (``RobotModel.collision_meshes``).
     """
     from . import _core
 
     urdf = Path(description["urdf"])
     attach = [Path(path) for path in description["attach"]]
     try:
-        return _core.RobotModel.from_string(
+        robot = _core.RobotModel.from_string(
             merge_urdf(urdf, attach),
             source=str(urdf),
             directory=str(urdf.parent),
@@ -853,6 +857,12 @@ def build_robot(description: dict[str, Any]):
         )
     except ValueError as error:
         raise ValueError(_blame_fragment(str(error), urdf, attach)) from None
+    for link, mesh, hull_ratio, exact in robot.collision_meshes:
+        if exact:
+            warnings.warn(f"link '{link}' mesh {Path(mesh).name}: its convex hull is {hull_ratio:.2f} x its volume and "
+                          "would fill a concavity of the hand, so it is checked as its triangles (exact, slower than "
+                          "a hull; convex or primitive collision shapes plan faster)", MeshWarning, stacklevel=2)
+    return robot
 
 
 def _blame_fragment(message: str, urdf: Path, attach: list[Path]) -> str:

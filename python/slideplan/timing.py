@@ -31,7 +31,7 @@ import numpy as np
 
 from . import _core
 from ._fields import is_number
-from .errors import InputError
+from .errors import InputError, SlideplanWarning
 
 if TYPE_CHECKING:
     from .planning import PlanResult
@@ -43,7 +43,7 @@ NEAR_TABLE_M = _core.NEAR_TABLE_M  # approach waypoints with the fingertip this 
 SEGMENTS = ("trajectory", "approach")  # timing keys; "approach" times grasp.approach
 
 
-class LimitWarning(UserWarning):
+class LimitWarning(SlideplanWarning):
     """A URDF velocity limit is missing, zero or negative; the documented default is used."""
 
 

@@ -81,6 +81,57 @@ def test_unscaled_mesh_keeps_its_size(tmp_path):
     assert world.is_valid(np.array([0.44])) and not world.is_valid(np.array([0.46]))
 
 
+def write_jaws_obj(path: Path) -> None:
+    """Two 4 cm cubes in one mesh, centred at x = -6 and +6 cm: jaws with an 8 cm gap between them. The
+    hull is a 16 x 4 x 4 cm box, twice the mesh's volume (two 4 cm cubes)."""
+    vertices, faces = cube_triangles(0.02)
+    lines = [f"v {x + dx} {y} {z}" for dx in (-0.06, 0.06) for x, y, z in vertices]
+    lines += [f"f {a + 1 + k} {b + 1 + k} {c + 1 + k}" for k in (0, 8) for a, b, c in faces]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def box_at(x: float, size: float) -> _core.BoxObstacle:
+    pose = np.eye(4)
+    pose[:3, 3] = [x, 0.0, 0.5]  # at the height of the slider's link at q = 0
+    return _core.BoxObstacle(pose, np.full(3, size))
+
+
+@pytest.mark.parametrize("in_hand", [True, False])
+def test_a_concave_hand_mesh_is_checked_as_its_triangles_and_an_arm_mesh_as_its_hull(tmp_path, in_hand):
+    write_jaws_obj(tmp_path / "jaws.obj")
+    urdf = slider_urdf("jaws.obj")
+    if not in_hand:  # a further joint beyond the jaws' link: the jaws are then an arm link
+        urdf = urdf.replace("</robot>", '<link name="finger"/><joint name="reach" type="prismatic"><parent link="block"/>'
+                            '<child link="finger"/><axis xyz="1 0 0"/><limit lower="0" upper="1" effort="1" velocity="1"/>'
+                            "</joint></robot>")
+    (tmp_path / "jaws.urdf").write_text(urdf)
+    robot = _core.RobotModel(str(tmp_path / "jaws.urdf"), tip_link="block" if in_hand else "finger")
+    [(link, mesh, hull_ratio, exact)] = robot.collision_meshes
+    assert (link, Path(mesh).name, exact) == ("block", "jaws.obj", in_hand)
+    assert hull_ratio == pytest.approx(0.16 * 0.04 * 0.04 / (2 * 0.04 ** 3)) and hull_ratio > _core.concave_hull_ratio
+    q = np.zeros(robot.dof)
+    table = _core.SupportSurface(np.array([[0.3, -0.2], [0.7, -0.2], [0.7, 0.2], [0.3, 0.2]]), 0.0)
+    in_gap = _core.CollisionWorld(robot, table, [box_at(0.5, 0.02)])  # 2 cm, in the middle of the gap
+    assert in_gap.is_valid(q) == in_hand  # the hull fills the gap
+    on_jaw = _core.CollisionWorld(robot, table, [box_at(0.5 + 0.04, 0.02)])  # across the +x jaw's inner face
+    assert not on_jaw.is_valid(q)
+    assert on_jaw.collisions(q)[0][0] == "block"
+
+
+def test_a_hand_mesh_checked_as_its_triangles_is_named_in_a_warning(tmp_path):
+    write_jaws_obj(tmp_path / "jaws.obj")
+    (tmp_path / "jaws.urdf").write_text(slider_urdf("jaws.obj"))
+    scene = tmp_path / "scene.toml"
+    scene.write_text(TABLE + '[robot]\nurdf = "jaws.urdf"\n[hand]\ntip_link = "block"\ngrasp_link = "block"\n'
+                     'contact_links = ["block"]\n')
+    result = CliRunner().invoke(app, ["plan", "--scene", str(scene), "--object", "square", "--pose", "0.5", "0", "0",
+                                      "--time-limit", "0.2"])
+    warning = [line for line in result.stderr.splitlines() if line.startswith("slideplan: warning:")]
+    assert len(warning) == 1, result.stderr
+    assert "link 'block' mesh jaws.obj" in warning[0] and "2.00 x its volume" in warning[0]
+    assert "checked as its triangles" in warning[0]
+
+
 def test_package_uris_resolve_in_a_parent_or_the_package_directory(tmp_path):
     mesh = tmp_path / "share" / "my_robot" / "meshes" / "cube.stl"
     mesh.parent.mkdir(parents=True)
@@ -239,7 +290,7 @@ def test_panda_hand_tcp_matches_an_independent_computation_from_the_urdf():
 
 
 @pytest.mark.parametrize("scene_name", ["panda_square", "panda_round", "ur5_square", "ur5_round", "xarm7_square",
-                                        "kinova_square"])
+                                        "kinova_square", "z1_square"])
 def test_third_party_arms_plan_out_of_the_box_and_verify(scene_name):
     scene = load_scene(scene_name)
     outline, _, _ = load_outline("crescent")
@@ -250,3 +301,24 @@ def test_third_party_arms_plan_out_of_the_box_and_verify(scene_name):
     verification = verify(result)
     assert verification.ok, verification.violations[:5]
     assert result.params["dz_max"] == scene.hand.params["dz_max"]  # the hand's defaults were used
+
+
+def test_the_stock_z1_solves_five_objects_at_two_poses_each_and_checks_its_jaws_exactly():
+    """docs/own-robot.md's walkthrough: the Unitree Z1's URDF as example-robot-data ships it. Its
+    gripperStator mesh holds the housing and the fixed jaw; as a hull it fills the jaws' gap, and a
+    grasp then always meets the object (1 of 10 solved with hulls)."""
+    scene = load_scene("z1_square")
+    exact = {link for link, _, _, exact in robot_model(scene).collision_meshes if exact}
+    assert exact == {"gripperStator", "gripperMover"}
+    solved = 0
+    for name in ("square", "circle", "triangle", "crescent", "irregular"):
+        outline, _, _ = load_outline(name)
+        for seed in (1, 2):
+            pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([seed, len(name)]))
+            obj = load_object(name, table_height=scene.table.height, pose=pose)
+            result = plan(scene, obj, PlannerConfig.for_scene(scene, seed=seed, time_limit_s=10.0))
+            if result.solved:
+                solved += 1
+                verification = verify(result)
+                assert verification.ok, (name, seed, verification.violations[:3])
+    assert solved >= 8

@@ -23,6 +23,16 @@ namespace slideplan
     std::shared_ptr<const TriangleMesh> loadMesh(const std::string &file, const Eigen::Vector3d &scale,
                                                  const std::string &where);
 
+    /// A hand link's mesh whose convex hull is more than this many times its own volume is checked as
+    /// its triangles (an FCL BVH) rather than as the hull: the hull would fill a concavity the object
+    /// enters, e.g. the gap between jaws modelled with their housing in one mesh (the Unitree Z1's
+    /// gripperStator: 1.82). Most hand and arm meshes of example-robot-data are below 1.5.
+    constexpr double kConcaveHullRatio = 1.5;
+
+    /// The volume a closed triangle mesh encloses (divergence theorem), whatever its orientation;
+    /// meaningless, often near 0, for an open mesh.
+    double meshVolume(const TriangleMesh &mesh);
+
     /// The convex hull (qhull) of a mesh's vertices, triangles facing outward: the collision shape of
     /// a link. \throws std::invalid_argument starting with `where` if the mesh has no volume.
     std::shared_ptr<const TriangleMesh> convexHull(const TriangleMesh &mesh, const std::string &where);

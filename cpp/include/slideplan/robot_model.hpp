@@ -50,6 +50,11 @@ namespace slideplan
         Eigen::Vector3d size;  ///< box: full extents; cylinder: (radius, length, 0); sphere: (radius, 0, 0)
         Eigen::Isometry3d origin{Eigen::Isometry3d::Identity()};
         std::shared_ptr<const TriangleMesh> mesh;  ///< Mesh only: the convex hull of the file's triangles
+        /// Mesh only: the file's triangles when the link is part of the hand (moved by the chain's last
+        /// joint) and the hull is more than kConcaveHullRatio times their volume (checked as an FCL BVH,
+        /// exact but slower), else null (checked as the hull).
+        std::shared_ptr<const TriangleMesh> surface;
+        double hullRatio{1.0};                     ///< Mesh only: the hull's volume over the mesh's
         std::string meshFile;                      ///< Mesh only: the resolved file, for messages
     };
 

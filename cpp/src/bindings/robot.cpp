@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
@@ -39,6 +40,7 @@ namespace slideplan::bindings
 
     void bindRobot(py::module_ &module)
     {
+        module.attr("concave_hull_ratio") = kConcaveHullRatio;
         py::class_<IkOptions>(module, "IkOptions", "Options of the damped-least-squares inverse kinematics.")
             .def(py::init<>())
             .def_readwrite("max_iterations", &IkOptions::maxIterations, "Iterations per attempt.")
@@ -90,6 +92,20 @@ namespace slideplan::bindings
                                        return names;
                                    },
                                    "All links, parents first.")
+            .def_property_readonly("collision_meshes",
+                                   [](const RobotModel &robot) {
+                                       std::vector<std::tuple<std::string, std::string, double, bool>> meshes;
+                                       for (const auto &link : robot.links())
+                                           for (const auto &shape : link.shapes)
+                                               if (shape.type == LinkShape::Type::Mesh)
+                                                   meshes.emplace_back(link.name, shape.meshFile, shape.hullRatio,
+                                                                       shape.surface != nullptr);
+                                       return meshes;
+                                   },
+                                   "Every collision mesh as (link, file, hull_ratio, exact): hull_ratio is its convex "
+                                   "hull's volume over its own; exact means it is "
+                                   "checked as its triangles (a hand link, moved by the last joint of the chain, whose hull would "
+                                   "fill a concavity), else as its hull.")
             .def("fk", [](const RobotModel &robot, const Eigen::VectorXd &q) { return robot.fk(q).matrix(); },
                  py::arg("q"), "Gamma(q): world pose (4x4) of the tip frame.")
             .def("link_pose",
