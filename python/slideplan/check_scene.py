@@ -11,10 +11,14 @@ not at its middle (the hand against the table, no arm configuration, the arm in 
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 
+from . import _core
+from .errors import MeshWarning
 from .objects import ThinObject
 from .planning import PlannerConfig, base_pose_matrix, collision_world, grasp_map, robot_model, table_reach
 from .scenes import Scene
@@ -52,11 +56,14 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
         InputError: the robot cannot be loaded, naming the file.
     """
     config = (config or PlannerConfig.for_scene(scene)).resolved(scene)
-    robot = robot_model(scene)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MeshWarning)  # the report names those meshes itself
+        robot = robot_model(scene)
     hand = scene.hand
     findings: list[str] = []
     notes = [f"robot {scene.urdf_path.name}: {robot.dof} planned joints ({', '.join(robot.joint_names)}), "
-             f"fingertip {hand.tip_link}, grasp frame on {hand.grasp_link}, contact links {', '.join(hand.contact_links)}"]
+             f"fingertip {hand.tip_link}, grasp frame on {hand.grasp_link}, contact links {', '.join(hand.contact_links)}",
+             *_mesh_notes(robot)]
 
     reach = table_reach(scene, obj.thickness, config)
     line = (f"fingertip: reaches the table top over {100 * reach:.0f}% of the table (5 x 5 grid, pitch beta0 = "
@@ -99,6 +106,22 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
         return SceneCheck(findings + notes + edges, reach >= MIN_REACH)
     findings += ["no edge admits a side grasp with a clear pre-grasp: no plan can end in a grasp", *edges]
     return SceneCheck(findings + notes, False)
+
+
+def _mesh_notes(robot) -> list[str]:
+    """How the collision meshes are checked, naming those whose hull is much larger than the mesh."""
+    meshes = robot.collision_meshes
+    if not meshes:
+        return []
+    concave = [(link, Path(mesh).name, ratio, exact) for link, mesh, ratio, exact in meshes if ratio > _core.concave_hull_ratio]
+    line = f"collision meshes: {len(meshes)}, {len(meshes) - sum(exact for *_, exact in concave)} checked as their convex hulls"
+    exact = [f"{link} ({name}, hull {ratio:.2f} x its volume)" for link, name, ratio, is_exact in concave if is_exact]
+    hulls = [f"{link} ({name}, {ratio:.2f} x)" for link, name, ratio, is_exact in concave if not is_exact]
+    if exact:
+        line += f"; as their triangles, the hull filling a concavity of the hand: {', '.join(exact)}"
+    if hulls:
+        line += f"; arm links whose hull only adds clearance: {', '.join(hulls)}"
+    return [line]
 
 
 def _why_no_grasp(robot, world, mapped, edge: int, cell: int, grasp_link: str, offset: np.ndarray) -> str:
