@@ -18,42 +18,6 @@ namespace slideplan
 {
     namespace
     {
-        std::shared_ptr<fcl::CollisionGeometryd> makeGeometry(const LinkShape &shape)
-        {
-            switch (shape.type)
-            {
-                case LinkShape::Type::Box:
-                    return std::make_shared<fcl::Boxd>(shape.size.x(), shape.size.y(), shape.size.z());
-                case LinkShape::Type::Cylinder:
-                    return std::make_shared<fcl::Cylinderd>(shape.size.x(), shape.size.y());
-                case LinkShape::Type::Sphere:
-                    return std::make_shared<fcl::Sphered>(shape.size.x());
-                case LinkShape::Type::Mesh:
-                {
-                    if (shape.surface)  // the hull would fill a concavity (kConcaveHullRatio)
-                    {
-                        auto model = std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>();
-                        std::vector<fcl::Triangle> triangles;
-                        triangles.reserve(shape.surface->triangles.size());
-                        for (const Eigen::Vector3i &t : shape.surface->triangles)
-                            triangles.emplace_back(t.x(), t.y(), t.z());
-                        model->beginModel();
-                        model->addSubModel(shape.surface->vertices, triangles);
-                        model->endModel();
-                        return model;
-                    }
-                    // The convex hull: GJK on its vertices is several times faster than a BVH of the
-                    // triangles (bench_core), and a hull only adds clearance.
-                    auto vertices = std::make_shared<std::vector<Eigen::Vector3d>>(shape.mesh->vertices);
-                    auto faces = std::make_shared<std::vector<int>>();
-                    for (const Eigen::Vector3i &t : shape.mesh->triangles)
-                        faces->insert(faces->end(), {3, t.x(), t.y(), t.z()});
-                    return std::make_shared<fcl::Convexd>(vertices, static_cast<int>(shape.mesh->triangles.size()), faces);
-                }
-            }
-            throw std::logic_error("unknown shape type");
-        }
-
         /// A vertical prism over a counter-clockwise convex polygon.
         std::shared_ptr<fcl::Convexd> makePrism(const std::vector<Eigen::Vector2d> &polygon, double bottom, double top)
         {
@@ -85,6 +49,42 @@ namespace slideplan
             return result.isCollision();
         }
     }  // namespace
+
+    std::shared_ptr<fcl::CollisionGeometryd> linkGeometry(const LinkShape &shape)
+    {
+        switch (shape.type)
+        {
+            case LinkShape::Type::Box:
+                return std::make_shared<fcl::Boxd>(shape.size.x(), shape.size.y(), shape.size.z());
+            case LinkShape::Type::Cylinder:
+                return std::make_shared<fcl::Cylinderd>(shape.size.x(), shape.size.y());
+            case LinkShape::Type::Sphere:
+                return std::make_shared<fcl::Sphered>(shape.size.x());
+            case LinkShape::Type::Mesh:
+            {
+                if (shape.surface)  // the hull would fill a concavity (kConcaveHullRatio)
+                {
+                    auto model = std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>();
+                    std::vector<fcl::Triangle> triangles;
+                    triangles.reserve(shape.surface->triangles.size());
+                    for (const Eigen::Vector3i &t : shape.surface->triangles)
+                        triangles.emplace_back(t.x(), t.y(), t.z());
+                    model->beginModel();
+                    model->addSubModel(shape.surface->vertices, triangles);
+                    model->endModel();
+                    return model;
+                }
+                // The convex hull: GJK on its vertices is several times faster than a BVH of the
+                // triangles (bench_core), and a hull only adds clearance.
+                auto vertices = std::make_shared<std::vector<Eigen::Vector3d>>(shape.mesh->vertices);
+                auto faces = std::make_shared<std::vector<int>>();
+                for (const Eigen::Vector3i &t : shape.mesh->triangles)
+                    faces->insert(faces->end(), {3, t.x(), t.y(), t.z()});
+                return std::make_shared<fcl::Convexd>(vertices, static_cast<int>(shape.mesh->triangles.size()), faces);
+            }
+        }
+        throw std::logic_error("unknown shape type");
+    }
 
     struct CollisionWorld::Impl
     {
@@ -147,9 +147,15 @@ namespace slideplan
         const auto &links = robot_->links();
         for (std::size_t i = 0; i < links.size(); ++i)
             for (const LinkShape &shape : links[i].shapes)
-                impl_->shapes.push_back({static_cast<int>(i), shape.origin,
-                                         std::make_unique<fcl::CollisionObjectd>(makeGeometry(shape)),
+            {
+                // Hulls and primitives are shared by every world; a BVH is copied (not rebuilt) into
+                // each: shared between threads, FCL's BVH checks made plans differ from their twins.
+                std::shared_ptr<fcl::CollisionGeometryd> geometry = shape.geometry;
+                if (const auto *bvh = dynamic_cast<const fcl::BVHModel<fcl::OBBRSSd> *>(geometry.get()))
+                    geometry = std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>(*bvh);
+                impl_->shapes.push_back({static_cast<int>(i), shape.origin, std::make_unique<fcl::CollisionObjectd>(geometry),
                                          contact.count(static_cast<int>(i)) > 0});
+            }
 
         // The table: one convex prism if Q is convex, else one per ear-clipping triangle.
         impl_->tableTop = table.height();

@@ -1,5 +1,6 @@
 #include "slideplan/robot_model.hpp"
 
+#include "slideplan/collision.hpp"
 #include "slideplan/mesh.hpp"
 
 #include <algorithm>
@@ -416,8 +417,11 @@ namespace slideplan
             for (int j = static_cast<int>(i); j >= 0 && !inHand; j = links_[j].parent)
                 inHand = links_[j].jointIndex == wrist;
             for (LinkShape &shape : links_[i].shapes)
+            {
                 if (!inHand)
                     shape.surface = nullptr;
+                shape.geometry = linkGeometry(shape);
+            }
         }
     }
 

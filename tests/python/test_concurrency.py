@@ -1,9 +1,11 @@
 """Plans are independent (docs/design.md 9): plans run in threads of one process, sharing the cached robot
-model, give exactly what the same calls give alone, and every one passes the verifier."""
+model (and its collision geometry: the Z1's hand meshes as BVHs of their triangles), give exactly what the
+same calls give alone, and every one passes the verifier."""
 
 import threading
 
 import numpy as np
+import pytest
 
 from slideplan import PlannerConfig, load_object, load_scene, plan, verify
 from slideplan.objects import load_outline, sample_pose_on_table
@@ -27,10 +29,11 @@ def _same(first, second) -> bool:
     )
 
 
-def test_four_threads_give_the_sequential_plans_and_every_plan_verifies():
-    scene = load_scene("square")
+@pytest.mark.parametrize("scene_name", ["square", "z1_square", "panda_square"])
+def test_four_threads_give_the_sequential_plans_and_every_plan_verifies(scene_name):
+    scene = load_scene(scene_name)
     objects = {name: _object(scene, name, index) for index, name in enumerate(OBJECTS)}
-    configs = [PlannerConfig(seed=7 + run, time_limit_s=30.0) for run in range(RUNS)]
+    configs = [PlannerConfig.for_scene(scene, seed=7 + run, time_limit_s=30.0) for run in range(RUNS)]
     sequential = {(name, run): plan(scene, objects[name], configs[run]) for name in OBJECTS for run in range(RUNS)}
 
     threaded, errors = {}, []

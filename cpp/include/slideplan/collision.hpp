@@ -16,6 +16,10 @@
 
 namespace slideplan
 {
+    /// A link shape as FCL geometry: a box, cylinder or sphere; a mesh as its convex hull, or as a BVH
+    /// of its triangles where LinkShape::surface holds them.
+    std::shared_ptr<fcl::CollisionGeometry<double>> linkGeometry(const LinkShape &shape);
+
     /// Whether the contacting finger may penetrate the table and the object. During sliding it may:
     /// the virtual penetration stands for the finger's passive reconfiguration (docs/design.md 3).
     enum class ContactMode

@@ -19,6 +19,12 @@
 #include <string>
 #include <vector>
 
+namespace fcl
+{
+    template <typename S>
+    class CollisionGeometry;
+}
+
 namespace slideplan
 {
     /// Most movable joints a chain may have: per-call Jacobians and joint vectors of the hot path live
@@ -56,6 +62,9 @@ namespace slideplan
         std::shared_ptr<const TriangleMesh> surface;
         double hullRatio{1.0};                     ///< Mesh only: the hull's volume over the mesh's
         std::string meshFile;                      ///< Mesh only: the resolved file, for messages
+        /// The shape for FCL (linkGeometry), built once when the robot loads: a hand mesh's BVH takes
+        /// a tenth of a second to build. CollisionWorlds share it, except a BVH, which each copies.
+        std::shared_ptr<fcl::CollisionGeometry<double>> geometry;
     };
 
     /// A link of the robot tree, its parent joint and its collision shapes.
