@@ -25,9 +25,10 @@ $(PYTHON):
 	python3 -m venv $(VENV)
 	$(PYTHON) -m pip install -q --upgrade pip
 
-# Builds the extension and the C++ tests in one CMake tree (build/py), installs the package.
+# Builds the extension and the C++ tests in one CMake tree (build/py), installs the package. setuptools
+# >= 70.1 builds the ros extra's sdists (empy) without build isolation: older ones need the wheel package.
 install: deps $(PYTHON)
-	$(PYTHON) -m pip install -q scikit-build-core pybind11
+	$(PYTHON) -m pip install -q scikit-build-core pybind11 "setuptools>=70.1"
 	$(PYTHON) -m pip install -q --no-build-isolation -C build-dir=$(BUILD_DIR) \
 	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,robots,view,perception,execution,ros,test]"
 
