@@ -666,8 +666,8 @@ def _robot_block(robot: dict[str, Any]) -> dict[str, Any]:
             not numbers, naming ``robot.<key>``.
     """
     identity = np.eye(4)
-    block = {"attach": [], "base_link": "", "fixed_joints": {}, "package_dirs": [], "tip_offset": identity,
-             "grasp_offset": identity, **robot}
+    block = {"attach": [], "base_link": "", "fixed_joints": {}, "gripper_joints": {}, "package_dirs": [],
+             "tip_offset": identity, "grasp_offset": identity, **robot}
     for key in ("urdf", "base_link", "tip_link", "grasp_link"):
         if not isinstance(block.get(key), str):
             raise InputError(f"expected a name, got {block.get(key)!r}", field=f"robot.{key}")
@@ -676,6 +676,10 @@ def _robot_block(robot: dict[str, Any]) -> dict[str, Any]:
             raise InputError(f"expected a list of names, got {block.get(key)!r}", field=f"robot.{key}")
     if not isinstance(block["fixed_joints"], dict) or not all(is_number(value) for value in block["fixed_joints"].values()):
         raise InputError(f"expected joint names with numbers, got {block['fixed_joints']!r}", field="robot.fixed_joints")
+    gripper = block["gripper_joints"]
+    if not isinstance(gripper, dict) or not all(isinstance(values, list) and len(values) == 2 and all(map(is_number, values))
+                                                for values in gripper.values()):
+        raise InputError(f"expected joint names with [open, closed], got {gripper!r}", field="robot.gripper_joints")
     for key in ("base_pose", "tip_offset", "grasp_offset"):
         block[key] = _array(block[key], 4, f"robot.{key}")
     return block
@@ -768,20 +772,23 @@ def robot_description(scene: Scene) -> dict[str, Any]:
 
     Returns:
         ``{"urdf", "attach", "base_pose" (4x4), "base_link", "fixed_joints", "package_dirs",
-        "tip_link", "tip_offset" (4x4), "grasp_link", "grasp_offset" (4x4), "contact_links"}``.
+        "tip_link", "tip_offset" (4x4), "grasp_link", "grasp_offset" (4x4), "contact_links",
+        "gripper_joints" ({name: [open, closed]}, their open values also in "fixed_joints")}``.
     """
     return {
         "urdf": str(scene.urdf_path),
         "attach": [str(path) for path in scene.attach],
         "base_pose": base_pose_matrix(scene.base_pose),
         "base_link": scene.base_link,
-        "fixed_joints": dict(scene.fixed_joints),
+        # A gripper joint is held open while planning.
+        "fixed_joints": {**scene.fixed_joints, **{name: opened for name, (opened, _) in scene.hand.gripper_joints.items()}},
         "package_dirs": [str(path) for path in scene.package_dirs],
         "tip_link": scene.hand.tip_link,
         "tip_offset": base_pose_matrix(scene.hand.tip_offset),
         "grasp_link": scene.hand.grasp_link,
         "grasp_offset": base_pose_matrix(scene.hand.grasp_offset),
         "contact_links": list(scene.hand.contact_links),
+        "gripper_joints": {name: list(values) for name, values in scene.hand.gripper_joints.items()},
     }
 
 
@@ -856,7 +863,10 @@ def build_robot(description: dict[str, Any]):
             package_dirs=search_dirs(description),
         )
     except ValueError as error:
-        raise ValueError(_blame_fragment(str(error), urdf, attach)) from None
+        message = str(error)
+        for name in description.get("gripper_joints", {}):  # held at its open value, but written in [hand]
+            message = message.replace(f"[robot] fixed_joints.{name}:", f"[hand] gripper_joints.{name} (open):")
+        raise ValueError(_blame_fragment(message, urdf, attach)) from None
     for link, mesh, hull_ratio, exact in robot.collision_meshes:
         if exact:
             warnings.warn(f"link '{link}' mesh {Path(mesh).name}: its convex hull is {hull_ratio:.2f} x its volume and "

@@ -24,7 +24,7 @@ HAND_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "g
                "max_yaw_rate", "grasp_flip")
 ROBOT_KEYS = {"urdf", "attach", "base_pose", "base_link", "fixed_joints", "package_dirs"}
 LEGACY_HAND_KEYS = ("tip_link", "contact_links")  # once in [robot], now in [hand]; still read there
-HAND_KEYS = {"tip_link", "tip_offset", "grasp_link", "grasp_offset", "contact_links", "params"}
+HAND_KEYS = {"tip_link", "tip_offset", "grasp_link", "grasp_offset", "contact_links", "gripper_joints", "params"}
 
 
 def default_robot_file() -> Path:
@@ -130,6 +130,10 @@ class Hand:
             sliding: the compliant finger.
         params: this hand's planner parameter defaults (``beta0``, ``dz_min``, ``dz_max``,
             ``u_star``, ...), below any parameter the user sets.
+        gripper_joints: the URDF joints that close the hand (revolute or prismatic; their mimic
+            joints follow), each as ``(open, closed)``: held at ``open`` while planning, and closed
+            to ``closed``, where its finger reaches the grasp plane (``y = 0`` of ``H_g``), when
+            execution grasps. Empty: nothing closes (a rigid finger).
     """
 
     tip_link: str
@@ -138,6 +142,7 @@ class Hand:
     grasp_offset: np.ndarray
     contact_links: tuple[str, ...]
     params: dict[str, float] = field(default_factory=dict)
+    gripper_joints: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 @dataclass(eq=False)
@@ -311,7 +316,26 @@ def _read_package_dirs(robot: Fields, scene_dir: Path) -> tuple[Path, ...]:
     return dirs
 
 
-def _read_hand(hand: Fields) -> Hand:
+def _read_gripper_joints(hand: Fields, robot: Fields) -> dict[str, tuple[float, float]]:
+    joints = hand.raw("gripper_joints", {})
+    if not isinstance(joints, dict):
+        raise InputError(f"expected a table of joint = [open, closed], got {joints!r}", source=hand.source,
+                         field=hand.field("gripper_joints"))
+    values = Fields(joints, source=hand.source, prefix=hand.field("gripper_joints"), allowed=set(joints))
+    read = {}
+    for name in joints:
+        opened, closed = values.numbers(name, 2)
+        if opened == closed:
+            raise InputError(f"open and closed are both {opened!r}: the joint would not move", source=hand.source,
+                             field=values.field(name))
+        if robot.has("fixed_joints") and name in robot.raw("fixed_joints"):
+            raise InputError(f"also held in {robot.field('fixed_joints')}: a gripper joint is held at its open value",
+                             source=hand.source, field=values.field(name))
+        read[name] = (float(opened), float(closed))
+    return read
+
+
+def _read_hand(hand: Fields, robot: Fields) -> Hand:
     params = hand.table("params", allowed=set(HAND_PARAMS))
     return Hand(
         tip_link=hand.string("tip_link"),
@@ -320,6 +344,7 @@ def _read_hand(hand: Fields) -> Hand:
         grasp_offset=_read_offset(hand, "grasp_offset"),
         contact_links=hand.strings("contact_links"),
         params={name: _hand_param(params, name) for name in HAND_PARAMS if params and params.has(name)},
+        gripper_joints=_read_gripper_joints(hand, robot),
     )
 
 
@@ -380,6 +405,7 @@ def load_scene(name_or_path: str | Path) -> Scene:
         grasp_link = "t42_grasp"
         grasp_offset = [x, y, z, roll, pitch, yaw]    # optional
         contact_links = ["t42_finger1_proximal", "t42_finger1_distal"]
+        gripper_joints = { t42_finger2_base = [0.0, 1.01] }   # optional: joint = [open, closed]
         params = { beta0 = 1.0, dz_min = 0.005, dz_max = 0.025, u_star = 0.02 }   # optional
         [[obstacles]]                    # optional, repeatable
         center = [x, y, z]
@@ -426,7 +452,7 @@ def load_scene(name_or_path: str | Path) -> Scene:
         base_link=robot.string("base_link") if robot.has("base_link") else "",
         fixed_joints=_read_fixed_joints(robot),
         package_dirs=package_dirs,
-        hand=_read_hand(hand),
+        hand=_read_hand(hand, robot),
         obstacles=tuple(_read_obstacle(obstacle, table, path.parent) for obstacle in obstacles),
         source=str(path),
     )
@@ -486,6 +512,9 @@ def robot_toml(scene: Scene, directory: Path | None = None, base_pose=None) -> l
         f"grasp_offset = {numbers(hand.grasp_offset)}",
         f"contact_links = {strings(hand.contact_links)}",
     ]
+    if hand.gripper_joints:
+        lines.append("gripper_joints = { " + ", ".join(f"{text(name)} = {numbers(values)}"
+                                                       for name, values in hand.gripper_joints.items()) + " }")
     if hand.params:
         lines.append("params = { " + ", ".join(f"{name} = {str(value).lower() if isinstance(value, bool) else repr(value)}"
                                                for name, value in hand.params.items()) + " }")

@@ -339,5 +339,88 @@ def test_a_hand_with_nothing_to_close_executes_the_slide_and_says_why_it_cannot_
     assert result.solved
     execution = execute(result)
     assert execution.failed_stage == "grasp" and not execution.success and not execution.lifted
-    assert "no fingers to close" in execution.failure and "'tool0'" in execution.failure
+    assert "no fingers to close" in execution.failure and "[hand] gripper_joints" in execution.failure
     assert execution.position_error_m is not None  # the slide itself ran and was measured
+
+
+def _rig(name: str):
+    from slideplan import PlannerConfig, load_object, load_scene
+    from slideplan.execute.model import Rig
+    from slideplan.planning import robot_model
+
+    scene = load_scene(name)
+    obj = load_object("square", table_height=scene.table.height, pose=(0.55, 0.0, 0.0))
+    robot = robot_model(scene)
+    return Rig.for_scene(scene, obj, PlannerConfig.for_scene(scene).resolved(scene), list(robot.joint_names),
+                         np.zeros(len(robot.joint_names)))
+
+
+def test_the_panda_closes_its_own_prismatic_fingers_and_the_mimic_follows():
+    """[hand] gripper_joints names the URDF's panda_finger_joint1; panda_finger_joint2 mimics it in the
+    URDF. Held open while sliding, closed to 0 (the fingers meet) with nothing between them."""
+    import mujoco
+
+    from slideplan.execute.model import build_model
+
+    settings = ExecutionSettings()
+    built = build_model(_rig("panda_square"), settings)
+    model, data, gripper = built.model, built.data, built.gripper
+    joints = [model.joint(name) for name in ("panda_finger_joint1", "panda_finger_joint2")]
+    assert [model.actuator_trnid[actuator, 0] for actuator in gripper.actuators] == [joints[0].id]
+    assert gripper.prismatic.tolist() == [True]
+    assert gripper.ramp_s(settings) == pytest.approx(0.02 / settings.close_speed_linear)
+
+    def opening() -> list[float]:
+        return [float(data.qpos[model.jnt_qposadr[joint.id]]) for joint in joints]
+
+    for _ in range(300):  # held open
+        mujoco.mj_step(model, data)
+    assert opening() == pytest.approx([0.02, 0.02], abs=1e-3)
+    gripper.grip(model, settings, closing=True)
+    data.ctrl[gripper.actuators] = gripper.target(1.0)
+    for _ in range(1000):
+        mujoco.mj_step(model, data)
+    assert opening() == pytest.approx([0.0, 0.0], abs=1e-3)  # closed: the mimic finger came along
+
+
+def test_the_t42_tendon_closes_both_fingers_to_the_grasp_plane_together():
+    """t42_finger2_base closes the hand; t42_finger1_base mimics it, scaled so that the middles of both
+    distal links reach the grasp plane (y = 0 of the grasp frame) at the same moment of the ramp."""
+    import mujoco
+
+    from slideplan.execute.model import build_model
+
+    settings = ExecutionSettings()
+    rig = _rig("square")
+    built = build_model(rig, settings)
+    model, data, gripper = built.model, built.data, built.gripper
+    ramp_s = gripper.ramp_s(settings)
+    grasp = model.body(rig.robot["grasp_link"]).id
+    distal = [model.body(name).id for name in ("t42_finger1_distal", "t42_finger2_distal")]
+
+    def sides() -> np.ndarray:  # of the middle of each distal link (where it pinches) from the grasp plane
+        mujoco.mj_kinematics(model, data)
+        tips = [data.xpos[body] + 0.0225 * data.xmat[body].reshape(3, 3)[:, 2] for body in distal]
+        return np.array([(tip - data.xpos[grasp]) @ data.xmat[grasp].reshape(3, 3)[:, 1] for tip in tips])
+
+    start, reached = np.sign(sides()), [None, None]
+    assert start[0] == -start[1]  # open: one finger on each side
+    gripper.grip(model, settings, closing=True)
+    while data.time < ramp_s + 0.3:
+        data.ctrl[gripper.actuators] = gripper.target(data.time / ramp_s)
+        mujoco.mj_step(model, data)
+        for index, side in enumerate(sides()):
+            if reached[index] is None and np.sign(side) != start[index]:
+                reached[index] = data.time
+    assert None not in reached, reached
+    assert abs(reached[0] - reached[1]) < 0.1 * ramp_s, (reached, ramp_s)
+
+
+def test_the_panda_lifts_the_object_with_its_own_gripper():
+    from slideplan import PlannerConfig, load_object, load_scene, plan
+
+    scene = load_scene("panda_square")
+    result = plan(scene, load_object("square", table_height=scene.table.height, pose=(0.55, -0.08, 0.4)), PlannerConfig(seed=1))
+    assert result.solved
+    execution = execute(result)
+    assert execution.lifted, execution.failure

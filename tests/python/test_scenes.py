@@ -142,6 +142,22 @@ def test_circle_table_defaults_to_100_points(tmp_path):
             "obstacles[0].center",
             "missing",
         ),
+        (
+            "[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\n[hand]\ngripper_joints = { t42_finger2_base = 1.0 }\n",
+            "hand.gripper_joints.t42_finger2_base",
+            "2 numbers",
+        ),
+        (
+            "[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\n[hand]\ngripper_joints = { t42_finger2_base = [0.5, 0.5] }\n",
+            "hand.gripper_joints.t42_finger2_base",
+            "would not move",
+        ),
+        (
+            "[table]\npolygon = [[0, 0], [1, 0], [0, 1]]\n[robot]\nfixed_joints = { t42_finger2_base = 0.0 }\n"
+            "[hand]\ngripper_joints = { t42_finger2_base = [0.0, 1.0] }\n",
+            "hand.gripper_joints.t42_finger2_base",
+            "also held in robot.fixed_joints",
+        ),
         ("table = 3\n", "table", "expected a table"),
         ("[table\n", "", "invalid TOML"),
     ],
@@ -167,7 +183,7 @@ def test_default_robot_urdf_has_the_default_tip_and_contact_links():
         assert f'<link name="{link}"' in urdf
 
 
-@pytest.mark.parametrize("name", ["square", "panda_square", "ur5_round"])
+@pytest.mark.parametrize("name", ["square", "panda_square", "ur5_round", "z1_square"])
 def test_robot_toml_writes_a_robot_and_hand_that_load_back_the_same(name, tmp_path):
     from slideplan.planning import robot_description
     from slideplan.scenes import robot_toml
@@ -181,7 +197,7 @@ def test_robot_toml_writes_a_robot_and_hand_that_load_back_the_same(name, tmp_pa
     assert [Path(p).resolve() for p in reloaded["attach"]] == [Path(p).resolve() for p in original["attach"]]
     for key in ("base_pose", "tip_offset", "grasp_offset"):
         np.testing.assert_array_equal(reloaded[key], original[key])
-    for key in ("base_link", "fixed_joints", "tip_link", "grasp_link", "contact_links"):
+    for key in ("base_link", "fixed_joints", "tip_link", "grasp_link", "contact_links", "gripper_joints"):
         assert reloaded[key] == original[key], key
     assert copy.hand.params == scene.hand.params
 
@@ -222,3 +238,14 @@ def test_files_behind_a_scene_are_named_in_its_errors(tmp_path):
         robot_model(load_scene(attached))
     assert f"{tmp_path / 'probe.urdf'} (attached to wam_t42.urdf): malformed URDF" in str(raised.value)
     assert "Link [probe]" in str(raised.value)
+
+
+def test_a_gripper_joint_is_held_open_while_planning_and_a_wrong_one_is_named_in_hand(tmp_path):
+    from slideplan.planning import robot_description, robot_model
+
+    scene = load_scene("panda_square")
+    assert robot_description(scene)["fixed_joints"]["panda_finger_joint1"] == scene.hand.gripper_joints["panda_finger_joint1"][0]
+    path = tmp_path / "bad_gripper.toml"
+    path.write_text(Path(scene.source).read_text().replace("panda_finger_joint1 = [0.02, 0.0]", "panda_finger_joint1 = [0.09, 0.0]"))
+    with pytest.raises(ValueError, match=r"\[hand\] gripper_joints.panda_finger_joint1 \(open\): value 0.09.* outside the joint limits"):
+        robot_model(load_scene(path))

@@ -23,8 +23,9 @@ The model (docs/execution.md gives the numbers and why):
   density, so table friction is spread over the footprint.
 - **Table**: the polygon as a 5 cm thick prism, one convex mesh per triangle of a constrained
   Delaunay triangulation when it is not convex.
-- **Grasp**: the hand's fingers (the bodies hanging on the grasp link's parent) get hinge joints about
-  the grasp frame's x axis, position-servoed closed with a capped torque.
+- **Grasp**: the hand's own closing joints (``[hand] gripper_joints``, revolute or prismatic; their mimic
+  joints follow) are position-servoed from open to closed, every finger reaching the grasp plane
+  together, then squeeze on with the grip capped.
 
 Phases: slide along ``trajectory``; settle; follow ``grasp.approach`` (lift, transfer, approach);
 close the hand; lift 5 cm; hold 1 s.

@@ -26,7 +26,6 @@ _ROBOT_CONTYPE, _ROBOT_CONAFFINITY = 2, 1  # robot geoms touch the world, not ea
 _WORLD_CONTYPE, _WORLD_CONAFFINITY = 1, 3  # table and object touch everything
 _TABLE_THICKNESS = 0.05
 _PAD_RADIUS = 0.006
-_FINGER_RANGE = (-0.2, 1.6)  # closing hinges (rad): open a little, closed well past the grasp plane
 _ARENA_BYTES = 128 << 20  # a 20 cm plate has ~500 contacts with the table; MuJoCo's default arena drops them
 
 
@@ -62,7 +61,7 @@ def _urdf_for_mujoco(robot: dict[str, Any]) -> str:
                             source=str(urdf),
                         )
                     mesh.set("filename", path)
-    # Keep fixed-joint links as bodies: the contact links and fingers get joints of their own.
+    # Keep fixed-joint links as bodies: the first contact link gets a compliance joint of its own.
     extension = ElementTree.SubElement(root, "mujoco")
     ElementTree.SubElement(extension, "compiler", fusestatic="false", strippath="false", discardvisual="true")
     return ElementTree.tostring(root, encoding="unicode")
@@ -154,6 +153,52 @@ class Rig:
                    start_config=np.asarray(start_config, dtype=float))
 
 
+@dataclass(frozen=True)
+class _GripperKind:
+    kp: float  # servo stiffness (N m/rad or N/m): holds the hand open while sliding
+    overshoot: float  # how far past closed the squeezing target lies (rad or m): kp * overshoot > the grip
+
+
+_REVOLUTE, _PRISMATIC = _GripperKind(kp=20.0, overshoot=0.5), _GripperKind(kp=4000.0, overshoot=0.02)
+_HOLD_OPEN_LIMIT = 100.0  # N m or N: the open hand is stiff while sliding
+_MIMIC_TIME_CONSTANT = 0.004  # s, as the fingertip pad's contact (MuJoCo's default 0.02 let finger 1 of the T42 yield 1 cm)
+
+
+@dataclass(frozen=True)
+class Gripper:
+    """The hand's closing joints (``[hand] gripper_joints``) as MuJoCo drives them: position servos
+    that hold them open while sliding, then close them together (every joint reaches ``closed``, its
+    finger at the grasp plane, at the same moment: a finger arriving first pushes a thin object off
+    the table) and squeeze past it with the grip force capped."""
+
+    actuators: np.ndarray
+    opened: np.ndarray
+    closed: np.ndarray
+    prismatic: np.ndarray  # per joint: prismatic (m) rather than revolute (rad)
+    limits: np.ndarray  # (n, 2) each joint's range (a squeeze into MuJoCo's soft limit would pass it)
+
+    def __len__(self) -> int:
+        return len(self.actuators)
+
+    def ramp_s(self, settings: ExecutionSettings) -> float:
+        """How long closing takes at the hand's speeds (s)."""
+        speeds = np.where(self.prismatic, settings.close_speed_linear, settings.close_speed)
+        return float(np.max(np.abs(self.closed - self.opened) / speeds, initial=0.0))
+
+    def target(self, fraction: float) -> np.ndarray:
+        """The servo targets ``fraction`` of the way from open to closed; at 1, past closed (squeezing:
+        the grip is capped) as far as the joint's limits allow."""
+        if fraction >= 1.0:
+            overshoot = np.where(self.prismatic, _PRISMATIC.overshoot, _REVOLUTE.overshoot)
+            return np.clip(self.closed + np.sign(self.closed - self.opened) * overshoot, self.limits[:, 0], self.limits[:, 1])
+        return self.opened + max(fraction, 0.0) * (self.closed - self.opened)
+
+    def grip(self, model, settings: ExecutionSettings, closing: bool) -> None:
+        """Cap the servos' force at the grip (closing) or hold the hand stiffly (open)."""
+        limit = np.where(self.prismatic, settings.grip_force, settings.grip_torque) if closing else _HOLD_OPEN_LIMIT
+        model.actuator_forcerange[self.actuators] = np.column_stack([-limit * np.ones(len(self)), limit * np.ones(len(self))])
+
+
 @dataclass
 class Model:
     """The compiled model and the indices the run needs."""
@@ -165,9 +210,7 @@ class Model:
     arm_actuators: np.ndarray
     spring_qpos: int
     spring_joint: int
-    finger_actuators: list[int]
-    finger_meet: np.ndarray  # closing angle at which each finger's far end reaches the grasp plane (rad)
-    grasp_link: str  # the fingers are the other children of its parent
+    gripper: Gripper
     hand_geoms: np.ndarray  # contact-link geoms that only touch things once the finger is lifted
     pad_geom: int
     tip_body: int
@@ -280,43 +323,38 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         rgba=[0.9, 0.3, 0.2, 1],
     )
 
-    # Fingers: the other bodies on the grasp link's parent with mass and geometry close about grasp x.
-    grasp_frame = pose0(robot["grasp_link"]) @ np.asarray(robot["grasp_offset"])
-    palm = spec.body(robot["grasp_link"]).parent
-    fingers, meet = [], []
-    for child in palm.bodies:
-        tip = _subtree_far_point(model0, data0, child.name, pose0(child.name)[:3, 3])
-        if tip is None or child.name == robot["grasp_link"] or model0.body(child.name).subtreemass[0] <= 1e-6:
-            continue
-        pivot = pose0(child.name)[:3, 3]
-        axis_world = grasp_frame[:3, 0]
-        # closing moves the far point towards the grasp frame's y = 0 plane
-        side = float((tip - grasp_frame[:3, 3]) @ grasp_frame[:3, 1])
-        motion = float(np.cross(axis_world, tip - pivot) @ grasp_frame[:3, 1])
-        sign = -1.0 if side * motion > 0 else 1.0
-        hinge = child.add_joint(
-            name=f"slideplan_close_{child.name}",
-            type=mujoco.mjtJoint.mjJNT_HINGE,
-            axis=pose0(child.name)[:3, :3].T @ (sign * axis_world),
-            armature=0.002,
-            limited=mujoco.mjtLimited.mjLIMITED_TRUE,
-            range=_FINGER_RANGE,
-        )
-        fingers.append(hinge.name)
-        meet.append(_meeting_angle(pivot, tip, sign * axis_world, grasp_frame))
+    # The hand's own closing joints ([hand] gripper_joints); their mimic joints follow (MuJoCo's
+    # import makes each mimic an equality constraint).
+    gripper_joints = dict(robot["gripper_joints"])
+    for equality in spec.equalities:  # a mimic is geared to its joint: MuJoCo's default coupling is soft
+        equality.solref = [_MIMIC_TIME_CONSTANT, 1.0]
+    kinds = {int(mujoco.mjtJoint.mjJNT_HINGE): _REVOLUTE, int(mujoco.mjtJoint.mjJNT_SLIDE): _PRISMATIC}
+    for joint, (opened, closed) in gripper_joints.items():
+        field = f"hand.gripper_joints.{joint}"
+        if joint not in joint_names:
+            raise InputError(f"joint {joint!r} not in the URDF", field=field)
+        kind = int(model0.jnt_type[model0.joint(joint).id])
+        if kind not in kinds:
+            raise InputError(f"joint {joint!r} is neither revolute nor prismatic", field=field)
+        low, high = model0.jnt_range[model0.joint(joint).id]
+        if model0.jnt_limited[model0.joint(joint).id] and not (low <= min(opened, closed) and max(opened, closed) <= high):
+            raise InputError(f"[open, closed] = [{opened}, {closed}] is outside the joint's limits [{low}, {high}]", field=field)
 
     # Arm servos (gains set after compiling, from the inertia) and the fingers' closing servos.
     for joint in result.joint_names:
         actuator = spec.add_actuator(name=f"servo_{joint}", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         actuator.set_to_position(kp=1.0, kv=0.1)
     for joint, value in robot["fixed_joints"].items():
+        if joint in gripper_joints:  # its own closing servo below
+            continue
         actuator = spec.add_actuator(name=f"hold_{joint}", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         actuator.set_to_position(kp=200.0, kv=5.0)
-    for joint in fingers:
+    for joint in gripper_joints:
+        kp = kinds[int(model0.jnt_type[model0.joint(joint).id])].kp
         actuator = spec.add_actuator(name=f"close_{joint}", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        actuator.set_to_position(kp=20.0, kv=0.2)
+        actuator.set_to_position(kp=kp, kv=0.01 * kp)
         actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-        actuator.forcerange = [-100.0, 100.0]  # stiff while sliding; capped to grip_torque when closing
+        actuator.forcerange = [-_HOLD_OPEN_LIMIT, _HOLD_OPEN_LIMIT]  # stiff while sliding; capped when closing
 
     if world_object is None:
         points, com = np.asarray(result.object["points"]), np.asarray(result.object["com_xy"], dtype=float)
@@ -356,9 +394,15 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         arm_actuators=np.array([model.actuator(f"servo_{name}").id for name in result.joint_names]),
         spring_qpos=int(model.jnt_qposadr[model.joint(spring.name).id]),
         spring_joint=model.joint(spring.name).id,
-        finger_actuators=[model.actuator(f"close_{joint}").id for joint in fingers],
-        finger_meet=np.array(meet),
-        grasp_link=robot["grasp_link"],
+        gripper=Gripper(
+            actuators=np.array([model.actuator(f"close_{joint}").id for joint in gripper_joints], dtype=int),
+            opened=np.array([values[0] for values in gripper_joints.values()], dtype=float),
+            closed=np.array([values[1] for values in gripper_joints.values()], dtype=float),
+            prismatic=np.array([model.jnt_type[model.joint(joint).id] == mujoco.mjtJoint.mjJNT_SLIDE
+                                for joint in gripper_joints], dtype=bool),
+            limits=np.array([model.jnt_range[model.joint(joint).id] if model.jnt_limited[model.joint(joint).id]
+                             else (-np.inf, np.inf) for joint in gripper_joints], dtype=float).reshape(-1, 2),
+        ),
         hand_geoms=hand_geoms,
         pad_geom=model.geom(pad.name).id,
         tip_body=model.body(robot["tip_link"]).id,
@@ -368,7 +412,9 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
     )
     for joint, value in robot["fixed_joints"].items():
         data.qpos[model.jnt_qposadr[model.joint(joint).id]] = value
-        data.ctrl[model.actuator(f"hold_{joint}").id] = value
+        if joint not in gripper_joints:
+            data.ctrl[model.actuator(f"hold_{joint}").id] = value
+    data.ctrl[built.gripper.actuators] = built.gripper.opened
     set_servo_gains(built, result.start_config, settings)
     return built
 
@@ -377,35 +423,6 @@ def _wxyz(rotation: np.ndarray) -> np.ndarray:
     """MuJoCo's (w, x, y, z) quaternion of a rotation matrix."""
     x, y, z, w = quaternion_from_matrix(rotation)
     return np.array([w, x, y, z])
-
-
-def _meeting_angle(pivot: np.ndarray, tip: np.ndarray, axis: np.ndarray, grasp_frame: np.ndarray) -> float:
-    """Closing angle about ``axis`` through ``pivot`` at which ``tip`` reaches the grasp frame's y = 0 plane."""
-    axis = axis / np.linalg.norm(axis)
-    arm = tip - pivot
-    angles = np.linspace(0.0, _FINGER_RANGE[1], 321)
-    turned = (np.outer(np.cos(angles), arm) + np.outer(np.sin(angles), np.cross(axis, arm))
-              + np.outer(1.0 - np.cos(angles), axis * (axis @ arm)))  # Rodrigues
-    side = (pivot + turned - grasp_frame[:3, 3]) @ grasp_frame[:3, 1]
-    crossed = np.flatnonzero(np.sign(side) != np.sign(side[0]))
-    return float(angles[crossed[0]] if len(crossed) else angles[-1])
-
-
-def _subtree_far_point(model, data, body_name: str, pivot: np.ndarray) -> np.ndarray | None:
-    """The geom centre farthest from ``pivot`` in a body's subtree, or None if it has no geoms."""
-    root = model.body(body_name).id
-    far, best = None, -1.0
-    for geom in range(model.ngeom):
-        body = model.geom_bodyid[geom]
-        while body not in (root, 0):
-            body = model.body_parentid[body]
-        if body != root:
-            continue
-        centre = data.geom_xpos[geom]
-        distance = float(np.linalg.norm(centre - pivot))
-        if distance > best:
-            far, best = centre.copy(), distance
-    return far
 
 
 def _add_world(spec, result: PlanResult | Rig, settings: ExecutionSettings, points: np.ndarray, com: np.ndarray) -> None:

@@ -17,7 +17,6 @@ _CLOSE_S = 0.8
 _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
-_CLOSE_TARGET_RAD = 1.5  # beyond any contact (hinge range [-0.2, 1.6]): the capped torque squeezes
 
 
 class Unstable(Exception):
@@ -169,25 +168,24 @@ class Runner:
         enable_hand_collisions(built, True)
         if self.object_pose()[2] < rest_z - _FELL_DROP_M:
             failure = ("release", "the object fell off the table when the finger let go")
-        if not built.finger_actuators:
+        gripper = built.gripper
+        if not len(gripper):
             # A rigid finger only (e.g. the bundled UR5 and xArm7 scenes): the slide ran, there is nothing to close.
-            return failure or ("grasp", f"the hand has no fingers to close: no other link with mass and geometry hangs "
-                                        f"from the parent of the grasp link {built.grasp_link!r}")
+            return failure or ("grasp", "the hand has no fingers to close: the plan's hand names no gripper joints "
+                                        "([hand] gripper_joints)")
         lift_target = np.asarray(robot.fk(grasp_config))
         lift_target[2, 3] += settings.lift_height
         lift_config = robot.ik(lift_target, seed=grasp_config, rng_seed=0)
-        # Close: the finger's flexure stiffens (the hand squeezes with the closing servos), torque capped.
+        # Close: the finger's flexure stiffens (the hand squeezes with the closing servos), the grip capped.
         model.jnt_stiffness[built.spring_joint] *= 50.0
-        for actuator in built.finger_actuators:
-            model.actuator_forcerange[actuator] = (-settings.grip_torque, settings.grip_torque)
+        gripper.grip(model, settings, closing=True)
         # The fingers close at the hand's speed and meet at the grasp plane together: a step lets the light
         # fingers strike a thin object so hard that it flies out, and a finger arriving first (the
         # straight one under a splayed one) lifts the object off the table before the other holds it.
-        ramp_s = float(built.finger_meet.max()) / settings.close_speed
+        ramp_s = gripper.ramp_s(settings)
 
         def closing(elapsed: float, step: int) -> None:
-            fraction = elapsed / ramp_s
-            data.ctrl[built.finger_actuators] = fraction * built.finger_meet if fraction < 1.0 else _CLOSE_TARGET_RAD
+            data.ctrl[gripper.actuators] = gripper.target(elapsed / ramp_s)
 
         self.follow(grasp_config[None, :], np.zeros(1), ramp_s + _CLOSE_S, closing)
         on_table = self.robot_bodies_on_table()

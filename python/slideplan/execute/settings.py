@@ -31,8 +31,10 @@ class ExecutionSettings:
         object_density: density of the object (kg/m^3).
         cell_size: side of the object's boxes (m).
         servo_bandwidth_hz: closed-loop bandwidth of the arm's joint servos (Hz).
-        grip_torque: closing torque of each finger (N m).
-        close_speed: speed of the fingers' closing target (rad/s).
+        grip_torque: closing torque of each revolute gripper joint (N m).
+        grip_force: closing force of each prismatic gripper joint (N).
+        close_speed: speed of a revolute gripper joint's closing target (rad/s).
+        close_speed_linear: speed of a prismatic gripper joint's closing target (m/s).
         lift_height: lift of the hand after closing (m).
         hold_s: hold time after the lift (s).
         timestep: simulation step (s).
@@ -53,7 +55,9 @@ class ExecutionSettings:
     cell_size: float = 0.0125
     servo_bandwidth_hz: float = 15.0
     grip_torque: float = 0.5
+    grip_force: float = 20.0
     close_speed: float = 1.5
+    close_speed_linear: float = 0.05
     lift_height: float = 0.05
     hold_s: float = 1.0
     timestep: float = 0.001

@@ -39,7 +39,6 @@ from ..scenes import Scene
 from ..transforms import homogeneous
 
 JOINT_STATE_HZ = 100.0
-GRIPPER_CLOSED_RAD = 1.5  # beyond any contact: the capped torque squeezes (as slideplan.execute)
 _CLOSE_HOLD_S = 0.8
 
 
@@ -96,7 +95,8 @@ class Sim:
         self._stiffness = float(self.model.jnt_stiffness[self.built.spring_joint])
         self._path, self._times, self._started = home[None, :], np.zeros(1), 0.0
         self._lead = 1.0 / (math.pi * self.settings.servo_bandwidth_hz)  # as the execution runner's servos
-        self._gripper: tuple[bool, float] = (False, 0.0)  # commanded closed, since (sim time)
+        self._gripper: tuple[bool, float, float] = (False, 0.0, 0.0)  # commanded closed, since (sim time), from (fraction closed)
+        self._closed_fraction = 0.0  # of the gripper's servo targets, from open (0) to closed (1)
         self.gripper_done = threading.Event()
         self.gripper_done.set()
         self.disturbance, self._touched = disturbance, None
@@ -121,7 +121,7 @@ class Sim:
         """Start closing (True) or opening the hand; the event is set when it has."""
         with self.lock:
             self.gripper_done.clear()
-            self._gripper = (bool(closed), self.data.time)
+            self._gripper = (bool(closed), self.data.time, self._closed_fraction)
             self._set_hand(closed)
             return self.gripper_done
 
@@ -184,24 +184,21 @@ class Sim:
         built, model = self.built, self.model
         enable_hand_collisions(built, closed)
         model.jnt_stiffness[built.spring_joint] = self._stiffness * (50.0 if closed else 1.0)
-        limit = self.settings.grip_torque if closed else 100.0
-        for actuator in built.finger_actuators:
-            model.actuator_forcerange[actuator] = (-limit, limit)
+        built.gripper.grip(model, self.settings, closing=closed)
 
     def _drive_gripper(self) -> None:
         """The fingers close at the hand's speed and meet at the grasp plane together, then squeeze."""
-        closed, since = self._gripper
-        built = self.built
-        if not built.finger_actuators:
+        closed, since, start = self._gripper
+        gripper = self.built.gripper
+        if not len(gripper):
             self.gripper_done.set()
             return
-        ramp_s = float(built.finger_meet.max()) / self.settings.close_speed
-        fraction = min((self.data.time - since) / ramp_s, 1.0)
-        if closed:
-            self.data.ctrl[built.finger_actuators] = fraction * built.finger_meet if fraction < 1.0 else GRIPPER_CLOSED_RAD
-        else:
-            self.data.ctrl[built.finger_actuators] = (1.0 - fraction) * np.minimum(self.data.ctrl[built.finger_actuators], built.finger_meet)
-        if self.data.time - since >= ramp_s + (_CLOSE_HOLD_S if closed else 0.0):
+        ramp_s = gripper.ramp_s(self.settings)
+        moved = (self.data.time - since) / ramp_s  # from where the last command left the targets
+        self._closed_fraction = min(start + moved, 1.0) if closed else max(start - moved, 0.0)
+        self.data.ctrl[gripper.actuators] = gripper.target(self._closed_fraction)
+        if self._closed_fraction == (1.0 if closed else 0.0) and (
+                not closed or self.data.time - since >= (1.0 - start) * ramp_s + _CLOSE_HOLD_S):  # closed: then squeeze a while
             self.gripper_done.set()
 
     def _maybe_disturb(self) -> None:
