@@ -232,6 +232,8 @@ def test_a_push_mid_slide_is_seen_re_planned_for_and_the_answer_is_true():
              for before, after in zip(client.poses, client.poses[1:])]
     assert max(jumps) > 0.01, max(jumps)  # it was pushed (under the pressing finger it springs back part way)
     looks = [status for status in client.statuses if status["phase"] == "look"]
+    # Every slide ends with a look (once, in a full run, none came: the answer and phases say where it stopped).
+    assert looks, (answer, [status["phase"] for status in client.statuses])
     # Noticed: seen off the plan by about the push, or said to be lost from where it was looked for (pushed
     # mostly off the table or out of view: docs/ros2.md counts both).
     assert any(look["off_m"] > 0.02 or look["outcome"] == "lost" for look in looks), looks
