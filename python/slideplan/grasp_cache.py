@@ -35,12 +35,12 @@ _lock = threading.Lock()
 _saved: dict[Path, int] = {}  # entries this process last read or wrote, per file
 
 
-def cache_dir() -> Path | None:
-    """The folder of the stored grasp maps, or None when the cache is turned off."""
+def cache_dir(folder: str = "grasp-maps") -> Path | None:
+    """The cache's ``folder`` (the stored grasp maps by default), or None when the cache is turned off."""
     if os.environ.get(NO_CACHE_ENV, "") not in ("", "0"):
         return None
     root = os.environ.get(CACHE_DIR_ENV) or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "slideplan"
-    return Path(root) / "grasp-maps"
+    return Path(root) / folder
 
 
 @functools.cache  # the loaded core does not change while the process runs

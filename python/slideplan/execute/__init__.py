@@ -13,11 +13,13 @@ The model (docs/execution.md gives the numbers and why):
   start configuration's inertia. The reference is read ahead by kv/kp, which equals velocity
   feed-forward to first order.
 - **Finger compliance**: the first contact link gets a passive slide joint (stiffness
-  :attr:`ExecutionSettings.finger_stiffness`) along the world vertical as seen from the finger at the
+  :attr:`ExecutionSettings.finger_stiffness`; by default the stiffness that presses with
+  :attr:`ExecutionSettings.press_force`, 4 N, at the middle of the hand's depth band) along the world
+  vertical as seen from the finger at the
   planned pitch ``beta0``; a spherical pad whose lowest point is the contact frame ``F`` is the only
   geometry of the contact links that touches anything while sliding. The planned contact depth
   ``z_s - z_F`` is thus the spring's compression, and the normal force is ``k * depth``: 2-6 N for the
-  T42's band [1, 3] cm at 200 N/m.
+  T42's band [1, 3] cm at 200 N/m, 1.1-6.9 N for a rigid finger's [2, 12] mm at 571 N/m.
 - **Object**: boxes on a square grid (:attr:`ExecutionSettings.cell_size`), each the bounding box of
   its cell's part of the point cloud's footprint (:func:`object_boxes`), one rigid body of uniform
   density, so table friction is spread over the footprint.

@@ -15,8 +15,9 @@ from shapely.geometry import Polygon
 
 from ..errors import InputError
 from ..geometry import SupportSurface
-from ..planning import PlanResult, merge_urdf, robot_description, search_dirs
+from ..planning import PlanResult, merge_urdf, plan_robot, robot_description, search_dirs
 from ..transforms import quaternion_from_matrix
+from .convex import convex_parts
 from .settings import ExecutionSettings
 
 MESH_SUFFIXES = (".stl", ".obj")  # what MuJoCo reads from a URDF
@@ -132,7 +133,7 @@ def object_boxes(points: np.ndarray, cell_size: float) -> np.ndarray:
 @dataclass(frozen=True)
 class Rig:
     """What :func:`build_model` reads of a plan, for a robot that has no plan yet (the simulated robot
-    of ``slideplan ros sim``): the robot, table and object, the hand's ``beta0`` and ``dz_max``, and the
+    of ``slideplan ros sim``): the robot, table and object, the hand's ``beta0`` and depth band, and the
     configuration the servo gains are set at. The attribute names are a plan's."""
 
     robot: dict[str, Any]
@@ -147,7 +148,7 @@ class Rig:
         """A scene's robot and table, ``obj`` (a :class:`~slideplan.objects.ThinObject`) and
         ``config``'s hand parameters (a :class:`~slideplan.planning.PlannerConfig`)."""
         return cls(robot=robot_description(scene), joint_names=list(joint_names),
-                   params={"beta0": config.beta0, "dz_max": config.dz_max},
+                   params={"beta0": config.beta0, "dz_min": config.dz_min, "dz_max": config.dz_max},
                    table={"polygon": np.array(scene.table.vertices, dtype=float), "height": float(scene.table.height)},
                    object={"thickness": float(obj.thickness), "points": obj.points, "com_xy": obj.centroid_xy},
                    start_config=np.asarray(start_config, dtype=float))
@@ -194,8 +195,10 @@ class Gripper:
         return self.opened + max(fraction, 0.0) * (self.closed - self.opened)
 
     def grip(self, model, settings: ExecutionSettings, closing: bool) -> None:
-        """Cap the servos' force at the grip (closing) or hold the hand stiffly (open)."""
-        limit = np.where(self.prismatic, settings.grip_force, settings.grip_torque) if closing else _HOLD_OPEN_LIMIT
+        """Cap the servos' force at the grip (closing) or hold the hand stiffly (open). The grip is what
+        the fingers press with: the joint's own friction (the URDF's, e.g. the Z1 jaw's 1 N m) comes on top."""
+        friction = model.dof_frictionloss[model.jnt_dofadr[model.actuator_trnid[self.actuators, 0]]]
+        limit = np.where(self.prismatic, settings.grip_force, settings.grip_torque) + friction if closing else _HOLD_OPEN_LIMIT
         model.actuator_forcerange[self.actuators] = np.column_stack([-limit * np.ones(len(self)), limit * np.ones(len(self))])
 
 
@@ -255,10 +258,22 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         if joint not in joint_names:
             raise InputError(f"joint {joint!r} not in the URDF", field="joint_names")
 
+    # The hand meshes the planner checks as their triangles: MuJoCo would collide their hulls, which fill
+    # the concavity the object enters (convex.py), so each becomes its convex parts.
+    exact = {(link, str(Path(mesh).resolve())) for link, mesh, _, is_exact in plan_robot(robot).collision_meshes if is_exact}
+    concave = []
+    for body in spec.bodies:
+        for index, geom in enumerate(body.geoms):
+            if geom.type == mujoco.mjtGeom.mjGEOM_MESH and (body.name, str(Path(spec.mesh(geom.meshname).file).resolve())) in exact:
+                geom.name = f"slideplan_concave_{body.name}_{index}"
+                concave.append((body, geom))
+
     # Kinematics at qpos0 (every joint 0) give the fixed transforms the new joints need.
     model0 = spec.compile()
     data0 = mujoco.MjData(model0)
     mujoco.mj_kinematics(model0, data0)
+    for body, geom in concave:
+        _split_into_convex_parts(spec, model0, body, geom)
 
     def pose0(name: str) -> np.ndarray:
         body = model0.body(name).id
@@ -304,7 +319,7 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         limited=mujoco.mjtLimited.mjLIMITED_TRUE,
         range=[-0.01, float(result.params["dz_max"]) + 0.03],
     )
-    spring.stiffness = [settings.finger_stiffness, 0.0, 0.0]
+    spring.stiffness = [settings.spring_stiffness(float(result.params["dz_min"]), float(result.params["dz_max"])), 0.0, 0.0]
     tip_body_pose = pose0(robot["tip_link"])
     pad_world = tip_frame[:3, 3] + _PAD_RADIUS * up_world0
     pad = spec.body(robot["tip_link"]).add_geom(
@@ -417,6 +432,22 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
     data.ctrl[built.gripper.actuators] = built.gripper.opened
     set_servo_gains(built, result.start_config, settings)
     return built
+
+
+def _split_into_convex_parts(spec, model0, body, geom) -> None:
+    """Replace a mesh geom by one geom per convex part of its mesh (placed as ``model0`` placed it)."""
+    import mujoco
+
+    compiled = model0.geom(geom.name)
+    mesh = int(model0.geom_dataid[compiled.id])
+    vertices = model0.mesh_vert[model0.mesh_vertadr[mesh]:model0.mesh_vertadr[mesh] + model0.mesh_vertnum[mesh]]
+    faces = model0.mesh_face[model0.mesh_faceadr[mesh]:model0.mesh_faceadr[mesh] + model0.mesh_facenum[mesh]]
+    for index, part in enumerate(convex_parts(vertices, faces)):
+        name = f"{geom.name}_part{index}"
+        spec.add_mesh(name=name, uservert=part.ravel().tolist())
+        body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name, pos=compiled.pos, quat=compiled.quat,
+                      rgba=geom.rgba)
+    spec.delete(geom)
 
 
 def _wxyz(rotation: np.ndarray) -> np.ndarray:

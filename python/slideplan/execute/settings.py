@@ -21,7 +21,10 @@ class ExecutionSettings:
             :data:`slideplan.timing.NEAR_TABLE_M` of the object's top, and while lifting.
         joint_velocity: joint speed cap (rad/s); the URDF's lower limits win.
         joint_acceleration: joint acceleration cap (rad/s^2), every joint.
-        finger_stiffness: stiffness of the finger's vertical compliance (N/m).
+        finger_stiffness: stiffness of the finger's vertical compliance (N/m); None: ``press_force``
+            at the middle of the plan's contact-depth band (200 N/m for the T42's 1-3 cm, 571 N/m for
+            the 2-12 mm of a rigid finger's force control).
+        press_force: the normal force at the middle of the band when ``finger_stiffness`` is None (N).
         finger_damping: damping of that compliance (N s/m).
         contact_depth: None follows the plan's depths; a number presses this deep (m) at every
             waypoint instead (the stress setting uses ``dz_min``; 0 does not press at all).
@@ -45,7 +48,8 @@ class ExecutionSettings:
     tip_speed: float = 0.05
     joint_velocity: float = 1.0
     joint_acceleration: float = 2.0
-    finger_stiffness: float = 200.0
+    finger_stiffness: float | None = None
+    press_force: float = 4.0
     finger_damping: float = 4.0
     contact_depth: float | None = None
     torsional_friction: float = 0.01
@@ -67,7 +71,7 @@ class ExecutionSettings:
     def __post_init__(self) -> None:
         for item in dataclasses.fields(self):
             value = getattr(self, item.name)
-            if item.name == "contact_depth" and value is None:
+            if item.name in _OPTIONAL and value is None:
                 continue
             if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
                 raise InputError(f"expected a finite number, got {value!r}", field=item.name)
@@ -75,6 +79,12 @@ class ExecutionSettings:
                 raise InputError(f"must be > 0, got {value!r}", field=item.name)
 
 
+    def spring_stiffness(self, dz_min: float, dz_max: float) -> float:
+        """The finger compliance's stiffness for a hand whose contact-depth band is [dz_min, dz_max] (N/m)."""
+        return self.finger_stiffness if self.finger_stiffness is not None else self.press_force / (0.5 * (dz_min + dz_max))
+
+
+_OPTIONAL = ("contact_depth", "finger_stiffness")
 STRESS_TORSION_FACTOR = 0.5
 
 
