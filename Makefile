@@ -71,6 +71,7 @@ bench: install
 	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --poses 10 --scenes clutter_can clutter_books clutter_boxed \
 	  --variants "slideplan hand" --out docs/benchmarks/clutter.md
 	$(PYTHON) benchmarks/thread_bench.py
+	$(PYTHON) benchmarks/hands_sweep.py
 	$(PYTHON) benchmarks/timing_bench.py
 	$(PYTHON) benchmarks/cli_bench.py
 	$(PYTHON) benchmarks/perceive_bench.py

@@ -416,10 +416,12 @@ def test_the_t42_tendon_closes_both_fingers_to_the_grasp_plane_together():
     assert abs(reached[0] - reached[1]) < 0.1 * ramp_s, (reached, ramp_s)
 
 
-def test_the_panda_lifts_the_object_with_its_own_gripper():
+@pytest.mark.parametrize("scene_name", ["panda_square", "ur5_gripper_square"])
+def test_a_parallel_gripper_lifts_the_object_with_its_own_prismatic_jaws(scene_name):
+    # The Panda's own hand; the UR5 with the gripper fragment data/robots/ur5_gripper.urdf attached.
     from slideplan import PlannerConfig, load_object, load_scene, plan
 
-    scene = load_scene("panda_square")
+    scene = load_scene(scene_name)
     result = plan(scene, load_object("square", table_height=scene.table.height, pose=(0.55, -0.08, 0.4)), PlannerConfig(seed=1))
     assert result.solved
     execution = execute(result)

@@ -344,6 +344,8 @@ def edited(edits) -> str:
             node = parent[path[-1]]
         except (KeyError, IndexError, TypeError):
             continue  # an earlier edit took this place away
+        if not isinstance(parent, (dict, list)):
+            continue  # ... or made it a string (which indexes, but cannot be assigned to)
         if edit == "delete" and isinstance(parent, dict):
             del parent[path[-1]]
         elif edit == "scale" and isinstance(node, (int, float)) and not isinstance(node, bool):

@@ -47,6 +47,7 @@ def make_plan(status="solved", waypoints=5, approach=3):
             "grasp_link": "t42_grasp",
             "grasp_offset": np.eye(4),
             "contact_links": ["a", "b"],
+            "gripper_joints": {"jaw": [0.02, 0.0]},
         },
         obstacles=[{"shape": "box", "center": np.array([0.5, 0.3, 0.1]), "size": np.array([0.1, 0.1, 0.2]), "yaw": 0.4}],
         object_motion={"x": 0.1 / 3, "y": -0.2, "yaw": math.pi / 7},

@@ -289,7 +289,7 @@ def test_panda_hand_tcp_matches_an_independent_computation_from_the_urdf():
         np.testing.assert_allclose(robot.link_pose(q, "panda_hand_tcp"), expected, atol=1e-12)
 
 
-@pytest.mark.parametrize("scene_name", ["panda_square", "panda_round", "ur5_square", "ur5_round", "xarm7_square",
+@pytest.mark.parametrize("scene_name", ["panda_square", "panda_round", "ur5_square", "ur5_round", "ur5_gripper_square", "xarm7_square",
                                         "kinova_square", "z1_square"])
 def test_third_party_arms_plan_out_of_the_box_and_verify(scene_name):
     scene = load_scene(scene_name)
