@@ -216,7 +216,6 @@ class Model:
     gripper: Gripper
     hand_geoms: np.ndarray  # contact-link geoms that only touch things once the finger is lifted
     pad_geom: int
-    tip_body: int
     object_body: int
     object_geoms: set
     table_geoms: set
@@ -420,7 +419,6 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         ),
         hand_geoms=hand_geoms,
         pad_geom=model.geom(pad.name).id,
-        tip_body=model.body(robot["tip_link"]).id,
         object_body=object_body,
         object_geoms={index for index in range(model.ngeom) if model.geom_bodyid[index] == object_body},
         table_geoms={index for index in range(model.ngeom) if model.geom(index).name.startswith("slideplan_table_")},

@@ -160,7 +160,9 @@ class Runner:
         failure = None
 
         def during_approach(elapsed: float, step: int) -> None:
-            if step % _SAMPLE_EVERY == 0 and data.xpos[built.tip_body][2] > top + 0.02:
+            # The pad (at the contact frame), not the tip link's origin: the Panda's is 5 cm up its finger,
+            # and its finger, still pressed into the object, then dragged the object off the table.
+            if step % _SAMPLE_EVERY == 0 and data.geom_xpos[built.pad_geom][2] > top + 0.02:
                 enable_hand_collisions(built, True)
 
         if len(approach):
