@@ -99,6 +99,24 @@ def restore(grasp_map, path: Path | None) -> None:
         _saved[path] = len(entries)
 
 
+def write_npz(path: Path, arrays: dict[str, np.ndarray]) -> bool:
+    """Write ``arrays`` to ``path`` atomically (readers never see half a file); False when the folder
+    cannot be written, which leaves the cache cold, never the caller failed."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".npz")
+    except OSError:
+        return False
+    try:
+        with os.fdopen(handle, "wb") as file:
+            np.savez(file, **arrays)
+        os.replace(temporary, path)
+    except OSError:
+        Path(temporary).unlink(missing_ok=True)
+        return False
+    return True
+
+
 def persist(grasp_map, path: Path | None) -> None:
     """Store the map's answers if it learnt some since it was last read or written. A folder that cannot
     be written leaves the cache cold, never the plan failed."""
@@ -117,16 +135,5 @@ def persist(grasp_map, path: Path | None) -> None:
             "reachable": np.array([len(known[key]) > 0 for key in keys], dtype=bool),
             "grasps": np.array([known[key] if len(known[key]) else np.zeros(dof) for key in keys]).reshape(len(keys), dof),
         }
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".npz")
-        except OSError:
-            return
-        try:
-            with os.fdopen(handle, "wb") as file:
-                np.savez(file, **arrays)
-            os.replace(temporary, path)
-        except OSError:
-            Path(temporary).unlink(missing_ok=True)
-            return
-        _saved[path] = len(keys)
+        if write_npz(path, arrays):
+            _saved[path] = len(keys)

@@ -433,7 +433,7 @@ def test_a_parallel_gripper_lifts_the_object_with_its_own_prismatic_jaws(scene_n
     assert execution.failed_stage != "release" and execution.lifted, execution.failure
 
 
-def test_the_z1_jaw_meshes_become_convex_parts_that_leave_the_gap_between_the_jaws_open():
+def test_the_z1_jaw_meshes_become_convex_parts_that_leave_the_gap_between_the_jaws_open(grasp_map_store):
     """MuJoCo collides a mesh as its hull; the hull of the Z1's gripperStator (housing and fixed jaw)
     fills the gap where the grasp frame lies. Its convex parts (CoACD) leave the grasp frame free."""
     import mujoco
@@ -462,6 +462,19 @@ def test_the_z1_jaw_meshes_become_convex_parts_that_leave_the_gap_between_the_ja
     assert len(parts) > 1
     assert inside(np.vstack([world_vertices(geom) for geom in parts]))  # the whole mesh's hull holds the grasp frame
     assert not any(inside(world_vertices(geom)) for geom in parts)  # no part does
+    assert len(list((grasp_map_store / "convex-parts").glob("*.npz"))) == 2  # both jaw meshes' parts, stored
+
+
+def test_convex_parts_are_read_back_from_the_cache_without_decomposing_again(monkeypatch):
+    import coacd
+
+    from slideplan.execute.model import build_model
+
+    first = build_model(_rig("z1_square"), ExecutionSettings()).model  # decomposes, or reads an earlier test's parts
+    monkeypatch.setattr(coacd, "run_coacd", lambda *args, **kwargs: pytest.fail("decomposed again"))
+    again = build_model(_rig("z1_square"), ExecutionSettings()).model
+    assert again.ngeom == first.ngeom
+    np.testing.assert_array_equal(again.mesh_vert, first.mesh_vert)
 
 
 def test_the_z1_closes_its_jaw_on_the_overhang_and_lifts_the_object():

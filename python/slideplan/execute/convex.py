@@ -13,13 +13,11 @@ decomposition's settings; the next process reads them.
 from __future__ import annotations
 
 import hashlib
-import os
-import tempfile
 import threading
 
 import numpy as np
 
-from ..grasp_cache import cache_dir
+from ..grasp_cache import cache_dir, write_npz
 
 # CoACD's settings: a 10% concavity bound keeps the Z1's jaw gap open (tests/python/test_execute.py),
 # at most 12 parts keep the contact count low, and a fixed seed makes the parts the same in every run.
@@ -55,20 +53,5 @@ def convex_parts(vertices: np.ndarray, faces: np.ndarray) -> list[np.ndarray]:
         coacd.set_log_level("error")
         parts = [np.asarray(part_vertices, dtype=float) for part_vertices, _ in coacd.run_coacd(coacd.Mesh(vertices, faces), **_SETTINGS)]
         if path is not None:
-            _store(path, parts)
+            write_npz(path, {f"part_{index}": part for index, part in enumerate(parts)})
         return parts
-
-
-def _store(path, parts: list[np.ndarray]) -> None:
-    """Write the parts atomically; a folder that cannot be written leaves the cache cold."""
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".npz")
-    except OSError:
-        return
-    try:
-        with os.fdopen(handle, "wb") as file:
-            np.savez(file, **{f"part_{index}": part for index, part in enumerate(parts)})
-        os.replace(temporary, path)
-    except OSError:
-        os.unlink(temporary)
