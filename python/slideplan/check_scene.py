@@ -63,7 +63,7 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
     findings: list[str] = []
     notes = [f"robot {scene.urdf_path.name}: {robot.dof} planned joints ({', '.join(robot.joint_names)}), "
              f"fingertip {hand.tip_link}, grasp frame on {hand.grasp_link}, contact links {', '.join(hand.contact_links)}",
-             *_mesh_notes(robot)]
+             _gripper_note(hand), *_mesh_notes(robot)]
 
     reach = table_reach(scene, obj.thickness, config)
     line = (f"fingertip: reaches the table top over {100 * reach:.0f}% of the table (5 x 5 grid, pitch beta0 = "
@@ -106,6 +106,14 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
         return SceneCheck(findings + notes + edges, reach >= MIN_REACH)
     findings += ["no edge admits a side grasp with a clear pre-grasp: no plan can end in a grasp", *edges]
     return SceneCheck(findings + notes, False)
+
+
+def _gripper_note(hand) -> str:
+    """What closes the hand in execution ([hand] gripper_joints), or that nothing does."""
+    if not hand.gripper_joints:
+        return "gripper: none ([hand] gripper_joints): execution slides, then has nothing to close"
+    joints = ", ".join(f"{name} from {opened:g} to {closed:g}" for name, (opened, closed) in hand.gripper_joints.items())
+    return f"gripper: {joints} (held open while planning; its mimic joints follow)"
 
 
 def _mesh_notes(robot) -> list[str]:

@@ -31,7 +31,8 @@ def test_a_scene_that_plans_passes_and_says_what_it_checked():
     code, lines = check("square")
     assert code == 0, lines
     assert lines[0].startswith("robot wam_t42.urdf: 7 planned joints")
-    assert lines[1].startswith("fingertip: reaches the table top over 100% of the table")
+    assert lines[1] == "gripper: t42_finger2_base from 0 to 1.01 (held open while planning; its mimic joints follow)"
+    assert lines[2].startswith("fingertip: reaches the table top over 100% of the table")
     edge = next(line for line in lines if line.startswith("edge 0 "))
     clear = int(edge.split("clear at ")[1].split()[0])
     assert clear > 0, edge
@@ -63,3 +64,8 @@ def test_a_grasp_frame_inside_the_hand_names_the_part_that_meets_the_table(tmp_p
 def test_bad_input_is_one_error_line():
     result = runner.invoke(app, ["check-scene", "nosuch"])
     assert result.exit_code == 2 and result.stderr.startswith("slideplan: error: nosuch: no such file")
+
+
+def test_a_hand_with_nothing_to_close_is_said():
+    code, lines = check("ur5_square")  # a rigid finger on the flange
+    assert lines[1] == "gripper: none ([hand] gripper_joints): execution slides, then has nothing to close"
