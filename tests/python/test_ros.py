@@ -241,8 +241,8 @@ def test_a_push_mid_slide_is_seen_re_planned_for_and_the_answer_is_true():
     assert all(look["detail"] for look in looks if look["outcome"] in ("refused", "lost")), looks  # each says why
     lifted, _ = _lifted_over_the_edge(client)
     assert response.success == lifted, (answer, lifted)
-    if not response.success:
-        assert answer["status"] in ("release", "grasp"), answer
+    if not response.success:  # it fell or was dropped, the grasp missed, or the move to a new contact was refused
+        assert answer["status"] in ("release", "grasp", "reach"), answer
 
 
 def test_clouds_round_trip_through_messages_with_other_fields_and_padded_rows():

@@ -125,7 +125,8 @@ def _dense(configs: list[np.ndarray]) -> np.ndarray:
 def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = False) -> np.ndarray:
     """From the arm's configuration ``current`` to the slide's first contact: joint-linear to a
     configuration with the fingertip HOVER_M above the object there, or else by way of one
-    REACH_CLEARANCE_M higher still (every link clear of table, clutter and object on the way), then
+    REACH_CLEARANCE_M higher still, or else up to that height first, across and down (every link clear
+    of table, clutter and object on the way), then
     down onto the contact (the finger may touch the object there, as while sliding). ``pressed``: the
     finger is on the table or the object now (a slide ended): it rises HOVER_M straight up first.
 
@@ -169,14 +170,22 @@ def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = 
             raise Refused("reach", "lifting the finger off collides")
         current, rise = rise[-1], rise[:-1]
     pairs: list = []
-    for way in ([current, hover], [current, above(HOVER_M + REACH_CLEARANCE_M, hover), hover]):
-        path = _dense(way)
+    high = HOVER_M + REACH_CLEARANCE_M
+    # Straight across; by way of high above the contact; or up first, across high, and down (a joint-linear
+    # move from a finger on the object to high above a new contact can dip into the object on the way).
+    ways = (lambda: [current, hover], lambda: [current, above(high, hover), hover],
+            lambda: [current, above(high, current, np.asarray(robot.fk(current))), above(high, hover), hover])
+    for way in ways:
+        try:
+            path = _dense(way())
+        except Refused:  # no inverse kinematics that high: the next way
+            continue
         pairs = blocked(path, _core.ContactMode.FREE)
         if not pairs:
             return np.vstack([rise, path, down[1:]])
     names = ", ".join(f"{first}-{second}" for first, second in pairs[:3])
     raise Refused("reach", f"the joint-space move from the current configuration to above the first contact collides "
-                           f"({names}), also by way of {100 * (HOVER_M + REACH_CLEARANCE_M):.0f} cm above it: move the arm clear first")
+                           f"({names}), also by way of {100 * high:.0f} cm above it: move the arm clear first")
 
 
 def lift_path(result: PlanResult) -> np.ndarray:
