@@ -199,7 +199,8 @@ class Gripper:
         the fingers press with: the joint's own friction (the URDF's, e.g. the Z1 jaw's 1 N m) comes on top."""
         friction = model.dof_frictionloss[model.jnt_dofadr[model.actuator_trnid[self.actuators, 0]]]
         limit = np.where(self.prismatic, settings.grip_force, settings.grip_torque) + friction if closing else _HOLD_OPEN_LIMIT
-        model.actuator_forcerange[self.actuators] = np.column_stack([-limit * np.ones(len(self)), limit * np.ones(len(self))])
+        limit = np.broadcast_to(limit, len(self))
+        model.actuator_forcerange[self.actuators] = np.column_stack([-limit, limit])
 
 
 @dataclass
@@ -343,16 +344,19 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
     for equality in spec.equalities:  # a mimic is geared to its joint: MuJoCo's default coupling is soft
         equality.solref = [_MIMIC_TIME_CONSTANT, 1.0]
     kinds = {int(mujoco.mjtJoint.mjJNT_HINGE): _REVOLUTE, int(mujoco.mjtJoint.mjJNT_SLIDE): _PRISMATIC}
+    kind_of, limits = {}, {}  # per gripper joint: its _GripperKind, its range (unlimited: infinite)
     for joint, (opened, closed) in gripper_joints.items():
         field = f"hand.gripper_joints.{joint}"
         if joint not in joint_names:
             raise InputError(f"joint {joint!r} not in the URDF", field=field)
-        kind = int(model0.jnt_type[model0.joint(joint).id])
-        if kind not in kinds:
+        index = model0.joint(joint).id
+        if int(model0.jnt_type[index]) not in kinds:
             raise InputError(f"joint {joint!r} is neither revolute nor prismatic", field=field)
-        low, high = model0.jnt_range[model0.joint(joint).id]
-        if model0.jnt_limited[model0.joint(joint).id] and not (low <= min(opened, closed) and max(opened, closed) <= high):
+        kind_of[joint] = kinds[int(model0.jnt_type[index])]
+        low, high = model0.jnt_range[index] if model0.jnt_limited[index] else (-np.inf, np.inf)
+        if not (low <= min(opened, closed) and max(opened, closed) <= high):
             raise InputError(f"[open, closed] = [{opened}, {closed}] is outside the joint's limits [{low}, {high}]", field=field)
+        limits[joint] = (low, high)
 
     # Arm servos (gains set after compiling, from the inertia) and the fingers' closing servos.
     for joint in result.joint_names:
@@ -364,7 +368,7 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         actuator = spec.add_actuator(name=f"hold_{joint}", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         actuator.set_to_position(kp=200.0, kv=5.0)
     for joint in gripper_joints:
-        kp = kinds[int(model0.jnt_type[model0.joint(joint).id])].kp
+        kp = kind_of[joint].kp
         actuator = spec.add_actuator(name=f"close_{joint}", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         actuator.set_to_position(kp=kp, kv=0.01 * kp)
         actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
@@ -412,10 +416,8 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
             actuators=np.array([model.actuator(f"close_{joint}").id for joint in gripper_joints], dtype=int),
             opened=np.array([values[0] for values in gripper_joints.values()], dtype=float),
             closed=np.array([values[1] for values in gripper_joints.values()], dtype=float),
-            prismatic=np.array([model.jnt_type[model.joint(joint).id] == mujoco.mjtJoint.mjJNT_SLIDE
-                                for joint in gripper_joints], dtype=bool),
-            limits=np.array([model.jnt_range[model.joint(joint).id] if model.jnt_limited[model.joint(joint).id]
-                             else (-np.inf, np.inf) for joint in gripper_joints], dtype=float).reshape(-1, 2),
+            prismatic=np.array([kind_of[joint] is _PRISMATIC for joint in gripper_joints], dtype=bool),
+            limits=np.array([limits[joint] for joint in gripper_joints], dtype=float).reshape(-1, 2),
         ),
         hand_geoms=hand_geoms,
         pad_geom=model.geom(pad.name).id,
