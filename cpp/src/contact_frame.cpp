@@ -28,4 +28,15 @@ namespace slideplan
         return angles;
     }
 
+    IkOptions contactIkOptions(const RobotModel &robot)
+    {
+        IkOptions options;
+        if (robot.dof() < 6)
+        {
+            options.rotationTolerance.z() = M_PI;
+            options.worldAxes = true;
+        }
+        return options;
+    }
+
 }  // namespace slideplan

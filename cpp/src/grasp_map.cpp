@@ -18,6 +18,13 @@ namespace slideplan
         return pose;
     }
 
+    IkOptions graspIkOptions(const PlannerParams &params)
+    {
+        IkOptions options;
+        options.rotationTolerance << params.graspTiltTolerance, params.graspYawTolerance, params.graspRollTolerance;
+        return options;
+    }
+
     bool liftableGraspIk(const SlidingTask &task, const PlannerParams &params, const Eigen::Isometry3d &grasp,
                          const Eigen::VectorXd &seed, int attempts, std::mt19937_64 &rng, Eigen::VectorXd &solution,
                          int abandonAfter)
@@ -25,13 +32,13 @@ namespace slideplan
         const RobotModel &robot = *task.robot;
         Eigen::Isometry3d lifted = grasp;
         lifted.translation().z() += params.graspLift;
-        IkOptions options;
+        IkOptions options = graspIkOptions(params);
         options.maxAttempts = attempts;
         options.abandonAfter = abandonAfter;
         // Asked of every solution, so that the restarts look for another posture rather than give up.
         if (params.liftCheck)
             options.accept = [&](const Eigen::VectorXd &q) {
-                IkOptions near;
+                IkOptions near = graspIkOptions(params);
                 near.maxAttempts = 1;
                 Eigen::VectorXd raised;
                 return robot.ikForLink(task.graspLink, lifted, q, rng, raised, near, task.graspOffset);
@@ -177,7 +184,8 @@ namespace slideplan
                theirs.height() == mine.height() && theirs.vertices().rows() == mine.vertices().rows() &&
                theirs.vertices() == mine.vertices() && params.graspStandoff == params_.graspStandoff &&
                params.uStar == params_.uStar && params.graspLift == params_.graspLift && params.graspFlip == params_.graspFlip &&
-               params.liftCheck == params_.liftCheck;
+               params.liftCheck == params_.liftCheck && params.graspTiltTolerance == params_.graspTiltTolerance &&
+               params.graspYawTolerance == params_.graspYawTolerance && params.graspRollTolerance == params_.graspRollTolerance;
     }
 
     std::size_t GraspMap::probed() const

@@ -1,5 +1,7 @@
 #include "slideplan/pair_validator.hpp"
 
+#include "slideplan/contact_frame.hpp"
+
 #include "slideplan/validity.hpp"
 
 #include <ompl/base/SpaceInformation.h>
@@ -164,7 +166,9 @@ namespace slideplan
             ++tried;
             if (graspIk(orientation, edge, seed, rng, solution))
             {
-                grasp = orientation;
+                // Where the hand is: H_g itself, or turned within the tolerated rotation. The pre-grasp
+                // backs off along this approach, and the plan records this pose.
+                grasp = task_->robot->framePose(solution, task_->graspLink, task_->graspOffset);
                 return {};
             }
         }
@@ -248,7 +252,7 @@ namespace slideplan
         // jumps to another IK branch: no lift.
         constexpr long kFine = 16;
         const long steps = static_cast<long>(std::ceil(rise / (0.8 * params_.maxTipStep)));
-        IkOptions options;
+        IkOptions options = contactIkOptions(robot);
         options.maxAttempts = 1;  // from the previous waypoint only: a restart would jump
         std::mt19937_64 unused(0);
         Eigen::VectorXd previous = goal;
@@ -392,7 +396,7 @@ namespace slideplan
             verdict.reason = inCollision("grasp configuration", verdict.graspConfig);
             return verdict;
         }
-        IkOptions nearOptions;
+        IkOptions nearOptions = graspIkOptions(params_);
         nearOptions.maxAttempts = 1;
         Eigen::Isometry3d preGraspPose = verdict.graspPose;
         preGraspPose.translation() -= params_.graspBackoff * verdict.graspPose.linear().col(2);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 namespace slideplan
 {
@@ -27,6 +28,10 @@ namespace slideplan
         require(finite(graspLift) && graspLift > 0.0, "grasp_lift must be > 0");
         require(finite(graspBackoff) && graspBackoff >= 0.0, "grasp_backoff must be >= 0");
         require(finite(graspStandoff) && graspStandoff >= 0.0, "grasp_standoff must be >= 0");
+        for (const auto &[value, name] : {std::pair{graspTiltTolerance, "grasp_tilt_tolerance"},
+                                          std::pair{graspYawTolerance, "grasp_yaw_tolerance"},
+                                          std::pair{graspRollTolerance, "grasp_roll_tolerance"}})
+            require(finite(value) && value >= 0.0 && value <= M_PI, std::string(name) + " must lie in [0, pi]");
         require(finite(transferTime) && transferTime >= 0.0, "transfer_time must be >= 0");
         // The dense path has a state per step: finer steps than these make paths of millions of states
         // (gigabytes, minutes past the time limit) for no better plan.
@@ -55,6 +60,7 @@ namespace slideplan
         params.dzMax = 0.025;
         params.nStar = 100.0;
         params.graspStandoff = 0.0;
+        params.graspTiltTolerance = params.graspYawTolerance = params.graspRollTolerance = 0.0;
         params.screenPairs = false;
         params.graspFlip = false;
         params.graspMap = false;

@@ -601,7 +601,7 @@ namespace slideplan
                 target.linear() = contactRotation(k * M_PI / 4, params.beta0);
                 target.translation() << centre, task.surfaceZ - 0.5 * (params.dzMin + params.dzMax);
                 Eigen::VectorXd q;
-                if (task.robot->ik(target, Eigen::VectorXd(), rng, q))
+                if (task.robot->ik(target, Eigen::VectorXd(), rng, q, contactIkOptions(*task.robot)))
                     return;
             }
             std::ostringstream message;

@@ -49,7 +49,7 @@ namespace slideplan
         const SlidingTask &task = validity_->task();
         if ((target.translation() - task.robot->basePose().translation()).norm() > reach_)
             return false;
-        IkOptions options;
+        IkOptions options = contactIkOptions(*task.robot);
         options.maxAttempts = params_.rootIkAttempts;
         options.positionTolerance = options.orientationTolerance = 0.1 * params_.projectionTolerance;
         options.stop = [&ptc] { return ptc(); };

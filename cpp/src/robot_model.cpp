@@ -667,6 +667,26 @@ namespace slideplan
         const auto converged = [&](const Eigen::Matrix<double, 6, 1> &error) {
             return error.head<3>().norm() < options.positionTolerance && error.tail<3>().norm() < options.orientationTolerance;
         };
+        // With a rotation tolerance the error and the Jacobian's rotation rows are taken about its axes,
+        // and a rotation inside the band counts as none: its row is zeroed, so the step leaves it be.
+        const bool tolerant = (options.rotationTolerance.array() > 0.0).any();
+        const Eigen::Matrix3d axes = options.worldAxes ? Eigen::Matrix3d::Identity() : Eigen::Matrix3d(target.linear());
+        const auto tolerate = [&](Eigen::Matrix<double, 6, 1> &error, Jacobian &jac) {
+            if (!tolerant)
+                return;
+            Eigen::Vector3d rotation = axes.transpose() * error.tail<3>();
+            jac.bottomRows<3>() = axes.transpose() * jac.bottomRows<3>();
+            for (int k = 0; k < 3; ++k)
+            {
+                const double band = options.rotationTolerance(k);
+                if (band <= 0.0)
+                    continue;
+                rotation(k) -= std::clamp(rotation(k), -band, band);
+                if (rotation(k) == 0.0)
+                    jac.row(3 + k).setZero();
+            }
+            error.tail<3>() = rotation;
+        };
         for (int attempt = 0; attempt < options.maxAttempts; ++attempt)
         {
             if (attempt > 0 && options.stop && options.stop())
@@ -682,6 +702,7 @@ namespace slideplan
             Eigen::Isometry3d pose;
             Jacobian jac = pathJacobian(path, q, &pose);
             Eigen::Matrix<double, 6, 1> error = poseError(pose, target);
+            tolerate(error, jac);
             double cost = error.squaredNorm();
             // Levenberg-Marquardt damping: shrink after a good step, grow after a bad one.
             double lambda = 1e-2;
@@ -693,8 +714,9 @@ namespace slideplan
                 const Eigen::Matrix<double, 6, 6> jjt = jac * jac.transpose() + lambda * Eigen::Matrix<double, 6, 6>::Identity();
                 const JointVector step = jac.transpose() * jjt.ldlt().solve(error);
                 const JointVector candidate = (q + step).cwiseMax(lower_).cwiseMin(upper_);
-                const Jacobian candidateJac = pathJacobian(path, candidate, &pose);
-                const Eigen::Matrix<double, 6, 1> candidateError = poseError(pose, target);
+                Jacobian candidateJac = pathJacobian(path, candidate, &pose);
+                Eigen::Matrix<double, 6, 1> candidateError = poseError(pose, target);
+                tolerate(candidateError, candidateJac);
                 const double candidateCost = candidateError.squaredNorm();
                 if (candidateCost < cost)
                 {

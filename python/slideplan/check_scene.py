@@ -76,6 +76,7 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
     world = collision_world(scene)
     offset = base_pose_matrix(hand.grasp_offset)
     mapped = grasp_map(scene, obj, config)
+    params = config.to_params()
     graspable_edges, edges = 0, []  # one line per edge, in order
     for edge in range(len(scene.table.vertices)):
         start, end = scene.table.vertices[edge], scene.table.vertices[(edge + 1) % len(scene.table.vertices)]
@@ -84,9 +85,10 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
         name = f"edge {edge} ({start[0]:.2f}, {start[1]:.2f})-({end[0]:.2f}, {end[1]:.2f})"
         if not reached:
             edges.append(f"{name}: no side grasp on any of its {cells} stretches; at its middle: "
-                            + _why_no_grasp(robot, world, mapped, edge, cells // 2, hand.grasp_link, offset))
+                            + _why_no_grasp(robot, world, mapped, edge, cells // 2, hand.grasp_link, offset, params))
             continue
-        problems = Counter(_approach_problem(robot, world, grasp, config.grasp_backoff, hand.grasp_link, offset) for grasp in reached)
+        problems = Counter(_approach_problem(robot, world, grasp, config.grasp_backoff, hand.grasp_link, offset, params)
+                           for grasp in reached)
         clear = problems.pop("", 0)
         line = f"{name}: side grasps on {len(reached)} of {cells} stretches, grasp and pre-grasp clear at {clear} of them"
         if clear:
@@ -99,7 +101,7 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
                          "edge (or grasp_offset puts the grasp frame inside the hand)")
             continue
         shorter = next((backoff for backoff in BACKOFFS if backoff < config.grasp_backoff and any(
-            _approach_problem(robot, world, grasp, backoff, hand.grasp_link, offset) == "" for grasp in reached)), None)
+            _approach_problem(robot, world, grasp, backoff, hand.grasp_link, offset, params) == "" for grasp in reached)), None)
         hint = f"; at {shorter:g} some are clear: try grasp_backoff <= {shorter:g}" if shorter else ""
         edges.append(f"{line}: grasp_backoff {config.grasp_backoff:g} leaves the {problem} at {count}{hint}")
     if graspable_edges:
@@ -132,16 +134,17 @@ def _mesh_notes(robot) -> list[str]:
     return [line]
 
 
-def _why_no_grasp(robot, world, mapped, edge: int, cell: int, grasp_link: str, offset: np.ndarray) -> str:
+def _why_no_grasp(robot, world, mapped, edge: int, cell: int, grasp_link: str, offset: np.ndarray, params) -> str:
     """Why the stretch's H_g (the hand as given) has no grasp: the hand's parts against the table or an
-    obstacle, no arm configuration reaching it, or the arm in collision there."""
+    obstacle, no arm configuration reaching it (within the rotation the hand tolerates, ``params``), or the arm
+    in collision there."""
     from . import _core
 
-    link_pose = np.asarray(mapped.stretch_grasp(edge, cell)) @ np.linalg.inv(offset)
-    hit = world.rigid_collision(grasp_link, link_pose)
+    grasp = np.asarray(mapped.stretch_grasp(edge, cell))
+    hit = world.rigid_collision(grasp_link, grasp @ np.linalg.inv(offset))
     if hit:
         return f"the hand meets the table or an obstacle ({hit}): a larger grasp_standoff moves it out"
-    joints = robot.ik(link_pose, rng_seed=0, link=grasp_link)
+    joints = robot.ik(grasp, rng_seed=0, options=_core.grasp_ik_options(params), link=grasp_link, offset=offset)
     if joints is None:
         return "no arm configuration reaches the grasp frame (out of reach from this mount)"
     pairs = world.collisions(joints, _core.ContactMode.FREE)
@@ -150,10 +153,11 @@ def _why_no_grasp(robot, world, mapped, edge: int, cell: int, grasp_link: str, o
     return "reachable and clear in one configuration, but not liftable by grasp_lift from it"
 
 
-def _approach_problem(robot, world, grasp: np.ndarray, backoff: float, grasp_link: str, offset: np.ndarray) -> str:
+def _approach_problem(robot, world, grasp: np.ndarray, backoff: float, grasp_link: str, offset: np.ndarray, params) -> str:
     """'' if the grasp configuration ``grasp`` is free of collisions and the pre-grasp ``backoff`` before
-    its grasp frame (along the approach axis) is reachable from it and free of collisions; else what is
-    wrong, naming the first colliding pair."""
+    its grasp frame (along the approach axis) is reachable from it (within the rotation the hand tolerates,
+    ``params``) and
+    free of collisions; else what is wrong, naming the first colliding pair."""
     from . import _core
 
     pairs = world.collisions(grasp, _core.ContactMode.FREE)
@@ -161,9 +165,9 @@ def _approach_problem(robot, world, grasp: np.ndarray, backoff: float, grasp_lin
         return f"grasp in collision ({pairs[0][0]}-{pairs[0][1]})"
     pre = np.asarray(robot.frame_pose(grasp, grasp_link, offset))  # the grasp frame, as reached
     pre[:3, 3] -= backoff * pre[:3, 2]
-    near = _core.IkOptions()
+    near = _core.grasp_ik_options(params)
     near.max_attempts = 1  # from the grasp configuration only, as the planner looks for it
-    joints = robot.ik(pre @ np.linalg.inv(offset), seed=grasp, rng_seed=0, options=near, link=grasp_link)
+    joints = robot.ik(pre, seed=grasp, rng_seed=0, options=near, link=grasp_link, offset=offset)
     if joints is None:
         return "pre-grasp unreachable"
     pairs = world.collisions(joints, _core.ContactMode.FREE)

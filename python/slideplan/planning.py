@@ -81,6 +81,11 @@ class PlannerConfig:
             towards the table (m; fingers that reach past the frame): the grasp frame lies at least
             this far beyond the edge and the overhang held, ``u - max(0, d_g - grasp_standoff)``,
             must reach ``u*``; 0 is the paper's grasp at the centroid of ``P_out``.
+        grasp_tilt_tolerance, grasp_yaw_tolerance, grasp_roll_tolerance: beyond the paper, how far the
+            hand may turn away from ``H_g``'s orientation at the grasp (rad), about its x (along the table
+            edge), y (the vertical closing axis: the approach's heading) and z (the approach axis): a
+            five-joint arm reaches a side grasp only with one rotation left free; 0 is the paper's
+            ``H_g`` exactly. Hand-specific, set in the scene's ``[hand] params``.
         transfer_time: time budget of one transfer motion to the grasp (s).
         max_joint_step: largest joint change between waypoints (rad).
         max_tip_step: largest fingertip displacement between waypoints (m).
@@ -142,6 +147,9 @@ class PlannerConfig:
     grasp_lift: float | None = None
     grasp_backoff: float | None = None
     grasp_standoff: float | None = None
+    grasp_tilt_tolerance: float | None = None
+    grasp_yaw_tolerance: float | None = None
+    grasp_roll_tolerance: float | None = None
     transfer_time: float | None = None
     max_joint_step: float | None = None
     max_tip_step: float | None = None
@@ -949,7 +957,7 @@ def table_reach(scene: Scene, thickness: float, config: PlannerConfig | None = N
     for point in inside:
         for yaw in np.linspace(-math.pi, math.pi, yaws, endpoint=False):
             target = homogeneous(np.asarray(_core.contact_rotation(float(yaw), config.beta0)), (*point, depth))
-            joints = robot.ik(target, rng_seed=0)
+            joints = robot.ik(target, rng_seed=0, options=_core.contact_ik_options(robot))
             if joints is not None and world.is_valid(joints):
                 reached += 1
                 break
@@ -985,13 +993,19 @@ def core_obstacles(entries: list[dict[str, Any]]) -> list:
     return obstacles
 
 
+# The parameters a grasp map's answers depend on (GraspMap::fits): its key in memory and on disk.
+_GRASP_MAP_PARAMS = ("grasp_standoff", "u_star", "grasp_lift", "grasp_flip", "lift_check", "grasp_tilt_tolerance",
+                     "grasp_yaw_tolerance", "grasp_roll_tolerance")
+
+
 @functools.lru_cache(maxsize=32)
 def _cached_grasp_map(robot, vertices: tuple, height: float, grasp_link: str, grasp_offset: tuple, thickness: float,
                       params_key: tuple, stored: Path | None):
     from . import _core
 
     params = _core.PlannerParams()
-    params.grasp_standoff, params.u_star, params.grasp_lift, params.grasp_flip, params.lift_check = params_key
+    for name, value in zip(_GRASP_MAP_PARAMS, params_key):
+        setattr(params, name, value)
     table = _core.SupportSurface(np.array(vertices, dtype=float), height)
     core_map = _core.GraspMap(robot, table, grasp_link, np.array(grasp_offset, dtype=float).reshape(4, 4), thickness, params)
     grasp_cache.restore(core_map, stored)
@@ -1011,7 +1025,7 @@ def _grasp_map_and_file(scene: Scene, obj: ThinObject, config: PlannerConfig):
     # As the core measures it (z_s is the cloud's mean height) and to the micrometre, as the map keeps
     # it: clouds of one thickness differ in the last bits of their mean and must still share the map.
     thickness = round(float(points[:, 2].mean()) - height, 6)
-    params_key = (config.grasp_standoff, config.u_star, config.grasp_lift, config.grasp_flip, config.lift_check)
+    params_key = tuple(getattr(config, name) for name in _GRASP_MAP_PARAMS)
     try:
         stored = grasp_cache.map_path(robot_description(scene), vertices, height, thickness, params_key)
     except OSError as error:

@@ -21,7 +21,7 @@ from .transforms import move_planar
 
 # Planner parameters a hand may give defaults for ([hand] params).
 HAND_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "grasp_lift", "grasp_backoff", "grasp_standoff",
-               "max_yaw_rate", "grasp_flip")
+               "max_yaw_rate", "grasp_flip", "grasp_tilt_tolerance", "grasp_yaw_tolerance", "grasp_roll_tolerance")
 ROBOT_KEYS = {"urdf", "attach", "base_pose", "base_link", "fixed_joints", "package_dirs"}
 LEGACY_HAND_KEYS = ("tip_link", "contact_links")  # once in [robot], now in [hand]; still read there
 HAND_KEYS = {"tip_link", "tip_offset", "grasp_link", "grasp_offset", "contact_links", "gripper_joints", "params"}

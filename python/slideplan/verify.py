@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
+from scipy.spatial.transform import Rotation
 from shapely.geometry import MultiPoint
 
 from .errors import InputError, require_type
@@ -586,14 +587,20 @@ def check_grasp_pose(result: PlanResult, world: _PlanWorld,
     if offset > tolerance[0]:
         violations.append(f"grasp.pose: {offset:.4f} m from H_g at ({expected[0]:.4f}, {expected[1]:.4f}, "
                           f"{expected[2]:.4f}), the centroid of the overhanging points (IV-C.1)")
-    approach = pose[:3, 2]
-    angle = math.acos(max(-1.0, min(1.0, float(approach @ np.array([-normal[0], -normal[1], 0.0])))))
-    if angle > tolerance[1]:
-        violations.append(f"grasp.pose: approach axis {angle:.4f} rad off the inward normal of the table edge")
-    closing = float(pose[2, 1])  # the closing axis y_H, vertical: up, or down for a flipped hand
-    if 1.0 - abs(closing) > tolerance[1] or (closing < 0 and not result.params.get("grasp_flip", True)):
-        violations.append(f"grasp.pose: closing axis has vertical component {closing:.4f}, expected 1"
-                          + (" or -1 (grasp_flip)" if result.params.get("grasp_flip", True) else ""))
+    # H_g's orientation (x along the edge, y up: the closing axis, z the approach), or rolled by pi about
+    # z (grasp_flip); the hand may turn from it within the tolerated rotation about these axes, as the
+    # planner's grasp IK allows (a dead zone on each component of the rotation between the two).
+    approach = np.array([-normal[0], -normal[1], 0.0])
+    nominal = np.column_stack([np.cross([0.0, 0.0, 1.0], approach), [0.0, 0.0, 1.0], approach])
+    frames = [nominal] + ([nominal @ np.diag([-1.0, -1.0, 1.0])] if result.params.get("grasp_flip", True) else [])
+    allowed = np.array([result.params.get(f"grasp_{axis}_tolerance", 0.0) for axis in ("tilt", "yaw", "roll")])
+    turns = [Rotation.from_matrix(frame.T @ pose[:3, :3]).as_rotvec() for frame in frames]
+    turn = min(turns, key=lambda rotation: float(np.max(np.abs(rotation) - allowed)))
+    if np.any(np.abs(turn) > allowed + tolerance[1]):
+        violations.append(f"grasp.pose: turned ({turn[0]:.4f}, {turn[1]:.4f}, {turn[2]:.4f}) rad from H_g about its x "
+                          f"(along the edge), y (up) and z (the approach), beyond the tolerated "
+                          f"({allowed[0]:g}, {allowed[1]:g}, {allowed[2]:g})"
+                          + (" (or rolled by pi: grasp_flip)" if len(frames) > 1 else ""))
     return violations
 
 

@@ -129,6 +129,41 @@ TEST(RobotModel, IkAbandonsARestartStillFarOffAfterAbandonAfterIterations)
     EXPECT_TRUE(solves(1e3));  // never that far off: no restart is abandoned
 }
 
+TEST(RobotModel, IkCountsARotationInsideTheToleratedBandAsNone)
+{
+    const auto robot = wamT42();
+    std::mt19937_64 sampler(21);
+    const Eigen::VectorXd seed = robot->randomConfiguration(sampler);
+    const Eigen::Isometry3d reached = robot->fk(seed);
+    IkOptions options;
+    options.maxAttempts = 1;
+    options.rotationTolerance << 0.0, 0.0, 0.3;  // about the target's own z
+    // The target turned by 0.2 rad about its z from where the seed is: inside the band, so the seed
+    // itself is a solution and IK returns it untouched.
+    Eigen::Isometry3d target = reached;
+    target.linear() = reached.linear() * Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    std::mt19937_64 rng(22);
+    Eigen::VectorXd q;
+    ASSERT_TRUE(robot->ik(target, seed, rng, q, options));
+    EXPECT_EQ(q, seed);
+    // Without the band the same target asks for the turn, and the seed is not a solution.
+    ASSERT_TRUE(robot->ik(target, seed, rng, q, IkOptions()));
+    EXPECT_GT((q - seed).norm(), 1e-3);
+    // Turned by 0.5 rad: IK turns the hand to the band's edge, 0.3 rad from the target about its z only.
+    target.linear() = reached.linear() * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    ASSERT_TRUE(robot->ik(target, seed, rng, q, options));
+    const Eigen::AngleAxisd turn(target.linear().transpose() * robot->fk(q).linear());
+    EXPECT_NEAR(turn.angle(), 0.3, 1e-6);
+    EXPECT_NEAR(std::abs(turn.axis().z()), 1.0, 1e-6);
+    EXPECT_LT((robot->fk(q).translation() - target.translation()).norm(), 1e-6);
+    // About the world's axes: the same turn applied about the world z is free with world_axes.
+    options.worldAxes = true;
+    options.rotationTolerance << 0.0, 0.0, M_PI;
+    target.linear() = Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() * reached.linear();
+    ASSERT_TRUE(robot->ik(target, seed, rng, q, options));
+    EXPECT_EQ(q, seed);
+}
+
 TEST(RobotModel, GraspFrameIkUsesTheSameJoints)
 {
     const auto robot = wamT42();

@@ -15,7 +15,8 @@ from typer.testing import CliRunner
 from slideplan import PlannerConfig, _core, load_object, load_scene, plan, verify
 from slideplan.cli import app
 from slideplan.objects import load_outline, sample_pose_on_table
-from slideplan.planning import robot_model
+from slideplan.planning import grasp_map, robot_model
+from slideplan.transforms import row_to_pose
 from slideplan.scenes import package_search_dirs
 
 TABLE = "[table]\npolygon = [[0.3, -0.2], [0.7, -0.2], [0.7, 0.2], [0.3, 0.2]]\n"
@@ -322,3 +323,45 @@ def test_the_stock_z1_solves_five_objects_at_two_poses_each_and_checks_its_jaws_
                 verification = verify(result)
                 assert verification.ok, (name, seed, verification.violations[:3])
     assert solved >= 8
+
+
+def test_a_five_joint_arm_slides_and_grasps_with_the_approach_turned_within_its_tolerance():
+    """The SO-101 (five joints) from example-robot-data's stock URDF: the sliding constraint leaves the
+    contact's yaw free, and a side grasp's heading may turn within the hand's grasp_yaw_tolerance."""
+    scene = load_scene("so101_square")
+    assert robot_model(scene).dof == 5
+    tolerance = scene.hand.params["grasp_yaw_tolerance"]
+    solved, turned = 0, 0
+    for name in ("square", "circle", "triangle", "crescent", "irregular"):
+        outline, _, _ = load_outline(name)
+        for seed in (1, 2):
+            pose = sample_pose_on_table(outline, scene.table, np.random.default_rng([seed, len(name)]))
+            obj = load_object(name, table_height=scene.table.height, pose=pose)
+            result = plan(scene, obj, PlannerConfig.for_scene(scene, seed=seed, time_limit_s=10.0))
+            if not result.solved:
+                continue
+            solved += 1
+            verification = verify(result)
+            assert verification.ok, (name, seed, verification.violations[:3])
+            # The grasp's approach is off the edge's inward normal by its heading alone, within the band.
+            approach = row_to_pose(result.grasp["pose"])[:3, 2]
+            assert abs(approach[2]) < 1e-3
+            turned += math.atan2(abs(approach[1]), approach[0]) > 1e-3
+            assert math.atan2(abs(approach[1]), approach[0]) <= tolerance + 1e-3
+    assert solved >= 8
+    assert turned >= 1  # the band is used: some grasps beside the arm's plane turn the approach
+
+
+def test_without_its_tolerance_the_five_joint_arm_reaches_no_side_grasp():
+    """The tolerance is what makes the SO-101's grasps reachable: with H_g exactly (0 rad), the grasp map
+    finds none on the edge facing the arm, where with the hand's 0.5 rad it finds every stretch."""
+    scene = load_scene("so101_square")
+    obj = load_object("square", table_height=scene.table.height, pose=(0.37, 0.0, 0.0))
+    near_edge = 3  # (0.30, 0.10)-(0.30, -0.10), facing the base
+    counts = {}
+    for tolerance in (0.0, scene.hand.params["grasp_yaw_tolerance"]):
+        config = PlannerConfig.for_scene(scene, grasp_yaw_tolerance=tolerance).resolved(scene)
+        mapped = grasp_map(scene, obj, config)
+        cells = mapped.stretch_count(near_edge)
+        counts[tolerance] = sum(mapped.grasp_on(near_edge, cell) is not None for cell in range(cells))
+    assert counts[0.0] <= 2 < counts[scene.hand.params["grasp_yaw_tolerance"]] == cells

@@ -4,6 +4,8 @@
 /// the surface plane (-Z_F . n_up = sin(beta)), yaw alpha is the heading of X_F about n_up.
 #pragma once
 
+#include "slideplan/robot_model.hpp"
+
 #include <Eigen/Core>
 
 namespace slideplan
@@ -20,5 +22,10 @@ namespace slideplan
     };
 
     ContactAngles contactAngles(const Eigen::Matrix3d &rotation);
+
+    /// IK options for a contact pose r(alpha, beta) at a point: Eq. 3 constrains the depth, roll and
+    /// pitch, and leaves the yaw free, which an arm with fewer than six joints cannot also choose: its
+    /// IK takes the yaw its posture gives. Six or more joints reach the yaw asked for.
+    IkOptions contactIkOptions(const RobotModel &robot);
 
 }  // namespace slideplan

@@ -19,8 +19,11 @@ namespace slideplan
     /// so the straight (+Y) finger is above the object.
     Eigen::Isometry3d sideGraspPose(const Eigen::Vector2d &point, const EdgeQuery &edge, double z);
 
+    /// The grasp IK's options: H_g's orientation within the hand's tolerated rotation (params).
+    IkOptions graspIkOptions(const PlannerParams &params);
+
     /// IK for the grasp frame `grasp` (task.graspLink x task.graspOffset) from `seed`, then random
-    /// restarts up to `attempts`; with params.liftCheck, only a solution from which H_g raised by
+    /// restarts up to `attempts`, within the tolerated rotation; with params.liftCheck, only a solution from which H_g raised by
     /// params.graspLift is reachable too: at the edge of the workspace a joint may sit at its limit. `abandonAfter`: as
     /// IkOptions::abandonAfter.
     bool liftableGraspIk(const SlidingTask &task, const PlannerParams &params, const Eigen::Isometry3d &grasp,

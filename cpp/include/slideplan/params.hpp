@@ -40,6 +40,14 @@ namespace slideplan
         /// counted from where this free length ends: u - max(0, d_g - s) >= u*. 0 is the paper: H_g at
         /// the centroid of P_out and u >= u*. Hand-specific: set in the scene's [hand] params.
         double graspStandoff{0.0};
+        /// Beyond the paper: how far the hand may turn away from H_g's orientation at the grasp (rad),
+        /// about H_g's x (along the table edge: a tilt of the approach), y (the closing axis, vertical: the
+        /// approach's heading) and z (the approach axis: a roll). An arm with five joints cannot reach
+        /// every 6-D grasp pose; a hand that still pinches the overhang when turned a little tolerates
+        /// it. 0 is the paper: H_g exactly. Hand-specific: set in the scene's [hand] params.
+        double graspTiltTolerance{0.0};
+        double graspYawTolerance{0.0};
+        double graspRollTolerance{0.0};
         double transferTime{0.2};   ///< RRTConnect budget per transfer when the straight motion fails (s)
 
         // Constrained extension (CBiRRT [16]).

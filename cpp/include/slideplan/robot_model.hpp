@@ -123,6 +123,12 @@ namespace slideplan
         /// pose that may be out of reach) they would take all maxIterations. 0: never.
         int abandonAfter{0};
         double abandonError{0.1};
+        /// Rotation error tolerated about three axes before it counts (rad, a dead zone like the sliding
+        /// constraint's bands): about the target frame's own x, y, z, or the world's with worldAxes. pi
+        /// frees an axis. Zero (the default) asks for the target's orientation exactly. An arm with fewer
+        /// than six joints reaches a grasp or a contact only with some rotation left free.
+        Eigen::Vector3d rotationTolerance{Eigen::Vector3d::Zero()};
+        bool worldAxes{false};
     };
 
     /// A serial arm (the chain from the base link to the tip link) inside a robot tree; every link is

@@ -158,6 +158,12 @@ namespace slideplan::bindings
             .def_readwrite("grasp_backoff", &PlannerParams::graspBackoff, "Pre-grasp offset along the approach (m).")
             .def_readwrite("grasp_standoff", &PlannerParams::graspStandoff,
                            "Free length the hand needs beyond H_g towards the table (m); 0: the paper's H_g.")
+            .def_readwrite("grasp_tilt_tolerance", &PlannerParams::graspTiltTolerance,
+                           "Beyond the paper: the grasp may turn this far about H_g's x, along the table edge (rad).")
+            .def_readwrite("grasp_yaw_tolerance", &PlannerParams::graspYawTolerance,
+                           "Beyond the paper: the grasp may turn this far about H_g's y, the vertical closing axis (rad).")
+            .def_readwrite("grasp_roll_tolerance", &PlannerParams::graspRollTolerance,
+                           "Beyond the paper: the grasp may turn this far about H_g's z, the approach axis (rad).")
             .def_readwrite("transfer_time", &PlannerParams::transferTime, "RRTConnect budget per transfer (s).")
             .def_readwrite("max_joint_step", &PlannerParams::maxJointStep, "Largest joint change between waypoints (rad).")
             .def_readwrite("max_tip_step", &PlannerParams::maxTipStep, "Largest fingertip step between waypoints (m).")
@@ -246,6 +252,10 @@ namespace slideplan::bindings
                 "Planner statistics.")
             .def_property_readonly("timing", [](const PlanResult &r) { return timingDict(r.timing); },
                                    "The profile asked for with plan_sliding(timing=...) (as time_plan returns it), or None.");
+
+        module.def("grasp_ik_options", &graspIkOptions, py::arg("params"),
+                   "IK options for the grasp frame: H_g's orientation within the hand's tolerated rotation "
+                   "(grasp_tilt_tolerance, grasp_yaw_tolerance, grasp_roll_tolerance), as the planner asks.");
 
         py::class_<GraspMap, std::shared_ptr<GraspMap>>(
             module, "GraspMap",

@@ -1,5 +1,6 @@
 #include "bindings.hpp"
 
+#include "slideplan/contact_frame.hpp"
 #include "slideplan/mesh.hpp"
 #include "slideplan/robot_model.hpp"
 
@@ -46,7 +47,15 @@ namespace slideplan::bindings
             .def_readwrite("max_iterations", &IkOptions::maxIterations, "Iterations per attempt.")
             .def_readwrite("max_attempts", &IkOptions::maxAttempts, "The seed, then random restarts.")
             .def_readwrite("position_tolerance", &IkOptions::positionTolerance, "Metres.")
-            .def_readwrite("orientation_tolerance", &IkOptions::orientationTolerance, "Radians.");
+            .def_readwrite("orientation_tolerance", &IkOptions::orientationTolerance, "Radians.")
+            .def_readwrite("rotation_tolerance", &IkOptions::rotationTolerance,
+                           "Rotation tolerated about the target frame's x, y, z (or the world's with world_axes) before "
+                           "it counts (rad); pi frees an axis, 0 asks for the orientation exactly.")
+            .def_readwrite("world_axes", &IkOptions::worldAxes, "rotation_tolerance is about the world's axes.");
+
+        module.def("contact_ik_options", &contactIkOptions, py::arg("robot"),
+                   "IK options for a fingertip contact pose: the yaw left free for an arm with fewer than six joints "
+                   "(Eq. 3 does not constrain it).");
 
         py::class_<RobotModel, std::shared_ptr<RobotModel>>(module, "RobotModel",
                                                             "A serial arm from a URDF (urdfdom + KDL).")
@@ -127,22 +136,23 @@ namespace slideplan::bindings
             .def(
                 "ik",
                 [](const RobotModel &robot, const Eigen::Matrix4d &target, const std::optional<Eigen::VectorXd> &seed,
-                   std::uint64_t rngSeed, const IkOptions &options, const std::string &link) -> std::optional<Eigen::VectorXd> {
+                   std::uint64_t rngSeed, const IkOptions &options, const std::string &link,
+                   const Eigen::Matrix4d &offset) -> std::optional<Eigen::VectorXd> {
                     std::mt19937_64 rng(rngSeed);
                     Eigen::VectorXd solution;
-                    const Eigen::Isometry3d pose = toIsometry(target);
+                    const Eigen::Isometry3d pose = toIsometry(target), frame = toIsometry(offset);
                     const Eigen::VectorXd start = seed ? *seed : Eigen::VectorXd();
                     py::gil_scoped_release release;
                     const bool solved = link.empty() ? robot.ik(pose, start, rng, solution, options)
-                                                     : robot.ikForLink(link, pose, start, rng, solution, options);
+                                                     : robot.ikForLink(link, pose, start, rng, solution, options, frame);
                     if (!solved)
                         return std::nullopt;
                     return solution;
                 },
                 py::arg("target"), py::arg("seed") = py::none(), py::arg("rng_seed") = 0,
-                py::arg("options") = IkOptions(), py::arg("link") = "",
+                py::arg("options") = IkOptions(), py::arg("link") = "", py::arg("offset") = Eigen::Matrix4d::Identity(),
                 "Gamma~(target): joint configuration within limits reaching the 4x4 target pose of the tip (or of "
-                "`link`), or None. Deterministic for a given rng_seed.")
+                "`link` x `offset`, e.g. the grasp frame), or None. Deterministic for a given rng_seed.")
             .def(
                 "random_configuration",
                 [](const RobotModel &robot, std::uint64_t rngSeed) {
