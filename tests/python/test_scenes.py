@@ -19,7 +19,7 @@ TABLE_AREAS = {
 
 
 ROBOT_SCENES = ["panda_square", "panda_round", "ur5_square", "ur5_round", "ur5_gripper_square", "xarm7_square", "kinova_square",
-               "z1_square",  # third-party arms (test_robots.py)
+               "z1_square", "so101_square",  # third-party arms (test_robots.py)
                 "clutter_can", "clutter_books", "clutter_boxed"]  # and clutter (test_clutter.py)
 
 
