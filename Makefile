@@ -66,7 +66,7 @@ bench: install
 	  "Algorithm 1 as published"
 	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --poses 4 --scenes square --peers --out docs/benchmarks/baselines.md \
 	  --variants "slideplan dz*=2cm" "slideplan dz*=0.5cm" "slideplan dz*=0cm" "cbirrt as published" "cbirrt2 as published"
-	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --poses 5 --scenes panda_square panda_round ur5_square ur5_round z1_square \
+	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --poses 5 --scenes panda_square panda_round ur5_square ur5_round z1_square so101_square \
 	  --variants "slideplan hand" --out docs/benchmarks/robots.md
 	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --poses 10 --scenes clutter_can clutter_books clutter_boxed \
 	  --variants "slideplan hand" --out docs/benchmarks/clutter.md
