@@ -105,6 +105,7 @@ namespace slideplan
         std::vector<EnvironmentPiece> environment;
         std::size_t firstObjectPiece{0};
         std::vector<std::pair<int, int>> selfPairs;
+        std::vector<std::pair<std::string, std::string>> alwaysInContact;
         double tableTop{0.0};
         mutable std::vector<Eigen::Isometry3d> poses;
         /// Per link asked of rigidCollision: the shapes rigid with it and their poses in its frame.
@@ -226,8 +227,17 @@ namespace slideplan
                 hits[c] += collide(*impl_->shapes[candidates[c].first].object, *impl_->shapes[candidates[c].second].object);
         }
         for (std::size_t c = 0; c < candidates.size(); ++c)
+        {
             if (hits[c] < samples * 95 / 100)
+            {
                 impl_->selfPairs.push_back(candidates[c]);
+                continue;
+            }
+            const std::pair<std::string, std::string> names{links[impl_->shapes[candidates[c].first].link].name,
+                                                            links[impl_->shapes[candidates[c].second].link].name};
+            if (std::find(impl_->alwaysInContact.begin(), impl_->alwaysInContact.end(), names) == impl_->alwaysInContact.end())
+                impl_->alwaysInContact.push_back(names);
+        }
     }
 
     CollisionWorld::~CollisionWorld() = default;
@@ -253,6 +263,7 @@ namespace slideplan
             impl->environment.push_back({piece.name, copy(*piece.object), piece.touchable});
         impl->firstObjectPiece = impl_->firstObjectPiece;
         impl->selfPairs = impl_->selfPairs;
+        impl->alwaysInContact = impl_->alwaysInContact;
         impl->tableTop = impl_->tableTop;
         return std::unique_ptr<CollisionWorld>(new CollisionWorld(robot_, std::move(impl)));
     }
@@ -260,6 +271,11 @@ namespace slideplan
     std::size_t CollisionWorld::selfPairCount() const
     {
         return impl_->selfPairs.size();
+    }
+
+    std::vector<std::pair<std::string, std::string>> CollisionWorld::alwaysInContact() const
+    {
+        return impl_->alwaysInContact;
     }
 
     void CollisionWorld::setObject(const std::vector<Eigen::Vector2d> &outlineXY, double topZ)

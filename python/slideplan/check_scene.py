@@ -20,7 +20,7 @@ import numpy as np
 from . import _core
 from .errors import MeshWarning
 from .objects import ThinObject
-from .planning import PlannerConfig, base_pose_matrix, collision_world, grasp_map, robot_model, table_reach
+from .planning import PlannerConfig, base_pose_matrix, collision_world, grasp_map, robot_model, table_reach_map
 from .scenes import Scene
 
 MIN_REACH = 0.5  # below this share of the table reached, plans mostly time out without start roots
@@ -35,10 +35,18 @@ class SceneCheck:
         lines: the report, one finding per line, the causes of failure first.
         ok: the fingertip reaches at least :data:`MIN_REACH` of the table and some edge admits a side
             grasp with a clear pre-grasp.
+        reach_points, reached: the table lattice of :func:`slideplan.planning.table_reach_map` and
+            whether the fingertip reaches each point.
+        stretches: per 1 cm stretch of each edge, where its grasp frame is (x, y) and what it admits:
+            ``clear`` (a side grasp with a clear pre-grasp), ``blocked`` (a grasp, but it or its
+            pre-grasp is not clear) or ``none``.
     """
 
     lines: list[str]
     ok: bool
+    reach_points: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))
+    reached: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=bool))
+    stretches: list[tuple[float, float, str]] = dataclasses.field(default_factory=list)
 
 
 def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None) -> SceneCheck:
@@ -65,7 +73,8 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
              f"fingertip {hand.tip_link}, grasp frame on {hand.grasp_link}, contact links {', '.join(hand.contact_links)}",
              _gripper_note(hand), *_mesh_notes(robot)]
 
-    reach = table_reach(scene, obj.thickness, config)
+    points, reached_points = table_reach_map(scene, obj.thickness, config)
+    reach = float(reached_points.mean()) if reached_points.size else 0.0
     line = (f"fingertip: reaches the table top over {100 * reach:.0f}% of the table (5 x 5 grid, pitch beta0 = "
             f"{config.beta0:g}, depth {1000 * 0.5 * (config.dz_min + config.dz_max):.0f} mm, any heading)")
     if reach < MIN_REACH:
@@ -74,21 +83,31 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
         notes.append(line)
 
     world = collision_world(scene)
+    if world.always_in_contact:
+        notes.append("self-collision: not checked between " + ", ".join(f"{a} and {b}" for a, b in world.always_in_contact)
+                     + " (in contact at almost every configuration of the arm: overlapping collision shapes, or a held "
+                     "joint value, [robot] fixed_joints or [hand] gripper_joints' open value, that puts them together)")
     offset = base_pose_matrix(hand.grasp_offset)
     mapped = grasp_map(scene, obj, config)
     params = config.to_params()
-    graspable_edges, edges = 0, []  # one line per edge, in order
+    graspable_edges, edges, stretches = 0, [], []  # one line per edge, in order
     for edge in range(len(scene.table.vertices)):
         start, end = scene.table.vertices[edge], scene.table.vertices[(edge + 1) % len(scene.table.vertices)]
         cells = mapped.stretch_count(edge)
-        reached = [grasp for grasp in (mapped.grasp_on(edge, cell) for cell in range(cells)) if grasp is not None]
+        grasps = [mapped.grasp_on(edge, cell) for cell in range(cells)]
+        reached = [grasp for grasp in grasps if grasp is not None]
+        verdicts = [None if grasp is None else
+                    _approach_problem(robot, world, grasp, config.grasp_backoff, hand.grasp_link, offset, params)
+                    for grasp in grasps]
+        stretches += [(*np.asarray(mapped.stretch_grasp(edge, cell))[:2, 3],
+                       "none" if verdict is None else "clear" if verdict == "" else "blocked")
+                      for cell, verdict in enumerate(verdicts)]
         name = f"edge {edge} ({start[0]:.2f}, {start[1]:.2f})-({end[0]:.2f}, {end[1]:.2f})"
         if not reached:
             edges.append(f"{name}: no side grasp on any of its {cells} stretches; at its middle: "
                             + _why_no_grasp(robot, world, mapped, edge, cells // 2, hand.grasp_link, offset, params))
             continue
-        problems = Counter(_approach_problem(robot, world, grasp, config.grasp_backoff, hand.grasp_link, offset, params)
-                           for grasp in reached)
+        problems = Counter(verdict for verdict in verdicts if verdict is not None)
         clear = problems.pop("", 0)
         line = f"{name}: side grasps on {len(reached)} of {cells} stretches, grasp and pre-grasp clear at {clear} of them"
         if clear:
@@ -104,10 +123,11 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
             _approach_problem(robot, world, grasp, backoff, hand.grasp_link, offset, params) == "" for grasp in reached)), None)
         hint = f"; at {shorter:g} some are clear: try grasp_backoff <= {shorter:g}" if shorter else ""
         edges.append(f"{line}: grasp_backoff {config.grasp_backoff:g} leaves the {problem} at {count}{hint}")
+    maps = {"reach_points": points, "reached": reached_points, "stretches": stretches}
     if graspable_edges:
-        return SceneCheck(findings + notes + edges, reach >= MIN_REACH)
+        return SceneCheck(findings + notes + edges, reach >= MIN_REACH, **maps)
     findings += ["no edge admits a side grasp with a clear pre-grasp: no plan can end in a grasp", *edges]
-    return SceneCheck(findings + notes, False)
+    return SceneCheck(findings + notes, False, **maps)
 
 
 def _gripper_note(hand) -> str:

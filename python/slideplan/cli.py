@@ -438,18 +438,27 @@ def check_scene_command(
     scene_name: str = typer.Argument(..., help="Built-in scene name or scene TOML."),
     object_name: str = typer.Option("square", "--object", help="An object like the ones to slide (its thickness counts)."),
     param: list[str] = typer.Option([], "--param", help="NAME=VALUE for any planner parameter; repeatable."),
+    png_out: Optional[Path] = typer.Option(
+        None, "--png", help="Draw a map here (.png or .svg): where the fingertip reaches the table, which edge stretches admit a grasp."
+    ),
 ) -> None:
-    """Check a robot scene before planning: whether the fingertip reaches the table, which table edges admit
-    a side grasp and a clear pre-grasp, and why not, naming links, obstacles and parameters.
+    """Check a robot scene before planning: links that collide wherever the arm is, whether the fingertip
+    reaches the table, which table edges admit a side grasp and a clear pre-grasp, and why not, naming
+    links, obstacles and parameters.
 
     Exit codes: 0 the scene can plan, 1 it cannot (the first lines say why), 2 bad input.
     """
     from .check_scene import check_scene
 
     try:
+        png_out = _output_file(png_out, "--png", PICTURE_SUFFIXES)
         scene = load_scene(scene_name)
         obj, _ = _load_object(scene, object_name, None, 0)
         result = check_scene(scene, obj, PlannerConfig.for_scene(scene, **_parse_params(param)))
+        if png_out is not None:
+            from .viz import draw_scene_check
+
+            draw_scene_check(scene, result, png_out)
     except (InputError, ValueError, OSError) as error:
         raise _fail(error) from None
     for line in result.lines:

@@ -930,11 +930,23 @@ def collision_world(scene: Scene):
 
 def table_reach(scene: Scene, thickness: float, config: PlannerConfig | None = None, *, grid: int = 5,
                 yaws: int = 8) -> float:
-    """The share of the table where the contact frame reaches a thin object's top: on a ``grid`` x
-    ``grid`` lattice over the table's bounding box (the points inside the table count), the fingertip
-    at pitch ``beta0`` and the middle of the depth band, at any of ``yaws`` headings (the slide leaves
-    the heading free), by a configuration free of collisions but the finger's. What the start roots
-    need: near 0, the robot stands where it cannot slide.
+    """The share of the table where the contact frame reaches a thin object's top
+    (:func:`table_reach_map`'s points reached). What the start roots need: near 0, the robot stands
+    where it cannot slide.
+
+    Returns:
+        A fraction in [0, 1].
+    """
+    _, reached = table_reach_map(scene, thickness, config, grid=grid, yaws=yaws)
+    return float(reached.mean()) if reached.size else 0.0
+
+
+def table_reach_map(scene: Scene, thickness: float, config: PlannerConfig | None = None, *, grid: int = 5,
+                    yaws: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Where on the table the contact frame reaches a thin object's top: on a ``grid`` x ``grid``
+    lattice over the table's bounding box (the points inside the table), the fingertip at pitch
+    ``beta0`` and the middle of the depth band, at any of ``yaws`` headings (the slide leaves the
+    heading free), by a configuration free of collisions but the finger's.
 
     Args:
         scene: the scene.
@@ -942,7 +954,7 @@ def table_reach(scene: Scene, thickness: float, config: PlannerConfig | None = N
         config: planner parameters (``beta0``, ``dz_min``, ``dz_max``); the scene's hand's by default.
 
     Returns:
-        A fraction in [0, 1].
+        The lattice points inside the table, (n, 2), and whether each is reached, (n,) bool.
     """
     from . import _core
 
@@ -952,16 +964,17 @@ def table_reach(scene: Scene, thickness: float, config: PlannerConfig | None = N
     depth = scene.table.height + thickness - 0.5 * (config.dz_min + config.dz_max)
     low, high = scene.table.vertices.min(axis=0), scene.table.vertices.max(axis=0)
     lattice = [low + (high - low) * np.array([i + 0.5, j + 0.5]) / grid for i in range(grid) for j in range(grid)]
-    inside = [point for point in lattice if scene.table.polygon.contains(shapely.Point(point))]
-    reached = 0
-    for point in inside:
+    inside = np.array([point for point in lattice if scene.table.polygon.contains(shapely.Point(point))]).reshape(-1, 2)
+
+    def reaches(point: np.ndarray) -> bool:
         for yaw in np.linspace(-math.pi, math.pi, yaws, endpoint=False):
             target = homogeneous(np.asarray(_core.contact_rotation(float(yaw), config.beta0)), (*point, depth))
             joints = robot.ik(target, rng_seed=0, options=_core.contact_ik_options(robot))
             if joints is not None and world.is_valid(joints):
-                reached += 1
-                break
-    return reached / len(inside) if inside else 0.0
+                return True
+        return False
+
+    return inside, np.array([reaches(point) for point in inside], dtype=bool)
 
 
 def robot_model(scene: Scene):

@@ -138,3 +138,34 @@ def draw_plan(result: PlanResult, path: str | Path) -> Path:
     axes.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small")
     return save_figure(figure, path)
 
+
+
+def draw_scene_check(scene, check, path: str | Path) -> Path:
+    """Draw what ``slideplan check-scene`` found, from above: the table, where the fingertip reaches its
+    top (the lattice points, reached or not), each edge's 1 cm stretches by what they admit (a side grasp
+    with a clear pre-grasp, a grasp whose approach is blocked, none), and the robot's base.
+
+    Args:
+        scene: the checked scene.
+        check: :class:`slideplan.check_scene.SceneCheck`.
+        path: a .png or .svg file.
+    """
+    figure, axes = _new_axes()
+    _draw_table(axes, np.asarray(scene.table.vertices, dtype=float))
+    _draw_obstacles(axes, [obstacle.to_dict() for obstacle in scene.obstacles])
+    points, reached = check.reach_points, check.reached
+    axes.scatter(points[reached, 0], points[reached, 1], marker="o", color="tab:green", label="fingertip reaches")
+    axes.scatter(points[~reached, 0], points[~reached, 1], marker="x", color="tab:red", label="fingertip does not reach")
+    styles = {"clear": ("tab:green", "side grasp, pre-grasp clear"), "blocked": ("tab:orange", "side grasp, blocked"),
+              "none": ("0.6", "no side grasp")}
+    for status, (color, label) in styles.items():
+        at = np.array([(x, y) for x, y, kind in check.stretches if kind == status]).reshape(-1, 2)
+        if len(at):
+            axes.scatter(at[:, 0], at[:, 1], marker="s", s=12, color=color, label=label)
+    base = np.asarray(scene.base_pose, dtype=float)[:2]
+    axes.plot(*base, marker="^", color="black", markersize=9, linestyle="none", label="robot base")
+    axes.set_title(f"check-scene: {Path(scene.source).name if scene.source else 'scene'} "
+                   f"({'can plan' if check.ok else 'cannot plan'})")
+    axes.autoscale_view()
+    axes.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small")
+    return save_figure(figure, path)

@@ -69,3 +69,38 @@ def test_bad_input_is_one_error_line():
 def test_a_hand_with_nothing_to_close_is_said():
     code, lines = check("ur5_square")  # a rigid finger on the flange
     assert lines[1] == "gripper: none ([hand] gripper_joints): execution slides, then has nothing to close"
+
+
+def test_links_left_unchecked_for_always_touching_are_named(tmp_path):
+    """A part that touches another wherever the arm is (here a box fixed to the wrist, over the forearm)
+    is left out of the self-collision check by the planner: check-scene says which pairs."""
+    (tmp_path / "sleeve.urdf").write_text(
+        '<robot name="sleeve"><link name="sleeve"><collision><origin xyz="0 0 -0.1"/><geometry><box size="0.3 0.3 0.3"/>'
+        '</geometry></collision></link><joint name="sleeve_joint" type="fixed"><parent link="wam_link7"/>'
+        '<child link="sleeve"/></joint></robot>')
+    scene = edited_square(tmp_path, 'urdf = "wam_t42.urdf"', 'urdf = "wam_t42.urdf"\nattach = ["sleeve.urdf"]')
+    _, lines = check(scene)
+    note = next(line for line in lines if line.startswith("self-collision: not checked between"))
+    assert "sleeve and wam_link5" in note or "wam_link5 and sleeve" in note, note
+    _, plain = check("square")
+    assert not any("sleeve" in line for line in plain)
+
+
+def test_the_map_matches_the_report_and_is_drawn(tmp_path):
+    from slideplan.check_scene import check_scene
+    from slideplan.objects import load_object
+
+    scene = load_scene("square")
+    result = check_scene(scene, load_object("square", table_height=scene.table.height, pose=(0.55, 0.0, 0.0)))
+    reach = next(line for line in result.lines if line.startswith("fingertip:"))
+    assert f"over {100 * result.reached.mean():.0f}% of the table" in reach
+    clear = sum(int(line.split("clear at ")[1].split()[0]) for line in result.lines if "clear at " in line)
+    assert clear == sum(kind == "clear" for *_, kind in result.stretches) > 0
+    stretches = sum(int(line.split(" of ")[1].split()[0]) if "side grasps on" in line else int(line.split("any of its ")[1].split()[0])
+                    for line in result.lines if line.startswith("edge "))
+    assert len(result.stretches) == stretches
+    png = tmp_path / "map.png"
+    code, _ = check("square", "--png", png)
+    assert code == 0 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    code, lines = check("square", "--png", tmp_path / "map.bmp")
+    assert code == 2 and "--png" in lines[0]

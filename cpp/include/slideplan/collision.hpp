@@ -76,6 +76,9 @@ namespace slideplan
 
         /// Link pairs checked for self-collision (those not adjacent and not always in contact).
         std::size_t selfPairCount() const;
+        /// Pairs of links (by name, each once) left unchecked for being in contact in almost every random
+        /// configuration: overlapping collision shapes, or a held joint value that puts two parts together.
+        std::vector<std::pair<std::string, std::string>> alwaysInContact() const;
         const RobotModel &robot() const { return *robot_; }
 
     private:

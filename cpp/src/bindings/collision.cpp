@@ -80,6 +80,9 @@ namespace slideplan::bindings
                 "What the links rigid with `link` meet with `link` at the world pose (4x4): 'link-obstacle' for the "
                 "first hit on the table or an obstacle, '' if nothing (the rest of the robot and the object are not "
                 "checked). Raises ValueError for an unknown link.")
-            .def_property_readonly("self_pair_count", &CollisionWorld::selfPairCount, "Link pairs checked for self-collision.");
+            .def_property_readonly("self_pair_count", &CollisionWorld::selfPairCount, "Link pairs checked for self-collision.")
+            .def_property_readonly("always_in_contact", &CollisionWorld::alwaysInContact,
+                                   "Link pairs left unchecked for being in contact in almost every random configuration "
+                                   "(overlapping shapes, or a held joint value that puts them together).");
     }
 }  // namespace slideplan::bindings
