@@ -430,6 +430,7 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         if joint not in gripper_joints:
             data.ctrl[model.actuator(f"hold_{joint}").id] = value
     data.ctrl[built.gripper.actuators] = built.gripper.opened
+    model.dof_armature[built.arm_dofs] += settings.joint_armature
     set_servo_gains(built, result.start_config, settings)
     return built
 

@@ -34,6 +34,9 @@ class ExecutionSettings:
         object_density: density of the object (kg/m^3).
         cell_size: side of the object's boxes (m).
         servo_bandwidth_hz: closed-loop bandwidth of the arm's joint servos (Hz).
+        joint_armature: reflected inertia of each arm joint's geared motor (kg m^2), added to the link
+            inertia the servo gains follow: without it a light wrist link alone set the Z1's last joint's
+            stiffness to 7 N m/rad, and the pad's friction turned the fingertip 5 deg off its reference.
         grip_torque: closing torque of each revolute gripper joint (N m).
         grip_force: closing force of each prismatic gripper joint (N).
         close_speed: speed of a revolute gripper joint's closing target (rad/s).
@@ -58,6 +61,7 @@ class ExecutionSettings:
     object_density: float = 1000.0
     cell_size: float = 0.0125
     servo_bandwidth_hz: float = 15.0
+    joint_armature: float = 0.01
     grip_torque: float = 0.5
     grip_force: float = 20.0
     close_speed: float = 1.5
