@@ -28,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from plan_bench import cpu_name  # noqa: E402 - the benchmarks share how they name the CPU
 
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")
-SCENES = ("square", "panda_square", "ur5_gripper_square", "z1_square")
+SCENES = ("square", "panda_square", "ur5_gripper_square", "z1_square", "so101_square")
 
 
 def sweep(scene_name: str, poses: int) -> list[dict]:

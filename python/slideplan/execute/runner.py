@@ -175,9 +175,13 @@ class Runner:
             # A rigid finger only (e.g. the bundled UR5 and xArm7 scenes): the slide ran, there is nothing to close.
             return failure or ("grasp", "the hand has no fingers to close: the plan's hand names no gripper joints "
                                         "([hand] gripper_joints)")
+        from .. import _core
+
         lift_target = np.asarray(robot.fk(grasp_config))
         lift_target[2, 3] += settings.lift_height
-        lift_config = robot.ik(lift_target, seed=grasp_config, rng_seed=0)
+        # Straight up; an arm with fewer than six joints takes the yaw its posture gives (the SO-101's
+        # offsets leave the same orientation 5 cm higher just out of reach).
+        lift_config = robot.ik(lift_target, seed=grasp_config, rng_seed=0, options=_core.contact_ik_options(robot))
         # Close: the finger's flexure stiffens (the hand squeezes with the closing servos), the grip capped.
         model.jnt_stiffness[built.spring_joint] *= 50.0
         gripper.grip(model, settings, closing=True)

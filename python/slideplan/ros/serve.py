@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import jsontext
+from .. import _core, jsontext
 from ..closed_loop import Watch, slide_segment
 from ..errors import InputError
 from ..execute.runner import reference
@@ -102,7 +102,6 @@ def _collision_world(result: PlanResult, obj: ThinObject):
     """The plan's robot, table, clutter and object (a prism over its cloud's hull) for collision checks."""
     import shapely
 
-    from .. import _core
     from ..planning import core_obstacles
 
     world = _core.CollisionWorld(result.robot_model(),
@@ -146,7 +145,7 @@ def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = 
         """A fingertip pose (the start's) ``height`` above the object's top (the start presses below it)."""
         target = pose.copy()
         target[2, 3] = max(target[2, 3], top) + height
-        config = robot.ik(target, seed=seed, rng_seed=0)
+        config = robot.ik(target, seed=seed, rng_seed=0, options=_core.contact_ik_options(robot))
         if config is None:
             raise Refused("reach", f"no inverse kinematics {100 * height:.0f} cm above the object at the first contact")
         return np.asarray(config)
@@ -198,7 +197,7 @@ def lift_path(result: PlanResult) -> np.ndarray:
     grasp = np.asarray(result.grasp["config"], dtype=float)
     target = np.asarray(robot.fk(grasp))
     target[2, 3] += LIFT_M
-    lifted = robot.ik(target, seed=grasp, rng_seed=0)
+    lifted = robot.ik(target, seed=grasp, rng_seed=0, options=_core.contact_ik_options(robot))
     if lifted is None:
         raise Refused("lift", f"no inverse kinematics for the {100 * LIFT_M:.0f} cm lift")
     return np.linspace(grasp, np.asarray(lifted), 20)
