@@ -477,18 +477,23 @@ def test_convex_parts_are_read_back_from_the_cache_without_decomposing_again(mon
     np.testing.assert_array_equal(again.mesh_vert, first.mesh_vert)
 
 
-def test_the_z1_closes_its_jaw_on_the_overhang_and_lifts_the_object():
+def _plan_and_execute(scene_name: str, object_name: str, pose: tuple[float, float, float], seed: int):
+    """Plan one object on a bundled robot scene (its meshes' warnings silenced) and execute the plan."""
     import warnings
 
     from slideplan import PlannerConfig, load_object, load_scene, plan
     from slideplan.errors import MeshWarning
 
-    scene = load_scene("z1_square")
+    scene = load_scene(scene_name)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", MeshWarning)
-        result = plan(scene, load_object("circle", table_height=scene.table.height, pose=(0.52, 0.0, 0.4)), PlannerConfig(seed=2))
+        result = plan(scene, load_object(object_name, table_height=scene.table.height, pose=pose), PlannerConfig(seed=seed))
         assert result.solved
-        execution = execute(result)
+        return execute(result)
+
+
+def test_the_z1_closes_its_jaw_on_the_overhang_and_lifts_the_object():
+    execution = _plan_and_execute("z1_square", "circle", (0.52, 0.0, 0.4), 2)
     assert execution.lifted, execution.failure
     # The slide too: with each joint's motor inertia the wrist's servo holds the fingertip's yaw (without
     # it the Z1's last joint was soft, and its slides ended 3-10 deg off Eq. 2).
@@ -496,15 +501,5 @@ def test_the_z1_closes_its_jaw_on_the_overhang_and_lifts_the_object():
 
 
 def test_the_five_joint_so101_slides_grasps_and_lifts():
-    import warnings
-
-    from slideplan import PlannerConfig, load_object, load_scene, plan
-    from slideplan.errors import MeshWarning
-
-    scene = load_scene("so101_square")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", MeshWarning)
-        result = plan(scene, load_object("square", table_height=scene.table.height, pose=(0.37, 0.0, 0.5)), PlannerConfig(seed=1))
-        assert result.solved
-        execution = execute(result)
+    execution = _plan_and_execute("so101_square", "square", (0.37, 0.0, 0.5), 1)
     assert execution.success, execution.failure
