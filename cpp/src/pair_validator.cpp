@@ -1,7 +1,6 @@
 #include "slideplan/pair_validator.hpp"
 
 #include "slideplan/contact_frame.hpp"
-
 #include "slideplan/validity.hpp"
 
 #include <ompl/base/SpaceInformation.h>
