@@ -17,7 +17,10 @@ where it is seen.
 
 The simulation waits while the loop tracks and plans; each re-plan's latency (track + plan with its
 timing) is measured on the wall clock and reported: a real arm would go on moving along the old plan
-meanwhile (at 5 cm/s, 1.3 mm in the median re-plan of docs/benchmarks/replan.md).
+meanwhile (at 5 cm/s, 1.3 mm in the median re-plan of docs/benchmarks/replan.md). MuJoCo's rendering of
+the depth frames is the camera's work, not the loop's: it is reported apart (``sense_s``); the look at
+the end of a slide may take several frames (up to ``END_LOOKS``), which a real camera delivers at its
+frame rate.
 
 A re-plan that is refused (the arm's state is not on the object as seen) or finds no plan within
 ``replan_time_limit`` is reported as such, and the loop goes on with the plan it has.
@@ -109,6 +112,8 @@ class Replan:
         trigger: ``"drift"`` (off the predicted pose during a slide) or ``"end"`` (a slide ended).
         position_error_m, yaw_error_deg: how far the seen pose was from the predicted one.
         track_s, plan_s: wall time of tracking and of planning with timing (s).
+        sense_s: wall time the frames took to arrive (s): in simulation MuJoCo's rendering of the depth
+            camera, which a real camera does on its own; not part of the latency.
         outcome: ``"slide"`` (a new slide followed), ``"grasp"`` (grasped from there), ``"refused"``,
             ``"timeout"`` or ``"lost"`` (the frame did not show the object); the last three keep the
             plan there was.
@@ -123,6 +128,7 @@ class Replan:
     plan_s: float
     outcome: str
     detail: str = ""
+    sense_s: float = 0.0
 
     @property
     def latency_s(self) -> float:
@@ -444,14 +450,24 @@ class Watch:
         Returns:
             (the new plan or None, the event or None (a drift look that asks for nothing), the look).
         """
+        sensed = [0.0]  # the time spent getting frames, kept out of the tracking time
+
+        def timed_frames():
+            begun = time.perf_counter()
+            try:
+                return frames()
+            finally:
+                sensed[0] += time.perf_counter() - begun
+
         started = time.perf_counter()
         if trigger == "end":
-            seen = self.settled(frames, predicted)
+            seen = self.settled(timed_frames, predicted)
         else:
-            seen = self.look(*frames(), predicted)
+            seen = self.look(*timed_frames(), predicted)
         tracked = time.perf_counter()
         error_m, error_yaw = self.error(seen.motion, predicted)
-        event = Replan(elapsed, trigger, error_m, math.degrees(error_yaw), tracked - started, 0.0, "lost", seen.reason)
+        event = Replan(elapsed, trigger, error_m, math.degrees(error_yaw), tracked - started - sensed[0], 0.0, "lost",
+                       seen.reason, sensed[0])
         if not seen.ok:
             return None, (event if trigger == "end" else None), seen
         if trigger == "drift" and not self.drifted(seen, predicted, segment, tip):
