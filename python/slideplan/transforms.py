@@ -141,6 +141,13 @@ def rotation_angle_between(first, second) -> float:
     return math.acos(min(1.0, max(-1.0, 0.5 * (np.trace(relative) - 1.0))))
 
 
+def rotation_vector(rotation) -> np.ndarray:
+    """The rotation as axis times angle (rad, angle in [0, pi]), from its unit quaternion."""
+    quaternion = quaternion_from_matrix(rotation)
+    sine = float(np.linalg.norm(quaternion[:3]))
+    return quaternion[:3] * (2.0 * math.atan2(sine, quaternion[3]) / sine) if sine > 1e-12 else 2.0 * quaternion[:3]
+
+
 def wrap_angle(angle: float) -> float:
     """Map an angle to [-pi, pi)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi

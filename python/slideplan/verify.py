@@ -16,14 +16,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
-from scipy.spatial.transform import Rotation
 from shapely.geometry import MultiPoint
 
 from .errors import InputError, require_type
 from .geometry import SupportSurface, area_centroid
 from .planning import PlanResult, core_obstacles
 from .scenes import obstacle_footprint
-from .transforms import move_planar, rotation_2d, rotation_angle_between, row_to_pose, wrap_angle
+from .transforms import move_planar, rotation_2d, rotation_angle_between, rotation_vector, row_to_pose, wrap_angle
 
 POSE_TOLERANCE = 1e-6  # m and rad: recorded poses must be the forward kinematics (JSON keeps floats exact)
 DEPTH_TOLERANCE_M = 1e-3  # contact depth band slack (the planner projects to 1e-4)
@@ -594,7 +593,7 @@ def check_grasp_pose(result: PlanResult, world: _PlanWorld,
     nominal = np.column_stack([np.cross([0.0, 0.0, 1.0], approach), [0.0, 0.0, 1.0], approach])
     frames = [nominal] + ([nominal @ np.diag([-1.0, -1.0, 1.0])] if result.params.get("grasp_flip", True) else [])
     allowed = np.array([result.params.get(f"grasp_{axis}_tolerance", 0.0) for axis in ("tilt", "yaw", "roll")])
-    turns = [Rotation.from_matrix(frame.T @ pose[:3, :3]).as_rotvec() for frame in frames]
+    turns = [rotation_vector(frame.T @ pose[:3, :3]) for frame in frames]
     turn = min(turns, key=lambda rotation: float(np.max(np.abs(rotation) - allowed)))
     if np.any(np.abs(turn) > allowed + tolerance[1]):
         violations.append(f"grasp.pose: turned ({turn[0]:.4f}, {turn[1]:.4f}, {turn[2]:.4f}) rad from H_g about its x "

@@ -10,7 +10,8 @@ import pytest
 from slideplan.errors import InputError
 from slideplan.planning import PLAN_SCHEMA, PlannerConfig, PlanResult, base_pose_matrix
 from slideplan.scenes import load_scene
-from slideplan.transforms import matrix_from_quaternion, pose_to_row, quaternion_from_matrix, rotation_from_rpy, row_to_pose
+from slideplan.transforms import (matrix_from_quaternion, pose_to_row, quaternion_from_matrix, rotation_from_rpy, rotation_vector,
+                                  row_to_pose)
 
 DOF = 7
 
@@ -153,6 +154,17 @@ def test_quaternion_round_trip_on_random_and_half_turn_rotations():
         quaternion = quaternion_from_matrix(rotation)
         assert quaternion[3] >= 0 and math.isclose(np.linalg.norm(quaternion), 1.0)
         np.testing.assert_allclose(matrix_from_quaternion(quaternion), rotation, atol=1e-12)
+
+
+def test_rotation_vector_matches_scipys():
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(1)
+    for _ in range(500):
+        axis = rng.normal(size=3)
+        expected = axis / np.linalg.norm(axis) * rng.uniform(0.0, math.pi - 1e-6)
+        np.testing.assert_allclose(rotation_vector(Rotation.from_rotvec(expected).as_matrix()), expected, atol=1e-9)
+    np.testing.assert_allclose(rotation_vector(np.eye(3)), np.zeros(3))
 
 
 def test_pose_row_round_trip():
