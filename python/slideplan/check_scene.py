@@ -176,8 +176,7 @@ def _why_no_grasp(robot, world, mapped, edge: int, cell: int, grasp_link: str, o
 def _approach_problem(robot, world, grasp: np.ndarray, backoff: float, grasp_link: str, offset: np.ndarray, params) -> str:
     """'' if the grasp configuration ``grasp`` is free of collisions and the pre-grasp ``backoff`` before
     its grasp frame (along the approach axis) is reachable from it (within the rotation the hand tolerates,
-    ``params``) and
-    free of collisions; else what is wrong, naming the first colliding pair."""
+    ``params``) and free of collisions; else what is wrong, naming the first colliding pair."""
     from . import _core
 
     pairs = world.collisions(grasp, _core.ContactMode.FREE)
