@@ -52,7 +52,7 @@ from .execute.model import DEPTH_CAMERA, build_model
 from .execute.runner import SETTLE_S, Runner, Unstable, timing_of, timing_options
 from .execute.settings import ExecutionSettings, stress_settings
 from .execute.video import Recorder, plan_points
-from .objects import ThinObject, load_object, load_outline
+from .objects import ThinObject, load_object, load_outline, place_outline
 from .planning import PlannerConfig, PlanResult, build_robot, plan
 from .rendering import Camera, camera_depth, noisy_depth, place_objects, render_scene
 from .scenes import Scene, load_scene
@@ -75,6 +75,7 @@ DEPTH_DROPOUT = 0.05
 CONFIRM = 2  # looks in a row off the predicted pose, agreeing with each other, that make a drift
 AGREE = 3.0  # two looks agree within this many thresholds
 END_LOOKS = 4  # frames at most at the end of a slide for two in a row that agree
+ON_TABLE_SLACK_M = 0.003  # the perceived object may cross a table edge by this much (about a pixel)
 
 
 @dataclass(frozen=True)
@@ -258,7 +259,27 @@ def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: fl
         raise InputError("the camera does not see the object", field="--pose")
     outline, thickness, _ = load_outline(object_name)
     seen_pose, _ = register_outline(perception.objects[0].points, outline)
-    return load_object(object_name, table_height=scene.table.height, pose=seen_pose)
+    return load_object(object_name, table_height=scene.table.height, pose=_on_table(scene.table.polygon, outline, seen_pose))
+
+
+def _on_table(table, outline, pose) -> tuple[float, float, float]:
+    """``pose`` moved onto the table when the outline there crosses an edge by up to ``ON_TABLE_SLACK_M``:
+    the object lies on the table, and the camera's estimate of an object at an edge can put a millimetre
+    of it over (the planner refuses an object off the table). Further over, ``pose`` as it is."""
+    x, y, yaw = pose
+    for _ in range(4):
+        corners = np.asarray(place_outline(outline, (x, y, yaw)).exterior.coords)
+        outside = [corner for corner in corners if not table.covers(shapely.Point(corner))]
+        if not outside:
+            break
+        gaps = [(table.exterior.interpolate(table.exterior.project(shapely.Point(corner))), corner) for corner in outside]
+        to, corner = max(gaps, key=lambda gap: gap[0].distance(shapely.Point(gap[1])))
+        step = np.array([to.x, to.y]) - corner
+        if np.linalg.norm(step) > ON_TABLE_SLACK_M:
+            return tuple(pose)
+        step *= 1.0 + 1e-6 / max(float(np.linalg.norm(step)), 1e-12)  # onto the edge, not a rounding error short
+        x, y = x + float(step[0]), y + float(step[1])
+    return (x, y, yaw)
 
 
 def _times(result: PlanResult, key: str, length: int) -> np.ndarray:
@@ -324,10 +345,13 @@ def _judge(report: dict[str, Any], table, perceived: ThinObject, truth: ThinObje
 
 
 def _pose_error(obj: ThinObject, first, second) -> tuple[float, float]:
-    """Distance (m) between the object's centre of mass under two motions, and their yaw difference (rad)."""
+    """Distance (m) between the object's centre of mass under two motions, and their yaw difference (rad)
+    less the nearest turn that leaves the footprint as it was (a disc's yaw is no error)."""
     com = np.asarray(obj.centroid_xy, dtype=float)[None, :]
+    turn = wrap_angle(float(first[2]) - float(second[2]))
+    unseen = (turn - obj.symmetry_turns + math.pi) % (2 * math.pi) - math.pi
     return (float(np.linalg.norm(move_planar(com, first) - move_planar(com, second))),
-            wrap_angle(float(first[2]) - float(second[2])))
+            float(unseen[np.argmin(np.abs(unseen))]))
 
 
 class Watch:
@@ -354,6 +378,7 @@ class Watch:
         self.scene, self.perceived, self.threshold = scene, perceived, threshold
         self.replan_config = dataclasses.replace(config, time_limit_s=replan_time_limit)
         self.tracker = Tracker(perceived, camera, table_height=scene.table.height)
+        perceived.symmetry_turns  # computed once, before the first look's latency
         self.looks = self.lost_looks = self.kept = 0
         self._last: tuple | None = None  # (motion seen, fingertip pose then) of the last look that found the object
         self._beyond: list = []  # the poses seen in the looks in a row off the predicted pose

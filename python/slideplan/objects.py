@@ -22,6 +22,7 @@ from .transforms import move_planar, rotation_2d
 
 CLOUD_SUFFIXES = (".ply", ".npy", ".csv", ".pcd")
 DEFAULT_THICKNESS = 0.004  # m; a few mm, like the paper's objects
+SYMMETRY_TOLERANCE_M = 0.0005  # a turn moving no outline point further than this leaves it as it was
 _MAX_SAMPLES = 2_000_000  # guards against a resolution typo (e.g. 5e-6) eating all memory
 
 
@@ -134,6 +135,24 @@ class ThinObject:
             (2,) array.
         """
         return area_centroid(self.points[:, :2])
+
+    @cached_property
+    def symmetry_turns(self) -> np.ndarray:
+        """The turns about the centre of mass that leave the footprint where it was, every degree in
+        [0, 2 pi) (rad; 0 always, 4 for a square, all 360 for a disc): a turn a camera cannot see, so
+        neither a tracking error nor a drift. Within ``SYMMETRY_TOLERANCE_M`` of the outline (the convex
+        hull of a cloud without one)."""
+        outline = self.outline if self.outline is not None else shapely.MultiPoint(self.points[:, :2]).convex_hull
+        boundary = outline.boundary
+        samples = shapely.get_coordinates(shapely.segmentize(boundary, 0.005))
+        centre = np.asarray(self.centroid_xy, dtype=float)
+        turns = np.radians(np.arange(360.0))
+        cos, sin = np.cos(turns)[:, None], np.sin(turns)[:, None]
+        local = samples - centre
+        x = centre[0] + cos * local[:, 0] - sin * local[:, 1]
+        y = centre[1] + sin * local[:, 0] + cos * local[:, 1]
+        off = shapely.distance(shapely.points(x, y), boundary).max(axis=1)
+        return turns[off <= SYMMETRY_TOLERANCE_M]
 
     def moved(self, motion) -> ThinObject:
         """The same object moved on the table by a planar motion in the world frame (Eq. 2's form).

@@ -15,7 +15,15 @@ Rather than segment the scene again, the tracker registers the known outline to 
    the object there is no object-table edge, so occlusion removes points instead of adding wrong
    ones;
 4. a trimmed 2-D ICP of those points to the outline (point to nearest outline point, the rigid
-   fit in closed form, pairs beyond three times the median distance dropped).
+   fit in closed form, pairs beyond three times the median distance dropped);
+5. the fit counts only if its edge points hold it in x and y: with the arm over the object, the one
+   edge left in view may be straight, and a straight edge lets the outline slide along it (the fit
+   is then anywhere along it, centimetres off). The outline's normals at the matched points give the
+   translation's information matrix; its smallest eigenvalue must reach ``MIN_CONSTRAINT``;
+6. and only if the frame shows the object where the fit puts it: inside its outline (``INLIER_M`` in
+   from the edge) at least ``MIN_EDGE_POINTS`` object pixels, and table pixels at most
+   ``MAX_TABLE_INSIDE`` of the pixels seen there. The edges of the hand with the table fit the outline
+   too, with the fit wholly under the hand, where no pixel shows it.
 
 Needs SciPy (``perception`` extra).
 """
@@ -42,6 +50,8 @@ SCOUT_ITERATIONS = 8  # ICP iterations from each start before the best one is re
 EXPLAINED = 0.85  # a fit from the guess explaining this fraction of the edge points, NEAR_GUESS, is taken
 NEAR_GUESS = (0.01, 0.1)  # m (the centre of mass), rad
 INLIER_M = 0.003  # an edge point this near the fitted outline is explained by it (about a pixel at 0.75 m)
+MIN_CONSTRAINT = 2.0  # the fit's weakest direction in x, y must be held by as many edge points as this, head on
+MAX_TABLE_INSIDE = 0.1  # of the pixels seen inside a fit's outline, at most this fraction may be table
 
 NOT_UNDER_TIP = "no fit puts the object under the fingertip"  # a TrackedPose reason
 
@@ -96,7 +106,10 @@ class Tracker:
         self.table_height = as_number(table_height, source="", field="table_height")
         outline = obj.outline if obj.outline is not None else _cloud_outline(obj.points[:, :2])
         self._hull = outline.convex_hull  # where a start contact may be (the planner's test)
-        self._model = _densify(outline, OUTLINE_SPACING_M)
+        interior = outline.buffer(-INLIER_M)
+        self._interior_outline = outline if interior.is_empty else interior  # a strip under 6 mm wide: all of it
+        shapely.prepare(self._interior_outline)
+        self._model, self._normals = _densify(outline, OUTLINE_SPACING_M)
         self._tree = cKDTree(self._model)
         self._centre = np.asarray(obj.centroid_xy, dtype=float)
         self._radius = float(np.max(np.linalg.norm(obj.points[:, :2] - self._centre, axis=1)))
@@ -110,7 +123,7 @@ class Tracker:
             guess: (x, y, yaw) motion of the reference object expected now.
 
         Returns:
-            (K, 2) world xy of the edge points, (L, 2) of the object's pixels.
+            (K, 2) world xy of the edge points, (L, 2) of the object's pixels, (M, 2) of the table's.
         """
         from scipy.ndimage import binary_dilation, median_filter
 
@@ -122,7 +135,7 @@ class Tracker:
         low = np.clip(np.floor(pixels.min(axis=0)).astype(int) - 2, 0, None)
         high = np.minimum(np.ceil(pixels.max(axis=0)).astype(int) + 3, depth.shape)
         if np.any(high <= low):
-            return np.zeros((0, 2)), np.zeros((0, 2))
+            return np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2))
         window = depth[low[0]:high[0], low[1]:high[1]]
         filled = np.where(np.isfinite(window), window, np.inf)  # a dropout never wins the median unless most are
         world = pixel_points(median_filter(filled, size=3, mode="nearest"), self.camera, (int(low[0]), int(low[1])))
@@ -134,7 +147,7 @@ class Tracker:
             is_table = near & (np.abs(height) < half)
         cross = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
         edge = (is_object & binary_dilation(is_table, cross)) | (is_table & binary_dilation(is_object, cross))
-        return world[edge][:, :2], world[is_object][:, :2]
+        return world[edge][:, :2], world[is_object][:, :2], world[is_table][:, :2]
 
     def track(self, depth: np.ndarray, guess=(0.0, 0.0, 0.0), contact=None) -> TrackedPose:
         """Estimate where the object is in one frame.
@@ -162,7 +175,7 @@ class Tracker:
         guess = tuple(float(value) for value in as_numbers(guess, 3, source="", field="guess"))
         if contact is not None:
             contact = as_numbers(contact, 2, source="", field="contact")
-        points, inside = self.classify(depth, guess)
+        points, inside, table = self.classify(depth, guess)
         if len(points) < MIN_EDGE_POINTS:
             return TrackedPose(False, guess, len(points), math.nan, f"{len(points)} edge points in view (< {MIN_EDGE_POINTS})")
         # A disturbed object may lie centimetres from the guess, where the nearest outline points pull
@@ -191,6 +204,14 @@ class Tracker:
         motion, inliers, rmse = fit
         if inliers < MIN_EDGE_POINTS:
             return TrackedPose(False, guess, inliers, math.nan, "the fit lost the edge")
+        held = self._held(points, motion)
+        if held < MIN_CONSTRAINT:
+            return TrackedPose(False, guess, inliers, math.nan,
+                               f"the edge in view does not fix the pose (held by {held:.1f} points < {MIN_CONSTRAINT:g})")
+        seen, table_share = self._interior(motion, inside, table)
+        if seen < MIN_EDGE_POINTS or table_share > MAX_TABLE_INSIDE:
+            return TrackedPose(False, guess, inliers, math.nan, f"the frame does not show the object where the fit puts it "
+                               f"({seen} object pixels inside, {100 * table_share:.0f}% of those seen there table)")
         return TrackedPose(True, (float(motion[0]), float(motion[1]), wrap_angle(float(motion[2]))), inliers, rmse)
 
     def _holds(self, motion: np.ndarray, contact) -> bool:
@@ -200,6 +221,22 @@ class Tracker:
             return True
         local = (np.asarray(contact, dtype=float) - motion[:2]) @ rotation_2d(motion[2])
         return self._hull.distance(shapely.Point(local)) <= INLIER_M
+
+    def _interior(self, motion: np.ndarray, inside: np.ndarray, table: np.ndarray) -> tuple[int, float]:
+        """The object pixels inside the outline at ``motion`` (``INLIER_M`` in from its edge), and the
+        share of table pixels among the pixels seen there (module step 6)."""
+        counts = []
+        for pixels in (inside, table):
+            local = (pixels - motion[:2]) @ rotation_2d(motion[2])
+            counts.append(int(shapely.contains_xy(self._interior_outline, local[:, 0], local[:, 1]).sum()))
+        return counts[0], counts[1] / max(sum(counts), 1)
+
+    def _held(self, points: np.ndarray, motion: np.ndarray) -> float:
+        """How firmly the edge points explained by the fit at ``motion`` hold it: the smallest eigenvalue
+        of its point-to-outline information matrix (module step 5)."""
+        distance, index = self._tree.query((points - motion[:2]) @ rotation_2d(motion[2]))
+        normals = self._normals[index[distance <= INLIER_M]]
+        return float(np.linalg.eigvalsh(normals.T @ normals)[0])
 
     def _icp(self, points: np.ndarray, motion: np.ndarray, iterations: int) -> tuple[np.ndarray, int, float]:
         """Trimmed ICP from ``motion``: the fit, the edge points within ``INLIER_M`` of the outline, and
@@ -238,11 +275,15 @@ def _rigid_fit(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     return np.array([x, y, yaw])
 
 
-def _densify(outline: Polygon, spacing: float) -> np.ndarray:
-    """Points every ``spacing`` along every ring of the outline."""
-    rings = [outline.exterior, *outline.interiors]
-    points = [np.asarray(shapely.segmentize(ring, spacing).coords)[:-1] for ring in rings]
-    return np.concatenate(points)
+def _densify(outline: Polygon, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points every ``spacing`` along every ring of the outline, and the ring's unit normal at each."""
+    points, normals = [], []
+    for ring in (outline.exterior, *outline.interiors):
+        ring_points = np.asarray(shapely.segmentize(ring, spacing).coords)[:-1]
+        along = np.roll(ring_points, -1, axis=0) - np.roll(ring_points, 1, axis=0)
+        points.append(ring_points)
+        normals.append(np.column_stack([along[:, 1], -along[:, 0]]) / np.linalg.norm(along, axis=1)[:, None])
+    return np.concatenate(points), np.concatenate(normals)
 
 
 def _cloud_outline(xy: np.ndarray) -> Polygon:

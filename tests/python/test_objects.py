@@ -308,3 +308,17 @@ def test_every_builtin_scene_has_a_random_pose_for_every_object():
         for name in BUILTIN_OBJECTS:
             outline = load_outline(name)[0]
             assert table.polygon.contains(place_outline(outline, sample_pose_on_table(outline, table, rng)))
+
+
+@pytest.mark.parametrize("name, turns", [("circle", 360), ("square", 4), ("triangle", 3), ("crescent", 1), ("L", 1)])
+def test_an_objects_symmetry_turns_are_the_turns_that_leave_its_footprint(name, turns):
+    obj = load_object(name, table_height=0.7, pose=(0.5, 0.1, 0.3))
+    found = np.degrees(obj.symmetry_turns)
+    assert len(found) == turns and found[0] == 0.0
+    assert np.allclose(np.diff(found), 360.0 / turns)
+    # Each turn about the centre of mass leaves the outline where it was; half way between two, it moves.
+    centre = shapely.Point(obj.centroid_xy)
+    for turn in found:
+        assert shapely.affinity.rotate(obj.outline, turn, origin=centre).hausdorff_distance(obj.outline) < 5e-4
+    if turns > 1 and turns < 360:
+        assert shapely.affinity.rotate(obj.outline, 180.0 / turns, origin=centre).hausdorff_distance(obj.outline) > 5e-3

@@ -107,3 +107,42 @@ def test_a_fit_must_put_the_object_under_the_fingertip(square):
     assert on.ok and np.allclose(on.motion, free.motion)
     off = tracker.track(depth, contact=obj.centroid_xy + (0.2, 0.0))
     assert not off.ok and "fingertip" in off.reason
+
+
+def test_a_straight_edge_alone_does_not_fix_the_pose(square):
+    # A 40 cm strip with both ends under the hand: its two long edges let the outline slide along them,
+    # so no fit says where it is; with the ends in view the same strip is found.
+    from shapely.geometry import box as rectangle
+
+    from slideplan.objects import ThinObject
+    from slideplan.rendering import PlacedObject
+
+    table, camera = square
+    strip = ThinObject.from_outline(rectangle(-0.2, -0.03, 0.2, 0.03), thickness=0.004, table_height=table.height,
+                                    pose=(0.5, 0.0, 0.0))
+    placed = [PlacedObject("strip", (0.5, 0.0, 0.0), 0.004, strip.outline)]
+    hands = [Box((x, 0.0, table.height + 0.04), (0.14, 0.2, 0.04)) for x in (0.35, 0.65)]  # above the strip's ends
+    tracker = Tracker(strip, camera, table_height=table.height)
+    rng = np.random.default_rng(1)
+    hidden = noisy_depth(depth_image(scene_mjcf(table, placed, hands, camera), camera), 0.002, 0.05, rng)
+    slid = tracker.track(hidden, guess=(0.02, 0.0, 0.0))
+    assert not slid.ok and "does not fix the pose" in slid.reason
+    whole = tracker.track(noisy_depth(depth_image(scene_mjcf(table, placed, [], camera), camera), 0.002, 0.05, rng))
+    assert whole.ok, whole.reason
+    assert np.hypot(*whole.motion[:2]) < 0.002
+
+
+def test_a_fit_where_the_frame_shows_the_table_is_refused(square):
+    # A ring of low bars (the hand's edges at the object's height) traces the square's outline, with the
+    # table seen inside it: the outline fits its edges, but the frame shows no object there. The square
+    # itself at the same place is found.
+    table, camera = square
+    x, z = 0.55, table.height + 0.007
+    ring = [Box((x - 0.045, 0.0, z), (0.01, 0.1, 0.006)), Box((x + 0.045, 0.0, z), (0.01, 0.1, 0.006)),
+            Box((x, -0.045, z), (0.1, 0.01, 0.006)), Box((x, 0.045, z), (0.1, 0.01, 0.006))]
+    tracker = Tracker(load_object("square", table_height=table.height, pose=(x, 0.0, 0.0)), camera, table_height=table.height)
+    rng = np.random.default_rng(1)
+    traced = tracker.track(noisy_depth(depth_image(scene_mjcf(table, [], ring, camera), camera), 0.002, 0.05, rng))
+    assert not traced.ok and "does not show the object" in traced.reason
+    real = tracker.track(frame(table, camera, "square", (x, 0.0, 0.0), [], rng))
+    assert real.ok, real.reason
