@@ -13,7 +13,9 @@ where it is seen.
    the servos' reference is, so it does not jump) with the object where it was seen, and follow the new plan;
 3. when a slide ends, track the object and plan from the final configuration with the object where it
    was seen: the plan is that configuration and its grasp when the object overhangs enough (else it
-   slides on, up to ``end_replans`` times); then approach, close, lift 5 cm and hold 1 s.
+   slides on, up to ``end_replans`` times); then approach, close, lift 5 cm and hold 1 s. When the
+   hand hides the object from the camera there, the finger rises ``CLEAR_LIFT_M`` straight up, looks
+   from there, and comes back down to where it was before the plan from what it saw goes on.
 
 The simulation waits while the loop tracks and plans; each re-plan's latency (track + plan with its
 timing) is measured on the wall clock and reported: a real arm would go on moving along the old plan
@@ -49,7 +51,7 @@ from . import jsontext
 from ._fields import as_numbers
 from .errors import InputError
 from .execute.model import DEPTH_CAMERA, build_model
-from .execute.runner import SETTLE_S, Runner, Unstable, timing_of, timing_options
+from .execute.runner import SETTLE_S, Runner, Unstable, straight_way, timing_of, timing_options
 from .execute.settings import ExecutionSettings, stress_settings
 from .execute.video import Recorder, plan_points
 from .objects import ThinObject, load_object, load_outline, place_outline
@@ -76,6 +78,7 @@ CONFIRM = 2  # looks in a row off the predicted pose, agreeing with each other, 
 AGREE = 3.0  # two looks agree within this many thresholds
 END_LOOKS = 4  # frames at most at the end of a slide for two in a row that agree
 ON_TABLE_SLACK_M = 0.003  # the perceived object may cross a table edge by this much (about a pixel)
+CLEAR_LIFT_M = 0.1  # when the arm hides the object at the end of a slide, the finger rises this far to look
 
 
 @dataclass(frozen=True)
@@ -110,7 +113,8 @@ class Replan:
 
     Attributes:
         time_s: simulated time since the slide started (s).
-        trigger: ``"drift"`` (off the predicted pose during a slide) or ``"end"`` (a slide ended).
+        trigger: ``"drift"`` (off the predicted pose during a slide), ``"end"`` (a slide ended) or
+            ``"clear"`` (the look after an end look that did not see the object, the finger lifted clear).
         position_error_m, yaw_error_deg: how far the seen pose was from the predicted one.
         track_s, plan_s: wall time of tracking and of planning with timing (s).
         sense_s: wall time the frames took to arrive (s): in simulation MuJoCo's rendering of the depth
@@ -282,6 +286,18 @@ def _on_table(table, outline, pose) -> tuple[float, float, float]:
     return (x, y, yaw)
 
 
+def clear_config(robot, config: np.ndarray) -> np.ndarray | None:
+    """The arm's configuration with the fingertip ``CLEAR_LIFT_M`` straight above where it is at
+    ``config`` (its yaw free for an arm with fewer than six joints, as the planner's contact), or None
+    where there is no IK: the look at the end of a slide when the hand hides the object."""
+    from . import _core
+
+    target = np.asarray(robot.fk(config))
+    target[2, 3] += CLEAR_LIFT_M
+    found = robot.ik(target, seed=config, rng_seed=0, options=_core.contact_ik_options(robot))
+    return None if found is None else np.asarray(found, dtype=float)
+
+
 def _times(result: PlanResult, key: str, length: int) -> np.ndarray:
     times = timing_of(result.timing, key, length)
     if times is None:
@@ -418,18 +434,19 @@ class Watch:
             self.lost_looks += 1
         return seen
 
-    def settled(self, frames, predicted) -> Any:
+    def settled(self, frames, predicted, *, pressed: bool = True) -> Any:
         """At the end of a slide, the arm at rest: frames (``frames()`` gives the next ``(depth, tip)``)
         until two in a row agree (a single frame's fit can be a wrong one, and the grasp is made where
         the object is seen). The pose last seen during the slide, carried to the end, counts as the
         first of the two. When no fit puts the object under the fingertip (a push took it from under the
-        finger), as many frames again without that test."""
+        finger), as many frames again without that test; ``pressed=False`` (the finger lifted clear):
+        only those."""
         frame, tip = frames()
         carried = self.carried_last(tip)
-        seen = self.look(frame, tip, predicted)
+        seen = self.look(frame, tip, predicted, under_tip=pressed)
         if seen.ok and carried is not None and self.agree(carried, seen.motion):
             return seen
-        for under_tip in (True, False):
+        for under_tip in (True, False)[0 if pressed else 1:]:
             for _ in range(END_LOOKS - 1 if under_tip else END_LOOKS):
                 again = self.look(*frames(), predicted, under_tip=under_tip)
                 if seen.ok and again.ok and self.agree(seen.motion, again.motion):
@@ -463,8 +480,9 @@ class Watch:
         """One look that may lead to a new plan.
 
         Args:
-            trigger: ``"drift"`` (a look during the slide ``segment``, the fingertip commanded at ``tip``)
-                or ``"end"`` (the settled look after a slide).
+            trigger: ``"drift"`` (a look during the slide ``segment``, the fingertip commanded at ``tip``),
+                ``"end"`` (the settled look after a slide) or ``"clear"`` (the same with the finger lifted
+                clear of the object, after an end look that did not see it).
             elapsed: time into the slide, for the event (s).
             frames: gives the next ``(depth, measured fingertip pose)``.
             predicted: where Eq. 2 puts the object now (motion from its perceived pose).
@@ -485,8 +503,8 @@ class Watch:
                 sensed[0] += time.perf_counter() - begun
 
         started = time.perf_counter()
-        if trigger == "end":
-            seen = self.settled(timed_frames, predicted)
+        if trigger in ("end", "clear"):
+            seen = self.settled(timed_frames, predicted, pressed=trigger == "end")
         else:
             seen = self.look(*timed_frames(), predicted)
         tracked = time.perf_counter()
@@ -494,7 +512,7 @@ class Watch:
         event = Replan(elapsed, trigger, error_m, math.degrees(error_yaw), tracked - started - sensed[0], 0.0, "lost",
                        seen.reason, sensed[0])
         if not seen.ok:
-            return None, (event if trigger == "end" else None), seen
+            return None, (event if trigger != "drift" else None), seen
         if trigger == "drift" and not self.drifted(seen, predicted, segment, tip):
             return None, None, seen
         self._beyond.clear()
@@ -670,6 +688,14 @@ def run(
                 break
             again, event, seen = watch.replan("end", data.time - slide_start[0], frames, predicted_end, end_config)
             report["events"].append(event)
+            lifted = clear_config(robot, end_config) if event.outcome == "lost" else None
+            if lifted is not None:  # the arm hides the object: the finger rises clear, looks and comes back
+                way, way_times = straight_way(robot, end_config, lifted,
+                                              resolve_limits(segment.result, timing_options(settings, robot.velocity_limits)), "clear")
+                runner.follow(way, way_times, SETTLE_S)
+                again, event, seen = watch.replan("clear", data.time - slide_start[0], frames, predicted_end, end_config)
+                report["events"].append(event)
+                runner.follow(way[::-1], way_times, SETTLE_S)
             seen_motion = seen.motion
             if again is None or ends >= end_replans:
                 grasp_plan = segment.result  # its own grasp, from where Eq. 2 put the object

@@ -160,6 +160,20 @@ def test_a_perceived_object_a_millimetre_over_an_edge_is_moved_onto_the_table():
             assert placed == pose
 
 
+def test_when_the_arm_hides_the_object_at_the_end_the_finger_rises_clear_to_look():
+    # A camera over the robot's side: at the end of each slide the hand hides the object from it. The
+    # finger rises clear, the look from there finds the object, and the loop goes on from what it saw.
+    from slideplan.rendering import Camera
+
+    height = load_scene("square").table.height
+    report = run(*DEMO, seed=1, closed=True, camera=Camera((0.2, -0.08, height + 0.7), (0.55, -0.15, height)))
+    hidden = [index for index, event in enumerate(report.events) if event.trigger == "end" and event.outcome == "lost"]
+    assert hidden, [(event.trigger, event.outcome) for event in report.events]
+    assert all(report.events[index + 1].trigger == "clear" for index in hidden)
+    assert any(event.trigger == "clear" and event.outcome in ("slide", "grasp") for event in report.events)
+    assert report.success, report.summary()
+
+
 def test_under_the_stress_setting_the_loop_does_not_chase_the_trackers_error():
     # Torsional friction halved and the finger at its shallowest: the tracker's scatter under the arm is
     # about the 3 mm / 2 degree threshold, so looks off the prediction come often. Before the re-plan was

@@ -42,6 +42,15 @@ def timing_options(settings: ExecutionSettings, urdf_velocity) -> TimingOptions:
                          joint_velocity=velocity)
 
 
+def straight_way(robot, start: np.ndarray, end: np.ndarray, limits: dict[str, Any], name: str) -> tuple[np.ndarray, np.ndarray]:
+    """A joint-linear way from ``start`` to ``end`` (20 waypoints) and its times from rest to rest, the
+    fingertip speed capped all the way: the moves a plan does not hold (the lift after the grasp, the
+    closed loop's look from above). ``name`` names it in a timing error."""
+    path = np.linspace(np.asarray(start, dtype=float), np.asarray(end, dtype=float), 20)
+    tips = np.array([np.asarray(robot.fk(config))[:3, 3] for config in path])
+    return path, time_path(path, tips, np.ones(len(path), dtype=bool), limits, name)["time_from_start"]
+
+
 def reference(path: np.ndarray, times: np.ndarray, t: float) -> np.ndarray:
     """Joint reference at time ``t`` by linear interpolation (held at the ends)."""
     if t >= times[-1]:
@@ -197,11 +206,8 @@ class Runner:
         on_table = self.robot_bodies_on_table()
         if lift_config is None:
             return failure or ("grasp", f"no inverse kinematics for the {100 * settings.lift_height:.0f} cm lift")
-        lift = np.linspace(grasp_config, np.asarray(lift_config), 20)
-        lift_tips = np.array([np.asarray(robot.fk(config))[:3, 3] for config in lift])
         # The lift is not in the plan: timed here, the fingertip capped all the way (it holds the object).
-        lift_times = time_path(lift, lift_tips, np.ones(len(lift), dtype=bool), limits, "lift")["time_from_start"]
-        self.follow(lift, lift_times, settings.hold_s)
+        self.follow(*straight_way(robot, grasp_config, lift_config, limits, "lift"), settings.hold_s)
         self.lifted = self.object_pose()[2] >= rest_z + _LIFTED_FRACTION * settings.lift_height
         if not self.lifted:
             blocked = f" ({', '.join(on_table)} stopped by the table when closing)" if on_table else ""

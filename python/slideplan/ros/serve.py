@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _core, jsontext
-from ..closed_loop import Watch, slide_segment
+from ..closed_loop import Watch, clear_config, slide_segment
 from ..errors import InputError
 from ..execute.runner import reference
 from ..objects import ThinObject
@@ -590,6 +590,13 @@ class Execution:
             predicted = segment.predicted(np.asarray(robot.fk(path[-1])))
             again, event, seen = watch.replan("end", float(times[-1]), frames_after([node.now()]), predicted, path[-1])
             self.record(event)
+            lifted = clear_config(robot, path[-1]) if event.outcome == "lost" else None
+            if lifted is not None:  # the arm hides the object: the finger rises clear, looks and comes back
+                up = np.linspace(path[-1], lifted, 20)
+                node.move(result.joint_names, up, timed(segment.result, up, "clear", capped=True), "clear")
+                again, event, seen = watch.replan("clear", float(times[-1]), frames_after([node.now()]), predicted, path[-1])
+                self.record(event)
+                node.move(result.joint_names, up[::-1], timed(segment.result, up[::-1], "clear", capped=True), "clear")
             outcome = event.outcome
             if again is None and outcome == "refused" and ends < END_REPLANS:
                 # The finger is off the object as seen (pushed from under it): a new slide from a new contact.
