@@ -164,7 +164,9 @@ class Tracker:
                 what rules those fits out.
 
         Returns:
-            The estimate; ``ok`` False (with the reason) when the frame shows too little edge.
+            The estimate; ``ok`` False (with the reason) when the frame shows too little edge, no fit
+            puts the object under ``contact``, or the fit is not held in x and y or not shown by the
+            frame (module steps 5 and 6).
 
         Raises:
             InputError: a depth image of another shape than the camera's, or a guess that is not 3
