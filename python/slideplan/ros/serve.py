@@ -737,9 +737,13 @@ def serve(scene: Scene, parameters: dict | None = None, *, ros_args: list[str] =
     log(f"slideplan: serving /slideplan/plan and /slideplan/execute for {scene.name} "
         f"({len(planning.robot_joints)} joints)")
     try:
-        executor.spin()
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception:
+        if rclpy.ok():  # Ctrl-C shuts the context down under the spinning executor: no error then
+            raise
     finally:
         executor.shutdown()
         planning.node.destroy_node()

@@ -306,6 +306,9 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
             executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception:
+        if rclpy.ok():  # Ctrl-C shuts the context down under the spinning executor: no error then
+            raise
     finally:
         stop.set()
         thread.join(timeout=5.0)
