@@ -127,8 +127,9 @@ def summarize_closed_loop(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def plot_closed_loop(runs: pd.DataFrame, out_dir: str | Path, name: str = "closed_loop") -> list[Path]:
-    """Success per setting and mode (95% Wilson interval), re-plans per closed-loop run, and the
-    distribution of the runs' median re-plan latency.
+    """Success per setting and mode (95% Wilson interval), re-plans per closed-loop run, the
+    distribution of the runs' median re-plan latency, and of the error of the verdict (the overhang
+    as seen after the slide less the true one).
 
     Args:
         runs: :func:`closed_loop_runs` rows.
@@ -143,8 +144,8 @@ def plot_closed_loop(runs: pd.DataFrame, out_dir: str | Path, name: str = "close
     from ..plots import save_figures
 
     summary = summarize_closed_loop(runs)
-    figure = Figure(figsize=(13, 3.8))
-    success_axes, replan_axes, latency_axes = figure.subplots(1, 3)
+    figure = Figure(figsize=(17, 3.8))
+    success_axes, replan_axes, latency_axes, error_axes = figure.subplots(1, 4)
     width = 0.38
     for offset, (mode, colour) in zip((-width / 2, width / 2), zip(MODES, ("tab:grey", "tab:blue"))):
         rows = summary[summary["mode"] == mode].set_index("setting").reindex(list(SETTINGS))
@@ -155,15 +156,24 @@ def plot_closed_loop(runs: pd.DataFrame, out_dir: str | Path, name: str = "close
     success_axes.set(xticks=np.arange(len(SETTINGS)), xticklabels=list(SETTINGS), ylabel="success (%)", ylim=(0, 105))
     success_axes.axhline(95, color="grey", linestyle=":")
     closed = runs[runs["mode"] == "closed"]
-    for setting in SETTINGS:
+    for index, setting in enumerate(SETTINGS):
+        colour = f"C{index}"
         replans = closed[closed["setting"] == setting]["replans"].to_numpy()
-        replan_axes.step(np.sort(replans), np.arange(1, len(replans) + 1) / max(len(replans), 1), where="post", label=setting)
+        replan_axes.step(np.sort(replans), np.arange(1, len(replans) + 1) / max(len(replans), 1), where="post",
+                         color=colour, label=setting)
         latency = np.sort(1000 * closed[closed["setting"] == setting]["replan_latency_s"].dropna().to_numpy())
-        latency_axes.step(latency, np.arange(1, len(latency) + 1) / max(len(latency), 1), where="post", label=setting)
+        latency_axes.step(latency, np.arange(1, len(latency) + 1) / max(len(latency), 1), where="post", color=colour,
+                          label=setting)
+        for mode, style in zip(MODES, (":", "-")):
+            ran = runs[(runs["setting"] == setting) & (runs["mode"] == mode)]
+            error = np.sort(1000 * (ran["overhang_m"] - ran["true_overhang_m"]).dropna().to_numpy())
+            error_axes.step(error, np.arange(1, len(error) + 1) / max(len(error), 1), where="post", color=colour,
+                            linestyle=style, label=f"{setting}, {mode}")
     replan_axes.set(xlabel="re-plans per closed-loop run", ylabel="fraction of runs")
     latency_axes.set(xlabel="median re-plan latency of a run (ms): track + plan", ylabel="fraction of runs")
     latency_axes.axvline(50, color="grey", linestyle=":")
-    for axes in (success_axes, replan_axes, latency_axes):
+    error_axes.set(xlabel="overhang seen after the slide - true (mm)", ylabel="fraction of runs")
+    for axes in (success_axes, replan_axes, latency_axes, error_axes):
         axes.legend(fontsize=8)
         axes.grid(alpha=0.3)
     figure.tight_layout()
