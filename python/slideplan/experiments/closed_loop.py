@@ -151,8 +151,9 @@ def plot_closed_loop(runs: pd.DataFrame, out_dir: str | Path, name: str = "close
         rows = summary[summary["mode"] == mode].set_index("setting").reindex(list(SETTINGS))
         positions = np.arange(len(SETTINGS)) + offset
         success_axes.bar(positions, 100 * rows["success"], width, color=colour, label=f"{mode} loop")
-        success_axes.errorbar(positions, 100 * rows["success"], yerr=[100 * (rows["success"] - rows["low"]),
-                              100 * (rows["high"] - rows["success"])], fmt="none", color="black", capsize=3)
+        # Clipped at 0: at 100% success the interval's top can round a hair below it.
+        success_axes.errorbar(positions, 100 * rows["success"], yerr=np.clip([100 * (rows["success"] - rows["low"]),
+                              100 * (rows["high"] - rows["success"])], 0.0, None), fmt="none", color="black", capsize=3)
     success_axes.set(xticks=np.arange(len(SETTINGS)), xticklabels=list(SETTINGS), ylabel="success (%)", ylim=(0, 105))
     success_axes.axhline(95, color="grey", linestyle=":")
     closed = runs[runs["mode"] == "closed"]
