@@ -25,6 +25,7 @@ import math
 import os
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -40,6 +41,8 @@ from ..transforms import homogeneous
 
 JOINT_STATE_HZ = 100.0
 _CLOSE_HOLD_S = 0.8
+# Fast DDS's default shared-memory segment (512 KB) drops nearly every best-effort cloud larger than it.
+LARGE_SAMPLES_PROFILE = Path(__file__).with_name("fastdds_large_samples.xml")
 
 
 class Sim:
@@ -236,6 +239,8 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
 
     from .messages import WORLD_FRAME, cloud_message, pose_message, trajectory_arrays
 
+    if not any(name in os.environ for name in ("FASTDDS_DEFAULT_PROFILES_FILE", "FASTRTPS_DEFAULT_PROFILES_FILE")):
+        os.environ["FASTDDS_DEFAULT_PROFILES_FILE"] = str(LARGE_SAMPLES_PROFILE)  # read at the first participant
     rclpy.init(args=["slideplan_sim", *ros_args])
     node = Node("slideplan_sim")
     group = ReentrantCallbackGroup()
