@@ -397,7 +397,7 @@ class Watch:
         perceived.symmetry_turns  # computed once, before the first look's latency
         self.looks = self.lost_looks = self.kept = 0
         self._last: tuple | None = None  # (motion seen, fingertip pose then) of the last look that found the object
-        self._beyond: list = []  # the poses seen in the looks in a row off the predicted pose
+        self._beyond: list = []  # (pose seen, fingertip pose) of the looks in a row off the predicted pose
 
     def error(self, first, second) -> tuple[float, float]:
         """Distance (m) between the object's centre of mass under two motions, and their yaw difference (rad)."""
@@ -410,9 +410,14 @@ class Watch:
         error_m, error_yaw = self.error(first, second)
         return error_m <= factor * self.threshold[0] and abs(error_yaw) <= factor * self.threshold[1]
 
+    @staticmethod
+    def carried(motion, since: np.ndarray, tip: np.ndarray):
+        """A pose seen with the fingertip at ``since``, carried by the fingertip's motion to ``tip`` (Eq. 2)."""
+        return compose_planar(motion, planar_motion(since, tip))
+
     def carried_last(self, tip: np.ndarray):
         """The pose last seen, carried by the fingertip's motion since (Eq. 2), or None."""
-        return None if self._last is None else compose_planar(self._last[0], planar_motion(self._last[1], tip))
+        return None if self._last is None else self.carried(*self._last, tip)
 
     def look(self, frame: np.ndarray, tip: np.ndarray, predicted, *, under_tip: bool = True) -> Any:
         """Track the object in ``frame`` (a depth image) with the fingertip measured at ``tip`` (4, 4), from
@@ -458,15 +463,17 @@ class Watch:
 
     def drifted(self, seen, predicted, segment: Segment, tip: np.ndarray) -> bool:
         """Whether a look during a slide asks for a new plan: off the prediction in CONFIRM looks in a row
-        that agree with each other (one look's error alone is mostly the tracker's, with the arm hiding
+        that agree with each other, the earlier carried by the fingertip's motion since (one look's error alone is mostly the tracker's, with the arm hiding
         much of the object), and the rest of the slide would not end graspable from there (re-planning
         on the tracker's own error restarts the slide from rest again and again)."""
         if self.agree(seen.motion, predicted, 1.0):
             self._beyond.clear()
-        elif self._beyond and not self.agree(self._beyond[-1], seen.motion):
-            self._beyond[:] = [seen.motion]
         else:
-            self._beyond.append(seen.motion)
+            # The finger carries the object between looks (a centimetre in 0.2 s): compare the last look
+            # carried to this one's fingertip.
+            if self._beyond and not self.agree(self.carried(*self._beyond[-1], tip), seen.motion):
+                self._beyond.clear()
+            self._beyond.append((seen.motion, tip))
         if len(self._beyond) < CONFIRM:
             return False
         if segment.still_works(self.perceived, self.scene.table, self.replan_config, tip, seen.motion, self.threshold[0]):

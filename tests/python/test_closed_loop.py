@@ -127,6 +127,37 @@ def test_a_slide_is_kept_while_it_still_ends_graspable_from_where_the_object_is_
     assert not segment.still_works(obj, scene.table, config, tip, away, 0.003)
 
 
+def test_a_push_is_confirmed_by_two_looks_while_the_finger_carries_the_object_on_between_them():
+    # Looks 0.2 s apart (a ROS camera at 5 Hz): the object, pushed 3 cm and turned 10 deg, is carried on
+    # by the finger a centimetre or more between them; they are one drift, seen twice.
+    from types import SimpleNamespace
+
+    from slideplan.closed_loop import Watch, slide_segment
+    from slideplan.transforms import compose_planar
+
+    scene_name, name, pose = DEMO
+    scene = load_scene(scene_name)
+    obj = load_object(name, table_height=scene.table.height, pose=pose)
+    config = PlannerConfig.for_scene(scene, seed=1)
+    result = plan(scene, obj, config)
+    segment = slide_segment(result, scene.table.height + obj.thickness, (0.0, 0.0, 0.0))
+    watch = Watch(scene, obj, config, default_camera(scene), (0.003, math.radians(2.0)), 1.0)
+    tips = [row_to_pose(row) for row in result.fingertip_poses]
+    first = len(tips) // 3
+    second = next(index for index in range(first + 1, len(tips)) if np.linalg.norm(tips[index][:2, 3] - tips[first][:2, 3]) > 0.015)
+    pushed = compose_planar(segment.predicted(tips[first]), (PUSHED.dx, PUSHED.dy, 0.0))
+    turned = (pushed[0], pushed[1], pushed[2] + PUSHED.dyaw)
+    seen_then = SimpleNamespace(motion=turned)
+    seen_now = SimpleNamespace(motion=compose_planar(turned, planar_motion(tips[first], tips[second])))  # Eq. 2
+    assert not watch.agree(seen_then.motion, seen_now.motion)  # as poses, the looks are far apart
+    assert not watch.drifted(seen_then, segment.predicted(tips[first]), segment, tips[first])
+    assert watch.drifted(seen_now, segment.predicted(tips[second]), segment, tips[second])
+    # A second look that does not follow from the first (the tracker's wrong fit) confirms nothing.
+    watch = Watch(scene, obj, config, default_camera(scene), (0.003, math.radians(2.0)), 1.0)
+    watch.drifted(seen_then, segment.predicted(tips[first]), segment, tips[first])
+    assert not watch.drifted(seen_then, segment.predicted(tips[second]), segment, tips[second])
+
+
 def test_a_turn_that_leaves_the_footprint_as_it_was_is_no_pose_error():
     from slideplan.closed_loop import Watch
 
