@@ -79,6 +79,7 @@ AGREE = 3.0  # two looks agree within this many thresholds
 END_LOOKS = 4  # frames at most at the end of a slide for two in a row that agree
 ON_TABLE_SLACK_M = 0.003  # the perceived object may cross a table edge by this much (about a pixel)
 CLEAR_LIFT_M = 0.1  # when the arm hides the object at the end of a slide, the finger rises this far to look
+BLIND_S = 1.0  # a slide no look has seen the object in for this long stops, and the finger rises clear to look
 
 
 @dataclass(frozen=True)
@@ -114,7 +115,9 @@ class Replan:
     Attributes:
         time_s: simulated time since the slide started (s).
         trigger: ``"drift"`` (off the predicted pose during a slide), ``"end"`` (a slide ended) or
-            ``"clear"`` (the look after an end look that did not see the object, the finger lifted clear).
+            ``"clear"`` (the look after an end look that did not see the object, the finger lifted clear)
+            or ``"blind"`` (the same when no look had seen the object for ``BLIND_S`` of a slide, which
+            stopped there).
         position_error_m, yaw_error_deg: how far the seen pose was from the predicted one.
         track_s, plan_s: wall time of tracking and of planning with timing (s).
         sense_s: wall time the frames took to arrive (s): in simulation MuJoCo's rendering of the depth
@@ -284,6 +287,24 @@ def _on_table(table, outline, pose) -> tuple[float, float, float]:
         step *= 1.0 + 1e-6 / max(float(np.linalg.norm(step)), 1e-12)  # onto the edge, not a rounding error short
         x, y = x + float(step[0]), y + float(step[1])
     return (x, y, yaw)
+
+
+class Unseen:
+    """How long the looks during a slide have not seen the object: a slide the arm hides the object
+    through is blind to a push, so it stops after ``BLIND_S`` and the finger rises clear to look."""
+
+    def __init__(self) -> None:
+        self.since: float | None = None
+
+    def update(self, seen: bool, at: float) -> float:
+        """After a look at time ``at`` (s, any clock) that saw the object or not: the time since the first
+        look of those in a row that did not (0 after one that did)."""
+        if seen:
+            self.since = None
+            return 0.0
+        if self.since is None:
+            self.since = at
+        return at - self.since
 
 
 def clear_config(robot, config: np.ndarray) -> np.ndarray | None:
@@ -488,8 +509,9 @@ class Watch:
 
         Args:
             trigger: ``"drift"`` (a look during the slide ``segment``, the fingertip commanded at ``tip``),
-                ``"end"`` (the settled look after a slide) or ``"clear"`` (the same with the finger lifted
-                clear of the object, after an end look that did not see it).
+                ``"end"`` (the settled look after a slide), ``"clear"`` (the same with the finger lifted
+                clear of the object, after an end look that did not see it) or ``"blind"`` (lifted clear
+                where a slide that had not been seen for ``BLIND_S`` stopped).
             elapsed: time into the slide, for the event (s).
             frames: gives the next ``(depth, measured fingertip pose)``.
             predicted: where Eq. 2 puts the object now (motion from its perceived pose).
@@ -510,7 +532,7 @@ class Watch:
                 sensed[0] += time.perf_counter() - begun
 
         started = time.perf_counter()
-        if trigger in ("end", "clear"):
+        if trigger in ("end", "clear", "blind"):
             seen = self.settled(timed_frames, predicted, pressed=trigger == "end")
         else:
             seen = self.look(*timed_frames(), predicted)
@@ -656,6 +678,7 @@ def run(
         runner.press(first.trajectory[0], segment.depths[0])
         slide_start[0] = float(data.time)
         ends = 0
+        unseen = Unseen()
         while True:
             switch: list = []
             next_look = [data.time - slide_start[0] + replan_period]
@@ -674,12 +697,18 @@ def run(
                 if event is not None:
                     report["events"].append(event)
                 if again is None:
-                    return False
+                    if (unseen.update(seen.ok, now) < BLIND_S or segment.times[-1] - elapsed < BLIND_S
+                            or ends >= end_replans):
+                        return False
+                    switch.append((None, elapsed))  # blind: stop here, rise clear and look
+                    return True
+                unseen.update(True, now)
                 switch.append((again, seen.motion))
                 return True
 
             runner.slide(np.asarray(segment.result.trajectory), segment.times, segment.depths, SETTLE_S, during)
-            if switch:
+            blind = bool(switch) and switch[0][0] is None
+            if switch and not blind:
                 new, seen_motion = switch[0]
                 report["replans"] += 1
                 if len(new.trajectory) == 1:  # already graspable where it was seen: the slide ends here
@@ -687,22 +716,28 @@ def run(
                     break
                 segment = slide_segment(new, top, seen_motion)
                 continue
-            end_config = np.asarray(segment.result.trajectory)[-1]
-            predicted_end = segment.predicted(segment.tip(robot, runner, float(segment.times[-1])))
+            stop_s = switch[0][1] if blind else float(segment.times[-1])
+            end_config = runner.commanded(np.asarray(segment.result.trajectory), segment.times, stop_s)
+            if blind:  # the arm stops where the servos were sent
+                runner.follow(end_config[None, :], np.zeros(1), SETTLE_S)
+            predicted_end = segment.predicted(segment.tip(robot, runner, stop_s))
             if not closed:
                 seen_motion = watch.look(*frames(), predicted_end).motion
                 grasp_plan = segment.result
                 break
-            again, event, seen = watch.replan("end", data.time - slide_start[0], frames, predicted_end, end_config)
-            report["events"].append(event)
-            lifted = clear_config(robot, end_config) if event.outcome == "lost" else None
+            lifted, trigger = (clear_config(robot, end_config), "blind") if blind else (None, "clear")
+            if lifted is None:
+                again, event, seen = watch.replan("end", data.time - slide_start[0], frames, predicted_end, end_config)
+                report["events"].append(event)
+                lifted = clear_config(robot, end_config) if event.outcome == "lost" else None
             if lifted is not None:  # the arm hides the object: the finger rises clear, looks and comes back
                 way, way_times = straight_way(robot, end_config, lifted,
                                               resolve_limits(segment.result, timing_options(settings, robot.velocity_limits)), "clear")
                 runner.follow(way, way_times, SETTLE_S)
-                again, event, seen = watch.replan("clear", data.time - slide_start[0], frames, predicted_end, end_config)
+                again, event, seen = watch.replan(trigger, data.time - slide_start[0], frames, predicted_end, end_config)
                 report["events"].append(event)
                 runner.follow(way[::-1], way_times, SETTLE_S)
+            unseen.update(True, data.time - slide_start[0])
             seen_motion = seen.motion
             if again is None or ends >= end_replans:
                 grasp_plan = segment.result  # its own grasp, from where Eq. 2 put the object

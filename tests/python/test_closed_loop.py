@@ -205,6 +205,29 @@ def test_when_the_arm_hides_the_object_at_the_end_the_finger_rises_clear_to_look
     assert report.success, report.summary()
 
 
+def test_a_slide_hidden_from_the_camera_stops_to_look_from_above_and_recovers_from_a_push(monkeypatch):
+    # The hand hides the object from every look with the finger on it (a camera behind the arm): the
+    # push goes unseen until the slide stops, the finger rises clear and looks from there.
+    import dataclasses
+
+    from slideplan.closed_loop import BLIND_S
+    from slideplan.tracking import Tracker
+
+    real_track = Tracker.track
+
+    def hidden(self, depth, guess=(0.0, 0.0, 0.0), contact=None):
+        seen = real_track(self, depth, guess, contact)
+        return seen if contact is None else dataclasses.replace(seen, ok=False, reason="hidden by the hand (test)")
+
+    monkeypatch.setattr(Tracker, "track", hidden)
+    report = run(*DEMO, seed=1, closed=True, disturbance=PUSHED)
+    triggers = [(event.trigger, event.outcome) for event in report.events]
+    blind = [event for event in report.events if event.trigger == "blind"]
+    assert blind and blind[0].outcome in ("slide", "grasp"), triggers
+    assert blind[0].time_s >= BLIND_S and "drift" not in [trigger for trigger, _ in triggers], triggers
+    assert report.success, report.summary()
+
+
 def test_under_the_stress_setting_the_loop_does_not_chase_the_trackers_error():
     # Torsional friction halved and the finger at its shallowest: the tracker's scatter under the arm is
     # about the 3 mm / 2 degree threshold, so looks off the prediction come often. Before the re-plan was

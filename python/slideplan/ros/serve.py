@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _core, jsontext
-from ..closed_loop import Watch, clear_config, slide_segment
+from ..closed_loop import BLIND_S, Unseen, Watch, clear_config, slide_segment
 from ..errors import InputError
 from ..execute.runner import reference
 from ..objects import ThinObject
@@ -534,6 +534,7 @@ class Execution:
         segment = slide_segment(result, top, (0.0, 0.0, 0.0))
         replans = ends = 0
         delay = 0.0  # the first point of a re-planned slide is where the old one would be by then
+        unseen = Unseen()
         while True:
             path, times = np.asarray(segment.result.trajectory, dtype=float), segment.times
             started = node.send(result.joint_names, path, segment.result.timing["trajectory"], "slide", delay)
@@ -560,6 +561,7 @@ class Execution:
                     return False
                 tip = np.asarray(robot.fk(reference(path, times, look)))
                 start_config = reference(path, times, ahead)
+                stamp = node.newest_cloud()
                 again, event, seen = watch.replan("drift", look, frames_after(seen_at), segment.predicted(tip), start_config,
                                                   segment=segment, tip=tip, start_tip=np.asarray(robot.fk(start_config)))
                 if event is not None:
@@ -567,12 +569,17 @@ class Execution:
                     if event.outcome in ("slide", "grasp"):
                         self.lookahead_s = max(self.lookahead_s, 1.5 * event.latency_s)
                 if again is None:
-                    return False
+                    if unseen.update(seen.ok, stamp) < BLIND_S or times[-1] - ahead < BLIND_S or ends >= END_REPLANS:
+                        return False
+                    switch.append((None, start_config, ahead))  # blind: stop there, rise clear and look
+                    return True
+                unseen.update(True, stamp)
                 switch.append((again, seen.motion, started + delay + ahead))
                 return True
 
             node.wait_arrived(path[-1], started, float(times[-1] + delay), "slide", during)
-            if switch:
+            blind = bool(switch) and switch[0][0] is None
+            if switch and not blind:
                 new, motion, starts_at = switch[0]
                 replans += 1
                 delay = max(0.0, starts_at - node.now())
@@ -586,17 +593,24 @@ class Execution:
                 continue
             if watch is None:
                 return segment.result, replans, segment.predicted(np.asarray(robot.fk(path[-1])))
+            end_config, end_s = (switch[0][1], switch[0][2]) if blind else (path[-1], float(times[-1]))
+            if blind:  # the arm stops where it will be once the message has arrived
+                node.move(result.joint_names, end_config[None, :], {"time_from_start": np.zeros(1),
+                          "velocities": np.zeros((1, len(end_config)))}, "slide", max(0.0, started + delay + end_s - node.now()))
             delay = 0.0
-            predicted = segment.predicted(np.asarray(robot.fk(path[-1])))
-            again, event, seen = watch.replan("end", float(times[-1]), frames_after([node.now()]), predicted, path[-1])
-            self.record(event)
-            lifted = clear_config(robot, path[-1]) if event.outcome == "lost" else None
+            predicted = segment.predicted(np.asarray(robot.fk(end_config)))
+            lifted, trigger = (clear_config(robot, end_config), "blind") if blind else (None, "clear")
+            if lifted is None:
+                again, event, seen = watch.replan("end", end_s, frames_after([node.now()]), predicted, end_config)
+                self.record(event)
+                lifted = clear_config(robot, end_config) if event.outcome == "lost" else None
             if lifted is not None:  # the arm hides the object: the finger rises clear, looks and comes back
-                up = np.linspace(path[-1], lifted, 20)
+                up = np.linspace(end_config, lifted, 20)
                 node.move(result.joint_names, up, timed(segment.result, up, "clear", capped=True), "clear")
-                again, event, seen = watch.replan("clear", float(times[-1]), frames_after([node.now()]), predicted, path[-1])
+                again, event, seen = watch.replan(trigger, end_s, frames_after([node.now()]), predicted, end_config)
                 self.record(event)
                 node.move(result.joint_names, up[::-1], timed(segment.result, up[::-1], "clear", capped=True), "clear")
+            unseen.update(True, node.newest_cloud())
             outcome = event.outcome
             if again is None and outcome == "refused" and ends < END_REPLANS:
                 # The finger is off the object as seen (pushed from under it): a new slide from a new contact.
@@ -604,7 +618,7 @@ class Execution:
             if again is None or ends >= END_REPLANS:  # its own grasp, from where Eq. 2 put the object
                 return segment.result, replans, seen.motion if seen.ok else predicted
             replans += 1
-            node.publish_status("replan", trigger="end", replans=replans, outcome=outcome)
+            node.publish_status("replan", trigger="blind" if blind else "end", replans=replans, outcome=outcome)
             if len(again.trajectory) == 1:
                 return again, replans, seen.motion
             ends += 1
