@@ -37,6 +37,7 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiPoint, Polygon
 
+from . import _core
 from ._fields import as_number, as_numbers
 from .errors import InputError
 from .objects import ThinObject
@@ -97,8 +98,6 @@ class Tracker:
 
     def __init__(self, obj: ThinObject, camera: Camera, *, table_height: float, hand_clearance: float = 0.01,
                  window_margin: float = 0.05, iterations: int = 40) -> None:
-        from scipy.spatial import cKDTree
-
         self.hand_clearance = as_number(hand_clearance, source="", field="hand_clearance", positive=True)
         self.window_margin = as_number(window_margin, source="", field="window_margin", positive=True)
         if not isinstance(iterations, int) or isinstance(iterations, bool) or iterations <= 0:
@@ -111,8 +110,7 @@ class Tracker:
         self._interior_outline = outline if interior.is_empty else interior  # a strip under 6 mm wide: all of it
         shapely.prepare(self._interior_outline)
         self._model, self._normals = _densify(outline, OUTLINE_SPACING_M)
-        self._tree = cKDTree(self._model)
-        self._nearest = _NearestGrid(self._model, self.window_margin)
+        self._icp_core = _core.OutlineIcp(self._model, *_nearest_grid(self._model, self.window_margin), GRID_CELL_M, INLIER_M)
         self._centre = np.asarray(obj.centroid_xy, dtype=float)
         self._radius = float(np.max(np.linalg.norm(obj.points[:, :2] - self._centre, axis=1)))
 
@@ -238,52 +236,18 @@ class Tracker:
     def _held(self, points: np.ndarray, motion: np.ndarray) -> float:
         """How firmly the edge points explained by the fit at ``motion`` hold it: the smallest eigenvalue
         of its point-to-outline information matrix (module step 5)."""
-        distance, index = self._match(points, motion[None, :])
+        distance, index = self._icp_core.nearest(points, motion)
         normals = self._normals[index[distance <= INLIER_M]]
         return float(np.linalg.eigvalsh(normals.T @ normals)[0])
 
     def _icp(self, points: np.ndarray, starts, iterations: int, exact: bool = True) -> list[tuple[np.ndarray, int, float]]:
-        """Trimmed ICP from each of ``starts`` ((S, 3) motions), all at once: per start the fit, the edge
-        points within ``INLIER_M`` of the outline, and their root mean square distance. ``exact=False``:
-        iterations match by the grid (scouting: fast, a fit's last tenths of a degree aside)."""
-        motions = np.array(starts, dtype=float).reshape(-1, 3)
-        gates = np.full(len(motions), self._radius)  # no gate at first: a start may be centimetres off
-        active = np.ones(len(motions), dtype=bool)
-        for _ in range(iterations):
-            rows = np.flatnonzero(active)
-            if not len(rows):
-                break
-            # Edge points into the reference frame, matched to the nearest outline point.
-            distance, index = self._match(points, motions[rows], exact)
-            keep = distance <= gates[rows, None]
-            enough = keep.sum(axis=1) >= 3
-            step = _rigid_fits(self._model[index], points, keep & enough[:, None])
-            change = np.abs(step - motions[rows])
-            moving = rows[enough]
-            motions[moving] = step[enough]
-            gates[moving] = np.maximum(3.0 * _kept_median(distance[enough], keep[enough]), INLIER_M)
-            # A hundredth of a millimetre, or too few pairs left: that start is done.
-            active[rows[~enough | ((change[:, :2].max(axis=1) < 1e-5) & (change[:, 2] < 1e-4))]] = False
-        distance, _ = self._match(points, motions)
-        fits = []
-        for motion, row in zip(motions, distance):
-            inliers = row[row <= INLIER_M]
-            fits.append((motion, len(inliers), float(np.sqrt(np.mean(inliers ** 2))) if len(inliers) else math.inf))
-        return fits
-
-    def _match(self, points: np.ndarray, motions: np.ndarray, exact: bool = True) -> tuple[np.ndarray, np.ndarray]:
-        """Distance and index of the nearest outline point to each of ``points`` (N, 2) brought into the
-        reference frame by each of ``motions`` (S, 3): two (S, N) arrays. ``exact=False``: the nearest
-        by the grid (:class:`_NearestGrid`), for ICP's iterations."""
-        cos, sin = np.cos(motions[:, 2])[:, None], np.sin(motions[:, 2])[:, None]
-        dx, dy = points[None, :, 0] - motions[:, 0, None], points[None, :, 1] - motions[:, 1, None]
-        local = np.stack([dx * cos + dy * sin, dy * cos - dx * sin], axis=-1).reshape(-1, 2)
-        if exact:
-            distance, index = self._tree.query(local)
-        else:
-            index = self._nearest.index(local)
-            distance = np.linalg.norm(local - self._model[index], axis=1)
-        return distance.reshape(len(motions), -1), index.reshape(len(motions), -1)
+        """Trimmed ICP (module step 4, ``slideplan._core.OutlineIcp``) from each of ``starts`` ((S, 3)
+        motions): per start the fit, the edge points within ``INLIER_M`` of the outline, and their root
+        mean square distance. ``exact=False``: iterations pair by the grid (scouting: fast, a fit's last
+        tenths of a degree aside)."""
+        starts = np.array(starts, dtype=float).reshape(-1, 3)
+        # No gate at first: a start may be centimetres off.
+        return self._icp_core.fit(points, starts, iterations, exact, self._radius)
 
 
 def _score(fit: tuple[np.ndarray, int, float]) -> tuple[int, float]:
@@ -291,57 +255,21 @@ def _score(fit: tuple[np.ndarray, int, float]) -> tuple[int, float]:
     return fit[1], -fit[2]
 
 
-class _NearestGrid:
-    """The nearest outline point to any point of the plane, looked up in a grid (cells of
-    ``GRID_CELL_M``, the outline's bounding box and ``margin`` around it; a point beyond the grid
-    takes its border cell's): a distance transform of the outline's cells, made once. ICP asks for the
-    nearest point of every edge point in every iteration from every start, where a k-d tree query
-    costs most of a frame's time; the grid's answer is within a cell of the true nearest."""
+def _nearest_grid(model: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """For ICP's pairing by grid: the index of the outline point nearest each cell (``GRID_CELL_M``)
+    of the outline's bounding box and ``margin`` around it (a distance transform of the outline's
+    cells, made once; its answer is within a cell of the true nearest), and the grid's corner. ICP asks
+    for the nearest point of every edge point in every iteration from every start, where a k-d tree
+    query would cost most of a scouting's time."""
+    from scipy.ndimage import distance_transform_edt
 
-    def __init__(self, model: np.ndarray, margin: float) -> None:
-        from scipy.ndimage import distance_transform_edt
-
-        self._low = model.min(axis=0) - margin
-        shape = np.ceil((model.max(axis=0) + margin - self._low) / GRID_CELL_M).astype(int) + 1
-        cells = self._cells(model, shape)
-        owner = np.full(shape, -1, dtype=np.int64)
-        owner[cells[:, 0], cells[:, 1]] = np.arange(len(model))
-        _, nearest = distance_transform_edt(owner < 0, return_indices=True)
-        self._index = owner[nearest[0], nearest[1]]
-        self._shape = shape
-
-    def _cells(self, points: np.ndarray, shape) -> np.ndarray:
-        return np.clip(np.floor((points - self._low) / GRID_CELL_M).astype(int), 0, np.asarray(shape) - 1)
-
-    def index(self, points: np.ndarray) -> np.ndarray:
-        """Index into the model of the outline point nearest each of ``points`` (N, 2)."""
-        cells = self._cells(points, self._shape)
-        return self._index[cells[:, 0], cells[:, 1]]
-
-
-def _kept_median(values: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    """Per row of ``values`` (S, N), the median of the entries ``keep`` selects (at least one per row)."""
-    ordered = np.sort(np.where(keep, values, np.inf), axis=1)
-    count, rows = keep.sum(axis=1), np.arange(len(values))
-    return 0.5 * (ordered[rows, (count - 1) // 2] + ordered[rows, count // 2])
-
-
-def _rigid_fits(source: np.ndarray, target: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """Per row, the planar rigid motion (x, y, yaw) that best maps ``source`` (S, N, 2) onto ``target``
-    (N, 2) over the pairs ``weights`` (S, N) selects (least squares, closed form: the 2-D Kabsch
-    solution); (S, 3)."""
-    weights = weights.astype(float)
-    total = np.maximum(weights.sum(axis=1), 1.0)[:, None]
-    source_mean = np.einsum("sn,snk->sk", weights, source) / total
-    target_mean = weights @ target / total
-    a = source - source_mean[:, None, :]
-    b = target[None, :, :] - target_mean[:, None, :]
-    yaw = np.arctan2(np.sum(weights * (a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]), axis=1),
-                     np.sum(weights * (a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]), axis=1))
-    cos, sin = np.cos(yaw), np.sin(yaw)
-    x = target_mean[:, 0] - (cos * source_mean[:, 0] - sin * source_mean[:, 1])
-    y = target_mean[:, 1] - (sin * source_mean[:, 0] + cos * source_mean[:, 1])
-    return np.column_stack([x, y, yaw])
+    low = model.min(axis=0) - margin
+    shape = np.ceil((model.max(axis=0) + margin - low) / GRID_CELL_M).astype(int) + 1
+    cells = np.clip(np.floor((model - low) / GRID_CELL_M).astype(int), 0, shape - 1)
+    owner = np.full(shape, -1, dtype=np.int64)
+    owner[cells[:, 0], cells[:, 1]] = np.arange(len(model))
+    _, nearest = distance_transform_edt(owner < 0, return_indices=True)
+    return owner[nearest[0], nearest[1]], low
 
 
 def _densify(outline: Polygon, spacing: float) -> tuple[np.ndarray, np.ndarray]:

@@ -146,3 +146,26 @@ def test_a_fit_where_the_frame_shows_the_table_is_refused(square):
     assert not traced.ok and "does not show the object" in traced.reason
     real = tracker.track(frame(table, camera, "square", (x, 0.0, 0.0), [], rng))
     assert real.ok, real.reason
+
+
+def test_the_icp_core_matches_the_numpy_reference_on_a_rendered_frame(square):
+    from icp_reference import icp_reference
+
+    from slideplan.tracking import GRID_CELL_M, INLIER_M, _nearest_grid
+
+    table, camera = square
+    rng = np.random.default_rng(11)
+    now = (0.56, 0.02, 0.9)
+    hand = [Box((now[0] + 0.02, now[1], table.height + 0.06), (0.05, 0.04, 0.03))]
+    tracker = Tracker(load_object("E", table_height=table.height, pose=(0.55, 0.0, 0.8)), camera, table_height=table.height)
+    guess = (0.0, 0.0, 0.0)
+    points, _, _ = tracker.classify(frame(table, camera, "E", now, hand, rng), guess)
+    assert len(points) > 100
+    grid, low = _nearest_grid(tracker._model, tracker.window_margin)
+    starts = [np.array(guess) + offset for offset in ([0, 0, 0], [0.01, -0.01, 0.12], [-0.02, 0.0, -0.12])]
+    for exact, iterations in ((True, 40), (False, 8)):
+        fits = tracker._icp(points, starts, iterations, exact)
+        reference = icp_reference(tracker._model, grid, low, GRID_CELL_M, INLIER_M, points, starts, iterations, exact, tracker._radius)
+        for (motion, inliers, rmse), (motion_ref, inliers_ref, rmse_ref) in zip(fits, reference, strict=True):
+            np.testing.assert_allclose(motion, motion_ref, atol=1e-9)
+            assert inliers == inliers_ref and rmse == pytest.approx(rmse_ref, abs=1e-12)

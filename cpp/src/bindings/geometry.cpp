@@ -3,6 +3,7 @@
 #include "slideplan/area_centroid.hpp"
 #include "slideplan/contact_frame.hpp"
 #include "slideplan/geometry.hpp"
+#include "slideplan/outline_icp.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
@@ -39,6 +40,50 @@ namespace slideplan::bindings
                    "Centre of mass of a uniform thin plate known by (N, 2) points of its top surface: the area "
                    "centroid of the alpha shape they cover, whatever their density (the points' mean if they "
                    "cover no area). Raises ValueError for no points or a non-finite one.");
+        py::class_<OutlineIcp>(module, "OutlineIcp",
+                               "Trimmed 2-D ICP of edge points to an object's outline (the closed loop's tracker). "
+                               "Immutable: one instance may serve many threads.")
+            .def(py::init<Points2, OutlineIcp::IndexGrid, const Eigen::Vector2d &, double, double>(), py::arg("model"),
+                 py::arg("grid"), py::arg("low"), py::arg("cell"), py::arg("inlier"),
+                 "model: the outline's points (M, 2), reference frame. grid: (I, J) int64, for each cell (cell (i, j) "
+                 "spans x from low[0] + i cell, y from low[1] + j cell) the index of the model point nearest it. "
+                 "inlier: an edge point this near the outline is explained by it (m). Raises ValueError for no "
+                 "model points, a non-finite value, an empty grid or one indexing outside the model, or a cell or "
+                 "inlier distance that is not positive.")
+            .def(
+                "nearest",
+                [](const OutlineIcp &icp, const Points2 &points, const Eigen::Vector3d &motion, bool exact) {
+                    Eigen::VectorXd distance;
+                    Eigen::VectorXi index;
+                    {
+                        py::gil_scoped_release release;
+                        icp.nearest(points, motion, exact, distance, index);
+                    }
+                    return py::make_tuple(distance, index);
+                },
+                py::arg("points"), py::arg("motion"), py::arg("exact") = true,
+                "(distance (N,), index (N,)) of the outline point nearest each of points (N, 2), brought into the "
+                "reference frame by the inverse of motion (x, y, yaw); exact=False: by the grid.")
+            .def(
+                "fit",
+                [](const OutlineIcp &icp, const Points2 &points, const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> &starts,
+                   int iterations, bool exact, double gate) {
+                    std::vector<OutlineFit> fits;
+                    {
+                        py::gil_scoped_release release;
+                        fits = icp.fit(points, starts, iterations, exact, gate);
+                    }
+                    py::list out;
+                    for (const OutlineFit &fit : fits)
+                        out.append(py::make_tuple(Eigen::Vector3d(fit.motion), fit.inliers, fit.rmse));
+                    return out;
+                },
+                py::arg("points"), py::arg("starts"), py::arg("iterations"), py::arg("exact"), py::arg("gate"),
+                "Trimmed ICP of edge points (N, 2) from each of starts (S, 3): per start (motion (3,), inliers, rmse). "
+                "iterations: at most per start; exact=False pairs by the grid (the final count is exact); gate: the "
+                "first iteration's pair distance cut-off (m). Raises ValueError for a non-finite point or start, or "
+                "iterations < 0.");
+
         module.def("contact_rotation", &contactRotation, py::arg("yaw"), py::arg("pitch"),
                    "r(alpha, beta) of Eqs. 3-4: fingertip orientation for yaw alpha and pitch beta (3x3).");
         module.def(
