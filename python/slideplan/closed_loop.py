@@ -51,16 +51,16 @@ from . import jsontext
 from ._fields import as_numbers
 from .errors import InputError
 from .execute.model import DEPTH_CAMERA, build_model
-from .execute.runner import SETTLE_S, Runner, Unstable, straight_way, timing_of, timing_options
+from .execute.runner import SETTLE_S, Runner, Unstable, straight_up, timed_way, timing_of, timing_options
 from .execute.settings import ExecutionSettings, stress_settings
 from .execute.video import Recorder, plan_points
 from .objects import ThinObject, load_object, load_outline, place_outline
 from .planning import PlannerConfig, PlanResult, build_robot, plan
 from .rendering import Camera, camera_depth, noisy_depth, place_objects, render_scene
 from .scenes import Scene, load_scene
-from .timing import resolve_limits
+from .timing import resolve_limits, time_path
 from .tracking import NOT_UNDER_TIP, Tracker
-from .transforms import compose_planar, move_planar, row_to_pose, wrap_angle
+from .transforms import compose_planar, move_planar, pose_to_row, row_to_pose, wrap_angle
 from .verify import overhang, planar_motion
 
 CLOSED_LOOP_SCHEMA = "slideplan.closed_loop/1"
@@ -124,7 +124,9 @@ class Replan:
             camera, which a real camera does on its own; not part of the latency.
         outcome: ``"slide"`` (a new slide followed), ``"grasp"`` (grasped from there), ``"refused"``,
             ``"timeout"`` or ``"lost"`` (the frame did not show the object); the last three keep the
-            plan there was.
+            plan there was; ``"kept"`` (a blind look: the rest of the stopped slide still works from
+            the pose seen, or nothing was seen). After a blind look without a new plan the rest of the
+            stopped slide goes on, from rest.
         detail: why refused or lost ("" otherwise).
     """
 
@@ -307,18 +309,6 @@ class Unseen:
         return at - self.since
 
 
-def clear_config(robot, config: np.ndarray) -> np.ndarray | None:
-    """The arm's configuration with the fingertip ``CLEAR_LIFT_M`` straight above where it is at
-    ``config`` (its yaw free for an arm with fewer than six joints, as the planner's contact), or None
-    where there is no IK: the look at the end of a slide when the hand hides the object."""
-    from . import _core
-
-    target = np.asarray(robot.fk(config))
-    target[2, 3] += CLEAR_LIFT_M
-    found = robot.ik(target, seed=config, rng_seed=0, options=_core.contact_ik_options(robot))
-    return None if found is None else np.asarray(found, dtype=float)
-
-
 def _times(result: PlanResult, key: str, length: int) -> np.ndarray:
     times = timing_of(result.timing, key, length)
     if times is None:
@@ -343,6 +333,18 @@ class Segment:
     def tip(self, robot, runner: Runner, elapsed: float) -> np.ndarray:
         """The fingertip pose (4, 4) at the commanded configuration."""
         return np.asarray(robot.fk(runner.commanded(np.asarray(self.result.trajectory), self.times, elapsed)))
+
+    def rest(self, robot, stop_s: float, config: np.ndarray) -> PlanResult:
+        """This slide stopped at ``stop_s`` with the arm at ``config``: from there, at rest, through the
+        waypoints after it, timed from rest under the plan's limits (its grasp, at the same end, stays)."""
+        after = self.times > stop_s
+        configs = np.vstack([np.asarray(config, dtype=float)[None, :], np.asarray(self.result.trajectory, dtype=float)[after]])
+        poses = [np.asarray(robot.fk(joints)) for joints in configs]
+        timing = dict(self.result.timing)
+        timing["trajectory"] = time_path(configs, np.array([pose[:3, 3] for pose in poses]), np.ones(len(configs), dtype=bool),
+                                         timing["limits"], "trajectory")
+        rows = np.vstack([pose_to_row(poses[0])[None, :], np.asarray(self.result.fingertip_poses)[after]])
+        return dataclasses.replace(self.result, trajectory=configs, fingertip_poses=rows, start_config=configs[0], timing=timing)
 
     def still_works(self, perceived: ThinObject, table, config: PlannerConfig, tip: np.ndarray, seen, slack: float) -> bool:
         """Whether the rest of this slide still ends graspable from where the object is seen: carried
@@ -511,7 +513,9 @@ class Watch:
             trigger: ``"drift"`` (a look during the slide ``segment``, the fingertip commanded at ``tip``),
                 ``"end"`` (the settled look after a slide), ``"clear"`` (the same with the finger lifted
                 clear of the object, after an end look that did not see it) or ``"blind"`` (lifted clear
-                where a slide that had not been seen for ``BLIND_S`` stopped).
+                where the slide ``segment``, not seen for ``BLIND_S``, stopped with the fingertip at
+                ``tip``: where its rest still works from the pose seen, or nothing is seen, no new plan and
+                the event's outcome ``"kept"``).
             elapsed: time into the slide, for the event (s).
             frames: gives the next ``(depth, measured fingertip pose)``.
             predicted: where Eq. 2 puts the object now (motion from its perceived pose).
@@ -540,6 +544,12 @@ class Watch:
         error_m, error_yaw = self.error(seen.motion, predicted)
         event = Replan(elapsed, trigger, error_m, math.degrees(error_yaw), tracked - started - sensed[0], 0.0, "lost",
                        seen.reason, sensed[0])
+        if trigger == "blind" and (not seen.ok or segment.still_works(self.perceived, self.scene.table, self.replan_config, tip,
+                                                                      seen.motion, self.threshold[0])):
+            # On track, or not seen even from above: the rest of the slide goes on as it would have.
+            self.kept += 1
+            event.outcome, event.detail = "kept", ("" if seen.ok else f"not seen ({seen.reason})")
+            return None, event, (seen if seen.ok else dataclasses.replace(seen, motion=tuple(predicted)))
         if not seen.ok:
             return None, (event if trigger != "drift" else None), seen
         if trigger == "drift" and not self.drifted(seen, predicted, segment, tip):
@@ -677,7 +687,7 @@ def run(
     try:
         runner.press(first.trajectory[0], segment.depths[0])
         slide_start[0] = float(data.time)
-        ends = 0
+        ends = blinds = 0
         unseen = Unseen()
         while True:
             switch: list = []
@@ -698,7 +708,7 @@ def run(
                     report["events"].append(event)
                 if again is None:
                     if (unseen.update(seen.ok, now) < BLIND_S or segment.times[-1] - elapsed < BLIND_S
-                            or ends >= end_replans):
+                            or max(ends, blinds) >= end_replans):
                         return False
                     switch.append((None, elapsed))  # blind: stop here, rise clear and look
                     return True
@@ -719,34 +729,39 @@ def run(
             stop_s = switch[0][1] if blind else float(segment.times[-1])
             end_config = runner.commanded(np.asarray(segment.result.trajectory), segment.times, stop_s)
             if blind:  # the arm stops where the servos were sent
+                blinds += 1
                 runner.follow(end_config[None, :], np.zeros(1), SETTLE_S)
             predicted_end = segment.predicted(segment.tip(robot, runner, stop_s))
             if not closed:
                 seen_motion = watch.look(*frames(), predicted_end).motion
                 grasp_plan = segment.result
                 break
-            lifted, trigger = (clear_config(robot, end_config), "blind") if blind else (None, "clear")
+            lifted, trigger = (straight_up(robot, end_config, CLEAR_LIFT_M), "blind") if blind else (None, "clear")
             if lifted is None:
                 again, event, seen = watch.replan("end", data.time - slide_start[0], frames, predicted_end, end_config)
                 report["events"].append(event)
-                lifted = clear_config(robot, end_config) if event.outcome == "lost" else None
+                lifted = straight_up(robot, end_config, CLEAR_LIFT_M) if event.outcome == "lost" else None
             if lifted is not None:  # the arm hides the object: the finger rises clear, looks and comes back
-                way, way_times = straight_way(robot, end_config, lifted,
-                                              resolve_limits(segment.result, timing_options(settings, robot.velocity_limits)), "clear")
+                way, way_times = timed_way(robot, lifted, resolve_limits(segment.result, timing_options(settings, robot.velocity_limits)),
+                                           "clear")
                 runner.follow(way, way_times, SETTLE_S)
-                again, event, seen = watch.replan(trigger, data.time - slide_start[0], frames, predicted_end, end_config)
+                again, event, seen = watch.replan(trigger, data.time - slide_start[0], frames, predicted_end, end_config,
+                                                  segment=segment, tip=np.asarray(robot.fk(end_config)))
                 report["events"].append(event)
                 runner.follow(way[::-1], way_times, SETTLE_S)
             unseen.update(True, data.time - slide_start[0])
             seen_motion = seen.motion
+            replanned = event.outcome in ("slide", "grasp")
+            if blind and not replanned:  # on track, not seen or no new plan: the rest of the slide, from rest
+                again = segment.rest(robot, stop_s, end_config)
             if again is None or ends >= end_replans:
                 grasp_plan = segment.result  # its own grasp, from where Eq. 2 put the object
                 break
-            report["replans"] += 1
+            report["replans"] += replanned
             if len(again.trajectory) == 1:
                 grasp_plan = again
                 break
-            ends += 1
+            ends += replanned
             segment = slide_segment(again, top, seen.motion)
         _judge(report, scene.table, perceived, truth, config, seen_motion, runner)
         failure = runner.grasp(np.asarray(grasp_plan.grasp["approach"], dtype=float),

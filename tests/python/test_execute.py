@@ -503,3 +503,30 @@ def test_the_z1_closes_its_jaw_on_the_overhang_and_lifts_the_object():
 def test_the_five_joint_so101_slides_grasps_and_lifts():
     execution = _plan_and_execute("so101_square", "square", (0.37, 0.0, 0.5), 1)
     assert execution.success, execution.failure
+
+
+def test_a_move_straight_up_stays_on_the_vertical_and_on_the_arms_branch():
+    # The sweep's square/irregular pose 0: one IK call for 10 cm above the slide's end lands on another
+    # branch (a joint turned by 3.4 rad), and the joint-linear move there swept the hand 25 cm down
+    # through the table and dragged the object. Solved a centimetre at a time, the way rises straight.
+    from slideplan import load_object, load_scene, plan
+    from slideplan.execute.runner import MAX_JOINT_STEP_RAD, straight_up
+    from slideplan.experiments.tasks import build_spec
+
+    scene = load_scene("square")
+    task = next(task for task in build_spec("closed-loop", poses=10).tasks
+                if (task.scene, task.object, task.pose_index) == ("square", "irregular", 0))
+    result = plan(scene, load_object(task.object, table_height=scene.table.height, pose=(task.x, task.y, task.yaw)),
+                  task.planner_config())
+    assert result.solved
+    robot = result.robot_model()
+    for config in (np.asarray(result.trajectory[-1]), np.asarray(result.grasp["config"])):
+        way = straight_up(robot, config, 0.1)
+        assert way is not None
+        tips = np.array([np.asarray(robot.fk(q))[:3, 3] for q in way])
+        # Checked between the waypoints too: the runner interpolates joints linearly.
+        between = np.array([np.asarray(robot.fk(q))[:3, 3] for q in 0.5 * (way[1:] + way[:-1])])
+        for points in (tips, between):
+            assert np.linalg.norm(points[:, :2] - tips[0, :2], axis=1).max() < 0.001
+        assert np.all(np.diff(tips[:, 2]) > 0) and tips[-1, 2] - tips[0, 2] == pytest.approx(0.1, abs=1e-4)
+        assert np.abs(np.diff(way, axis=0)).max() <= MAX_JOINT_STEP_RAD

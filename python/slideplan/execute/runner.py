@@ -17,6 +17,8 @@ _CLOSE_S = 0.8
 _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
+UP_STEP_M = 0.01  # a move straight up is solved a centimetre at a time
+MAX_JOINT_STEP_RAD = 0.3  # a centimetre's step turning a joint further has left the arm's branch
 
 
 class Unstable(Exception):
@@ -42,11 +44,31 @@ def timing_options(settings: ExecutionSettings, urdf_velocity) -> TimingOptions:
                          joint_velocity=velocity)
 
 
-def straight_way(robot, start: np.ndarray, end: np.ndarray, limits: dict[str, Any], name: str) -> tuple[np.ndarray, np.ndarray]:
-    """A joint-linear way from ``start`` to ``end`` (20 waypoints) and its times from rest to rest, the
-    fingertip speed capped all the way: the moves a plan does not hold (the lift after the grasp, the
-    closed loop's look from above). ``name`` names it in a timing error."""
-    path = np.linspace(np.asarray(start, dtype=float), np.asarray(end, dtype=float), 20)
+def straight_up(robot, config: np.ndarray, height: float) -> np.ndarray | None:
+    """Configurations taking the fingertip from where it is at ``config`` ``height`` straight up (its yaw
+    free for an arm with fewer than six joints, as the planner's contact), ``UP_STEP_M`` apart, each
+    IK seeded by the one before; None where a step has no IK or turns a joint more than
+    ``MAX_JOINT_STEP_RAD``. One IK call for the whole height may land on another branch of the arm,
+    and the joint-linear move there swings the hand through the table and the object."""
+    from .. import _core
+
+    start = np.asarray(robot.fk(config))
+    steps = max(1, math.ceil(height / UP_STEP_M - 1e-9))
+    path = [np.asarray(config, dtype=float)]
+    for step in range(1, steps + 1):
+        target = start.copy()
+        target[2, 3] += height * step / steps
+        found = robot.ik(target, seed=path[-1], rng_seed=0, options=_core.contact_ik_options(robot))
+        if found is None or np.max(np.abs(np.asarray(found) - path[-1])) > MAX_JOINT_STEP_RAD:
+            return None
+        path.append(np.asarray(found, dtype=float))
+    return np.array(path)
+
+
+def timed_way(robot, path: np.ndarray, limits: dict[str, Any], name: str) -> tuple[np.ndarray, np.ndarray]:
+    """A way through ``path``'s configurations and its times from rest to rest, the fingertip speed
+    capped all the way: the moves a plan does not hold (the lift after the grasp, the closed loop's
+    look from above). ``name`` names it in a timing error."""
     tips = np.array([np.asarray(robot.fk(config))[:3, 3] for config in path])
     return path, time_path(path, tips, np.ones(len(path), dtype=bool), limits, name)["time_from_start"]
 
@@ -184,13 +206,9 @@ class Runner:
             # A rigid finger only (e.g. the bundled UR5 and xArm7 scenes): the slide ran, there is nothing to close.
             return failure or ("grasp", "the hand has no fingers to close: the plan's hand names no gripper joints "
                                         "([hand] gripper_joints)")
-        from .. import _core
-
-        lift_target = np.asarray(robot.fk(grasp_config))
-        lift_target[2, 3] += settings.lift_height
         # Straight up; an arm with fewer than six joints takes the yaw its posture gives (the SO-101's
         # offsets leave the same orientation 5 cm higher just out of reach).
-        lift_config = robot.ik(lift_target, seed=grasp_config, rng_seed=0, options=_core.contact_ik_options(robot))
+        lift_way = straight_up(robot, grasp_config, settings.lift_height)
         # Close: the finger's flexure stiffens (the hand squeezes with the closing servos), the grip capped.
         model.jnt_stiffness[built.spring_joint] *= 50.0
         gripper.grip(model, settings, closing=True)
@@ -204,10 +222,10 @@ class Runner:
 
         self.follow(grasp_config[None, :], np.zeros(1), ramp_s + _CLOSE_S, closing)
         on_table = self.robot_bodies_on_table()
-        if lift_config is None:
+        if lift_way is None:
             return failure or ("grasp", f"no inverse kinematics for the {100 * settings.lift_height:.0f} cm lift")
         # The lift is not in the plan: timed here, the fingertip capped all the way (it holds the object).
-        self.follow(*straight_way(robot, grasp_config, lift_config, limits, "lift"), settings.hold_s)
+        self.follow(*timed_way(robot, lift_way, limits, "lift"), settings.hold_s)
         self.lifted = self.object_pose()[2] >= rest_z + _LIFTED_FRACTION * settings.lift_height
         if not self.lifted:
             blocked = f" ({', '.join(on_table)} stopped by the table when closing)" if on_table else ""

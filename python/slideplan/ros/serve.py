@@ -23,9 +23,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _core, jsontext
-from ..closed_loop import BLIND_S, Unseen, Watch, clear_config, slide_segment
+from ..closed_loop import BLIND_S, CLEAR_LIFT_M, Unseen, Watch, slide_segment
 from ..errors import InputError
-from ..execute.runner import reference
+from ..execute.runner import reference, straight_up
 from ..objects import ThinObject
 from ..planning import PlannerConfig, PlanResult, base_pose_matrix, plan, robot_model
 from ..rendering import Camera
@@ -188,19 +188,15 @@ def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = 
 
 
 def lift_path(result: PlanResult) -> np.ndarray:
-    """From the grasp straight up LIFT_M (20 waypoints).
+    """From the grasp straight up LIFT_M, a centimetre at a time (:func:`slideplan.execute.runner.straight_up`).
 
     Raises:
         Refused: (``lift``) no IK for the lifted grasp.
     """
-    robot = result.robot_model()
-    grasp = np.asarray(result.grasp["config"], dtype=float)
-    target = np.asarray(robot.fk(grasp))
-    target[2, 3] += LIFT_M
-    lifted = robot.ik(target, seed=grasp, rng_seed=0, options=_core.contact_ik_options(robot))
+    lifted = straight_up(result.robot_model(), np.asarray(result.grasp["config"], dtype=float), LIFT_M)
     if lifted is None:
         raise Refused("lift", f"no inverse kinematics for the {100 * LIFT_M:.0f} cm lift")
-    return np.linspace(grasp, np.asarray(lifted), 20)
+    return lifted
 
 
 def timed(result: PlanResult, path: np.ndarray, name: str, capped: bool) -> dict[str, np.ndarray]:
@@ -532,7 +528,7 @@ class Execution:
         robot = result.robot_model()
         top = task.scene.table.height + task.obj.thickness
         segment = slide_segment(result, top, (0.0, 0.0, 0.0))
-        replans = ends = 0
+        replans = ends = blinds = 0
         delay = 0.0  # the first point of a re-planned slide is where the old one would be by then
         unseen = Unseen()
         while True:
@@ -569,7 +565,7 @@ class Execution:
                     if event.outcome in ("slide", "grasp"):
                         self.lookahead_s = max(self.lookahead_s, 1.5 * event.latency_s)
                 if again is None:
-                    if unseen.update(seen.ok, stamp) < BLIND_S or times[-1] - ahead < BLIND_S or ends >= END_REPLANS:
+                    if unseen.update(seen.ok, stamp) < BLIND_S or times[-1] - ahead < BLIND_S or max(ends, blinds) >= END_REPLANS:
                         return False
                     switch.append((None, start_config, ahead))  # blind: stop there, rise clear and look
                     return True
@@ -595,19 +591,21 @@ class Execution:
                 return segment.result, replans, segment.predicted(np.asarray(robot.fk(path[-1])))
             end_config, end_s = (switch[0][1], switch[0][2]) if blind else (path[-1], float(times[-1]))
             if blind:  # the arm stops where it will be once the message has arrived
+                blinds += 1
                 node.move(result.joint_names, end_config[None, :], {"time_from_start": np.zeros(1),
                           "velocities": np.zeros((1, len(end_config)))}, "slide", max(0.0, started + delay + end_s - node.now()))
             delay = 0.0
             predicted = segment.predicted(np.asarray(robot.fk(end_config)))
-            lifted, trigger = (clear_config(robot, end_config), "blind") if blind else (None, "clear")
+            lifted, trigger = (straight_up(robot, end_config, CLEAR_LIFT_M), "blind") if blind else (None, "clear")
             if lifted is None:
                 again, event, seen = watch.replan("end", end_s, frames_after([node.now()]), predicted, end_config)
                 self.record(event)
-                lifted = clear_config(robot, end_config) if event.outcome == "lost" else None
+                lifted = straight_up(robot, end_config, CLEAR_LIFT_M) if event.outcome == "lost" else None
             if lifted is not None:  # the arm hides the object: the finger rises clear, looks and comes back
-                up = np.linspace(end_config, lifted, 20)
+                up = lifted
                 node.move(result.joint_names, up, timed(segment.result, up, "clear", capped=True), "clear")
-                again, event, seen = watch.replan(trigger, end_s, frames_after([node.now()]), predicted, end_config)
+                again, event, seen = watch.replan(trigger, end_s, frames_after([node.now()]), predicted, end_config,
+                                                  segment=segment, tip=np.asarray(robot.fk(end_config)))
                 self.record(event)
                 node.move(result.joint_names, up[::-1], timed(segment.result, up[::-1], "clear", capped=True), "clear")
             unseen.update(True, node.newest_cloud())
@@ -615,13 +613,17 @@ class Execution:
             if again is None and outcome == "refused" and ends < END_REPLANS:
                 # The finger is off the object as seen (pushed from under it): a new slide from a new contact.
                 again, outcome = self.new_contact(seen.motion), "new_contact"
+            replanned = again is not None
+            if blind and not replanned:  # on track, not seen or no new plan: the rest of the slide, from rest
+                again = segment.rest(robot, end_s, end_config)
             if again is None or ends >= END_REPLANS:  # its own grasp, from where Eq. 2 put the object
                 return segment.result, replans, seen.motion if seen.ok else predicted
-            replans += 1
-            node.publish_status("replan", trigger="blind" if blind else "end", replans=replans, outcome=outcome)
+            if replanned:
+                replans += 1
+                node.publish_status("replan", trigger="blind" if blind else "end", replans=replans, outcome=outcome)
             if len(again.trajectory) == 1:
                 return again, replans, seen.motion
-            ends += 1
+            ends += replanned
             segment = slide_segment(again, top, seen.motion)
 
     def object_share(self, expected, phase: str) -> float | None:
