@@ -245,7 +245,7 @@ def test_a_push_mid_slide_is_seen_re_planned_for_and_the_answer_is_true():
     # Noticed: seen off the plan by about the push, or said to be lost from where it was looked for (pushed
     # mostly off the table or out of view: docs/ros2.md counts both).
     assert any(look["off_m"] > 0.02 or look["outcome"] == "lost" for look in looks), looks
-    assert all(look["outcome"] in ("slide", "grasp", "refused", "timeout", "lost", "solved") for look in looks), looks
+    assert all(look["outcome"] in ("slide", "grasp", "refused", "timeout", "lost", "kept", "solved") for look in looks), looks
     assert all(look["detail"] for look in looks if look["outcome"] in ("refused", "lost")), looks  # each says why
     lifted, _ = _lifted_over_the_edge(client)
     assert response.success == lifted, (answer, lifted)
