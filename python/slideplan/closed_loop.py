@@ -25,7 +25,9 @@ the end of a slide may take several frames (up to ``END_LOOKS``), which a real c
 frame rate.
 
 A re-plan that is refused (the arm's state is not on the object as seen) or finds no plan within
-``replan_time_limit`` is reported as such, and the loop goes on with the plan it has.
+``replan_time_limit`` is reported as such, and the loop goes on with the plan it has. After a slide,
+a refused look (the object pushed from under the finger) asks for a whole new slide instead, reached
+from where the finger is (lifted off first, every link checked: :mod:`slideplan.execute.reach`).
 
 Open loop (``closed=False``): the first plan is executed as planned, its own grasp included; the
 camera only watches, for the verdict.
@@ -51,6 +53,7 @@ from . import jsontext
 from ._fields import as_numbers
 from .errors import InputError
 from .execute.model import DEPTH_CAMERA, build_model
+from .execute.reach import Unreachable, reach_path
 from .execute.runner import SETTLE_S, Runner, Unstable, straight_up, timed_way, timing_of, timing_options
 from .execute.settings import ExecutionSettings, stress_settings
 from .execute.video import Recorder, plan_points
@@ -117,7 +120,8 @@ class Replan:
         trigger: ``"drift"`` (off the predicted pose during a slide), ``"end"`` (a slide ended) or
             ``"clear"`` (the look after an end look that did not see the object, the finger lifted clear)
             or ``"blind"`` (the same when no look had seen the object for ``BLIND_S`` of a slide, which
-            stopped there).
+            stopped there), or ``"new_contact"`` (after a look that found the fingertip off the object:
+            a whole new slide, reached from where the finger is).
         position_error_m, yaw_error_deg: how far the seen pose was from the predicted one.
         track_s, plan_s: wall time of tracking and of planning with timing (s).
         sense_s: wall time the frames took to arrive (s): in simulation MuJoCo's rendering of the depth
@@ -689,6 +693,31 @@ def run(
         slide_start[0] = float(data.time)
         ends = blinds = 0
         unseen = Unseen()
+
+        def new_contact(motion, current: np.ndarray) -> PlanResult | None:
+            """A whole new slide for the object seen at ``motion`` and the reach to its first contact from
+            ``current`` (the finger lifted off first, every link checked), followed; None when there is
+            none (the event says why)."""
+            started = time.perf_counter()
+            event = Replan(data.time - slide_start[0], "new_contact", 0.0, 0.0, 0.0, 0.0, "refused")
+            report["events"].append(event)
+            seen_obj = perceived.moved(motion)
+            try:
+                fresh = plan(watch.scene, seen_obj, watch.replan_config)
+                if not fresh.solved:
+                    event.outcome = "timeout"
+                    return None
+                reach = reach_path(fresh, seen_obj, current, pressed=True)
+            except (InputError, Unreachable) as error:
+                event.detail = error.problem if isinstance(error, InputError) else str(error)
+                return None
+            finally:
+                event.plan_s = time.perf_counter() - started
+            tips = np.array([np.asarray(robot.fk(joints))[:3, 3] for joints in reach])
+            runner.follow(reach, time_path(reach, tips, np.zeros(len(reach), dtype=bool), fresh.timing["limits"], "reach")["time_from_start"],
+                          SETTLE_S)
+            event.outcome = "grasp" if len(fresh.trajectory) == 1 else "slide"
+            return fresh
         while True:
             switch: list = []
             next_look = [data.time - slide_start[0] + replan_period]
@@ -752,6 +781,9 @@ def run(
             unseen.update(True, data.time - slide_start[0])
             seen_motion = seen.motion
             replanned = event.outcome in ("slide", "grasp")
+            if again is None and event.outcome == "refused" and ends < end_replans:
+                again = new_contact(seen.motion, end_config)  # pushed from under the finger
+                replanned = again is not None
             if blind and not replanned:  # on track, not seen or no new plan: the rest of the slide, from rest
                 again = segment.rest(robot, stop_s, end_config)
             if again is None or ends >= end_replans:

@@ -284,3 +284,13 @@ def test_a_stopped_blind_slide_not_seen_from_above_either_goes_on_with_the_rest_
     blind = [event for event in report.events if event.trigger == "blind"]
     assert blind and all(event.outcome == "kept" and event.detail.startswith("not seen") for event in blind), report.events
     assert report.replans == 0 and report.true_overhang_m >= 0.02, report.summary()
+
+
+def test_a_push_from_under_the_finger_is_followed_by_a_new_slide_from_a_new_contact():
+    # Pushed 4 cm sideways 2 s into the slide: the finger is no longer on the object as seen, so no slide
+    # can go on from where the arm is; a whole new slide is planned, reached from above, and followed.
+    report = run(*DEMO, seed=1, closed=True, disturbance=Disturbance(0.0, 0.04, 0.0, 2.0))
+    triggers = [(event.trigger, event.outcome) for event in report.events]
+    contact = [index for index, (trigger, _) in enumerate(triggers) if trigger == "new_contact"]
+    assert contact and triggers[contact[0]][1] == "slide" and triggers[contact[0] - 1][1] == "refused", triggers
+    assert report.success, report.summary()

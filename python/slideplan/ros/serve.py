@@ -22,9 +22,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import _core, jsontext
+from .. import jsontext
 from ..closed_loop import BLIND_S, CLEAR_LIFT_M, Unseen, Watch, slide_segment
 from ..errors import InputError
+from ..execute.reach import Unreachable, reach_path
 from ..execute.runner import reference, straight_up
 from ..objects import ThinObject
 from ..planning import PlannerConfig, PlanResult, base_pose_matrix, plan, robot_model
@@ -32,9 +33,6 @@ from ..rendering import Camera
 from ..scenes import Scene
 from ..timing import time_path
 
-HOVER_M = 0.03  # the reach comes down onto the first contact from this far above the object
-REACH_CLEARANCE_M = 0.15  # or by way of this much higher, where the direct move collides
-REACH_STEP_RAD = 0.02  # the reach is checked for collisions this densely (joint space)
 # A trajectory has arrived when the arm is still (every joint slower than STILL_RAD_S) after its duration,
 # every joint within GOAL_TOLERANCE_RAD of its last point: a servo pressing the finger on the object holds
 # a hundredth of a radian or two off it (the simulator's servos have no integral action); more is a block.
@@ -98,95 +96,6 @@ def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: in
     return perception.scene(scene), obj, len(perception.objects), perception.plane
 
 
-def _collision_world(result: PlanResult, obj: ThinObject):
-    """The plan's robot, table, clutter and object (a prism over its cloud's hull) for collision checks."""
-    import shapely
-
-    from ..planning import core_obstacles
-
-    world = _core.CollisionWorld(result.robot_model(),
-                                 _core.SupportSurface(np.asarray(result.table["polygon"], dtype=float), float(result.table["height"])),
-                                 core_obstacles(result.obstacles), list(result.robot["contact_links"]))
-    hull = np.asarray(shapely.MultiPoint(obj.points[:, :2]).convex_hull.exterior.coords)[:-1]
-    world.set_object(hull, float(result.table["height"]) + obj.thickness)
-    return world
-
-
-def _dense(configs: list[np.ndarray]) -> np.ndarray:
-    """Joint-linear segments between ``configs``, no step longer than REACH_STEP_RAD."""
-    path = [configs[0]]
-    for start, end in zip(configs, configs[1:]):
-        count = max(1, int(math.ceil(np.abs(end - start).max() / REACH_STEP_RAD)))
-        path.extend(start + (end - start) * fraction for fraction in np.linspace(0.0, 1.0, count + 1)[1:])
-    return np.array(path)
-
-
-def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = False) -> np.ndarray:
-    """From the arm's configuration ``current`` to the slide's first contact: joint-linear to a
-    configuration with the fingertip HOVER_M above the object there, or else by way of one
-    REACH_CLEARANCE_M higher still, or else up to that height first, across and down (every link clear
-    of table, clutter and object on the way), then
-    down onto the contact (the finger may touch the object there, as while sliding). ``pressed``: the
-    finger is on the table or the object now (a slide ended): it rises HOVER_M straight up first.
-
-    Raises:
-        Refused: (``reach``) no IK above the contact, or a collision on every way, naming the links.
-    """
-    from .. import _core
-
-    robot = result.robot_model()
-    start = np.asarray(result.start_config, dtype=float)
-    world = _collision_world(result, obj)
-
-    top = float(result.table["height"]) + obj.thickness
-    tip = np.asarray(robot.fk(start))
-
-    def above(height: float, seed: np.ndarray, pose: np.ndarray = tip) -> np.ndarray:
-        """A fingertip pose (the start's) ``height`` above the object's top (the start presses below it)."""
-        target = pose.copy()
-        target[2, 3] = max(target[2, 3], top) + height
-        config = robot.ik(target, seed=seed, rng_seed=0, options=_core.contact_ik_options(robot))
-        if config is None:
-            raise Refused("reach", f"no inverse kinematics {100 * height:.0f} cm above the object at the first contact")
-        return np.asarray(config)
-
-    def blocked(path: np.ndarray, mode) -> list:
-        """The colliding pairs of the first configuration of ``path`` in collision, or []."""
-        for config in path:
-            if not world.is_valid(config, mode):
-                return world.collisions(config, mode)
-        return []
-
-    hover = above(HOVER_M, start)
-    down = _dense([hover, start])
-    if blocked(down, _core.ContactMode.SLIDING):
-        raise Refused("reach", f"the move down onto the first contact from {100 * HOVER_M:.0f} cm above collides")
-    current = np.asarray(current, dtype=float)
-    rise = np.zeros((0, len(current)))
-    if pressed:
-        rise = _dense([current, above(HOVER_M, current, np.asarray(robot.fk(current)))])
-        if blocked(rise, _core.ContactMode.SLIDING):
-            raise Refused("reach", "lifting the finger off collides")
-        current, rise = rise[-1], rise[:-1]
-    pairs: list = []
-    high = HOVER_M + REACH_CLEARANCE_M
-    # Straight across; by way of high above the contact; or up first, across high, and down (a joint-linear
-    # move from a finger on the object to high above a new contact can dip into the object on the way).
-    ways = (lambda: [current, hover], lambda: [current, above(high, hover), hover],
-            lambda: [current, above(high, current, np.asarray(robot.fk(current))), above(high, hover), hover])
-    for way in ways:
-        try:
-            path = _dense(way())
-        except Refused:  # no inverse kinematics that high: the next way
-            continue
-        pairs = blocked(path, _core.ContactMode.FREE)
-        if not pairs:
-            return np.vstack([rise, path, down[1:]])
-    names = ", ".join(f"{first}-{second}" for first, second in pairs[:3])
-    raise Refused("reach", f"the joint-space move from the current configuration to above the first contact collides "
-                           f"({names}), also by way of {100 * high:.0f} cm above it: move the arm clear first")
-
-
 def lift_path(result: PlanResult) -> np.ndarray:
     """From the grasp straight up LIFT_M, a centimetre at a time (:func:`slideplan.execute.runner.straight_up`).
 
@@ -245,7 +154,10 @@ def plan_task(scene: Scene, points: np.ndarray, joints: np.ndarray | None, *, ca
     verification = verify(result)
     if not verification.ok:
         raise Refused("invalid", f"the plan fails verification: {verification.violations[0]}")
-    reach = reach_path(result, obj, joints)
+    try:
+        reach = reach_path(result, obj, joints)
+    except Unreachable as error:
+        raise Refused("reach", str(error)) from None
     summary = {"status": "solved", "planning_time_s": round(result.planning_time_s, 4),
                "perceive_s": round(perceived - started, 4), "total_s": round(time.perf_counter() - started, 4),
                "overhang_m": round(result.overhang_m, 4), "objects_seen": seen, "replans": 0}
@@ -687,7 +599,10 @@ class Execution:
                             latency_s=round(fresh.planning_time_s, 4))
         if not fresh.solved or not verify(fresh).ok:
             return None
-        reach = reach_path(fresh, seen, node.joints()[0], pressed=True)
+        try:
+            reach = reach_path(fresh, seen, node.joints()[0], pressed=True)
+        except Unreachable as error:
+            raise Refused("reach", str(error)) from None
         node.move(fresh.joint_names, reach, timed(fresh, reach, "reach", capped=False), "reach")
         return fresh
 

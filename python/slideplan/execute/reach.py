@@ -1,0 +1,108 @@
+"""The reach to a slide's first contact: a move the plan does not hold (the arm starts wherever it is),
+checked for collisions with the table, clutter and object (the ROS node's reach, and the closed loop's
+move to a new contact when a push took the object from under the finger)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import _core
+from ..objects import ThinObject
+from ..planning import PlanResult
+
+HOVER_M = 0.03  # the reach comes down onto the first contact from this far above the object
+REACH_CLEARANCE_M = 0.15  # or by way of this much higher, where the direct move collides
+REACH_STEP_RAD = 0.02  # the reach is checked for collisions this densely (joint space)
+
+
+class Unreachable(Exception):
+    """No collision-free reach to the first contact (the message says why, naming the links)."""
+
+
+def collision_world(result: PlanResult, obj: ThinObject):
+    """The plan's robot, table, clutter and object (a prism over its cloud's hull) for collision checks."""
+    import shapely
+
+    from ..planning import core_obstacles
+
+    world = _core.CollisionWorld(result.robot_model(),
+                                 _core.SupportSurface(np.asarray(result.table["polygon"], dtype=float), float(result.table["height"])),
+                                 core_obstacles(result.obstacles), list(result.robot["contact_links"]))
+    hull = np.asarray(shapely.MultiPoint(obj.points[:, :2]).convex_hull.exterior.coords)[:-1]
+    world.set_object(hull, float(result.table["height"]) + obj.thickness)
+    return world
+
+
+def dense(configs: list[np.ndarray]) -> np.ndarray:
+    """Joint-linear segments between ``configs``, no step longer than REACH_STEP_RAD."""
+    path = [configs[0]]
+    for start, end in zip(configs, configs[1:]):
+        count = max(1, int(math.ceil(np.abs(end - start).max() / REACH_STEP_RAD)))
+        path.extend(start + (end - start) * fraction for fraction in np.linspace(0.0, 1.0, count + 1)[1:])
+    return np.array(path)
+
+
+def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = False) -> np.ndarray:
+    """From the arm's configuration ``current`` to the slide's first contact: joint-linear to a
+    configuration with the fingertip HOVER_M above the object there, or else by way of one
+    REACH_CLEARANCE_M higher still, or else up to that height first, across and down (every link clear
+    of table, clutter and object on the way), then
+    down onto the contact (the finger may touch the object there, as while sliding). ``pressed``: the
+    finger is on the table or the object now (a slide ended): it rises HOVER_M straight up first.
+
+    Raises:
+        Unreachable: no IK above the contact, or a collision on every way, naming the links.
+    """
+    robot = result.robot_model()
+    start = np.asarray(result.start_config, dtype=float)
+    world = collision_world(result, obj)
+
+    top = float(result.table["height"]) + obj.thickness
+    tip = np.asarray(robot.fk(start))
+
+    def above(height: float, seed: np.ndarray, pose: np.ndarray = tip) -> np.ndarray:
+        """A fingertip pose (the start's) ``height`` above the object's top (the start presses below it)."""
+        target = pose.copy()
+        target[2, 3] = max(target[2, 3], top) + height
+        config = robot.ik(target, seed=seed, rng_seed=0, options=_core.contact_ik_options(robot))
+        if config is None:
+            raise Unreachable(f"no inverse kinematics {100 * height:.0f} cm above the object at the first contact")
+        return np.asarray(config)
+
+    def blocked(path: np.ndarray, mode) -> list:
+        """The colliding pairs of the first configuration of ``path`` in collision, or []."""
+        for config in path:
+            if not world.is_valid(config, mode):
+                return world.collisions(config, mode)
+        return []
+
+    hover = above(HOVER_M, start)
+    down = dense([hover, start])
+    if blocked(down, _core.ContactMode.SLIDING):
+        raise Unreachable(f"the move down onto the first contact from {100 * HOVER_M:.0f} cm above collides")
+    current = np.asarray(current, dtype=float)
+    rise = np.zeros((0, len(current)))
+    if pressed:
+        rise = dense([current, above(HOVER_M, current, np.asarray(robot.fk(current)))])
+        if blocked(rise, _core.ContactMode.SLIDING):
+            raise Unreachable("lifting the finger off collides")
+        current, rise = rise[-1], rise[:-1]
+    pairs: list = []
+    high = HOVER_M + REACH_CLEARANCE_M
+    # Straight across; by way of high above the contact; or up first, across high, and down (a joint-linear
+    # move from a finger on the object to high above a new contact can dip into the object on the way).
+    ways = (lambda: [current, hover], lambda: [current, above(high, hover), hover],
+            lambda: [current, above(high, current, np.asarray(robot.fk(current))), above(high, hover), hover])
+    for way in ways:
+        try:
+            path = dense(way())
+        except Unreachable:  # no inverse kinematics that high: the next way
+            continue
+        pairs = blocked(path, _core.ContactMode.FREE)
+        if not pairs:
+            return np.vstack([rise, path, down[1:]])
+    names = ", ".join(f"{first}-{second}" for first, second in pairs[:3])
+    raise Unreachable(f"the joint-space move from the current configuration to above the first contact collides "
+                           f"({names}), also by way of {100 * high:.0f} cm above it: move the arm clear first")
