@@ -106,7 +106,8 @@ def test_cli_bad_input_is_exit_2_with_one_line():
     assert "--pose" in result.output and "not wholly on the table" in result.output
 
 
-def test_a_slide_is_kept_while_it_still_ends_graspable_from_where_the_object_is_seen():
+def _demo_segment():
+    """The demo task's scene, object, planner settings, plan, and that plan as a slide to follow."""
     from slideplan.closed_loop import slide_segment
 
     scene_name, name, pose = DEMO
@@ -114,7 +115,11 @@ def test_a_slide_is_kept_while_it_still_ends_graspable_from_where_the_object_is_
     obj = load_object(name, table_height=scene.table.height, pose=pose)
     config = PlannerConfig.for_scene(scene, seed=1)
     result = plan(scene, obj, config)
-    segment = slide_segment(result, scene.table.height + obj.thickness, (0.0, 0.0, 0.0))
+    return scene, obj, config, result, slide_segment(result, scene.table.height + obj.thickness, (0.0, 0.0, 0.0))
+
+
+def test_a_slide_is_kept_while_it_still_ends_graspable_from_where_the_object_is_seen():
+    scene, obj, config, result, segment = _demo_segment()
     middle = len(result.trajectory) // 2
     tip = row_to_pose(result.fingertip_poses[middle])
     where_planned = planar_motion(row_to_pose(result.fingertip_poses[0]), tip)
@@ -132,15 +137,10 @@ def test_a_push_is_confirmed_by_two_looks_while_the_finger_carries_the_object_on
     # by the finger a centimetre or more between them; they are one drift, seen twice.
     from types import SimpleNamespace
 
-    from slideplan.closed_loop import Watch, slide_segment
+    from slideplan.closed_loop import Watch
     from slideplan.transforms import compose_planar
 
-    scene_name, name, pose = DEMO
-    scene = load_scene(scene_name)
-    obj = load_object(name, table_height=scene.table.height, pose=pose)
-    config = PlannerConfig.for_scene(scene, seed=1)
-    result = plan(scene, obj, config)
-    segment = slide_segment(result, scene.table.height + obj.thickness, (0.0, 0.0, 0.0))
+    scene, obj, config, result, segment = _demo_segment()
     watch = Watch(scene, obj, config, default_camera(scene), (0.003, math.radians(2.0)), 1.0)
     tips = [row_to_pose(row) for row in result.fingertip_poses]
     first = len(tips) // 3
