@@ -490,8 +490,8 @@ class Watch:
 
     def drifted(self, seen, predicted, segment: Segment, tip: np.ndarray) -> bool:
         """Whether a look during a slide asks for a new plan: off the prediction in CONFIRM looks in a row
-        that agree with each other, the earlier carried by the fingertip's motion since (one look's error alone is mostly the tracker's, with the arm hiding
-        much of the object), and the rest of the slide would not end graspable from there (re-planning
+        that agree with each other, the earlier carried by the fingertip's motion since (one look's
+        error alone is mostly the tracker's, with the arm hiding much of the object), and the rest of the slide would not end graspable from there (re-planning
         on the tracker's own error restarts the slide from rest again and again)."""
         if self.agree(seen.motion, predicted, 1.0):
             self._beyond.clear()
