@@ -165,7 +165,8 @@ class ClosedLoopRun:
         replans: re-plans whose new plan was followed (slides and grasps from a seen pose).
         replan_latency_s: median latency of the looks that planned (s), None if none did.
         kept: drifts (off the predicted pose in ``CONFIRM`` looks in a row) after which the rest of the
-            slide still ended graspable from the pose seen, so the plan was kept.
+            slide still ended graspable from the pose seen, so the plan was kept; and blind stops whose
+            look found the same, or nothing (events with outcome ``"kept"``).
         looks: depth frames tracked; lost_looks: of them, those that did not show the object.
         events: every look that asked for a plan, and each end-of-slide look (:class:`Replan`).
         seen_motion: the object's motion from its perceived pose to where it was last seen, ``{x, y, yaw}``.
