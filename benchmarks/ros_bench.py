@@ -5,11 +5,15 @@ process publishes, on the other, a depth cloud of the demo scene (the crescent o
 rendered by the MuJoCo robot's camera with its noise, a new noise draw per cloud, 5 Hz) and the arm's
 joint state, and calls the service: first until it answers (the cold node), then ``--calls`` times
 (the warm node: the table plane known from the first cloud). Each answer's own timings (perceive,
-plan) are read from its JSON. Every call must solve.
+plan) are read from its JSON. Every call must solve. Then ``--executes`` calls of ``/slideplan/execute``
+(the node perceives and plans, opens the hand through ``/gripper/set``, which this process serves at
+once, and publishes the reach): from the request to the first ``JointTrajectory`` on
+``/joint_trajectory_controller/joint_trajectory``. The joint state here never moves, so each execution
+then stops, refused, once the reach's time is up; only the first message's latency is kept.
 
 Prints and writes (docs/benchmarks/ros.md) median / p95 with the CPU named. Not a test: ``make bench``.
 
-    python benchmarks/ros_bench.py [--calls 30]
+    python benchmarks/ros_bench.py [--calls 30] [--executes 10]
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ from plan_bench import cpu_name, write_report  # benchmarks/ is the script's dir
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--calls", type=int, default=30, help="warm calls")
+    parser.add_argument("--executes", type=int, default=10, help="warm /slideplan/execute calls, to the first trajectory message")
     parser.add_argument("--out", type=Path, default=Path("docs/benchmarks/ros.md"))
     args = parser.parse_args()
     os.environ.setdefault("MUJOCO_GL", "egl")
@@ -42,7 +47,8 @@ def main() -> None:
     import rclpy
     from sensor_msgs.msg import JointState, PointCloud2
     from std_msgs.msg import Header
-    from std_srvs.srv import Trigger
+    from std_srvs.srv import SetBool, Trigger
+    from trajectory_msgs.msg import JointTrajectory
 
     from slideplan.closed_loop import default_camera
     from slideplan.ros.messages import cloud_message
@@ -78,6 +84,28 @@ def main() -> None:
 
     threading.Thread(target=sensors, daemon=True).start()
     service = client_node.create_client(Trigger, "/slideplan/plan")
+    execute = client_node.create_client(Trigger, "/slideplan/execute")
+    arrivals: list[float] = []
+    client_node.create_subscription(JointTrajectory, "/joint_trajectory_controller/joint_trajectory",
+                                    lambda message: arrivals.append(time.perf_counter()), 10)
+
+    def gripper(request, response):
+        response.success = True
+        return response
+
+    client_node.create_service(SetBool, "/gripper/set", gripper)
+
+    def first_message() -> float:
+        """An execution from its request to its first trajectory message (s); it is then left to fail."""
+        arrivals.clear()
+        started = time.perf_counter()
+        future = execute.call_async(Trigger.Request())
+        while not arrivals and time.perf_counter() - started < 60.0:
+            rclpy.spin_once(client_node, timeout_sec=0.01)
+        rclpy.spin_until_future_complete(client_node, future, timeout_sec=60.0)
+        if not arrivals:
+            raise SystemExit(f"no trajectory message within 60 s: {future.result().message if future.done() else 'no answer'}")
+        return arrivals[0] - started
 
     def call() -> tuple[float, dict]:
         started = time.perf_counter()
@@ -96,6 +124,8 @@ def main() -> None:
                 raise SystemExit(f"the node does not plan: {answer}")
             time.sleep(0.2)
         warm = [call() for _ in range(args.calls)]
+        after_plan = first_message()  # the node executes the plan of the last /slideplan/plan
+        executes = [first_message() for _ in range(args.executes)]  # each plans on the call
     finally:
         stop.set()
         node.terminate()
@@ -107,13 +137,15 @@ def main() -> None:
         raise SystemExit(f"{len(unsolved)} of {args.calls} calls did not solve: {unsolved[0]}")
     columns = {"request to response": [seconds for seconds, _ in warm],
                "perceive (in the node)": [answer["perceive_s"] for _, answer in warm],
-               "plan (in the node)": [answer["planning_time_s"] for _, answer in warm]}
+               "plan (in the node)": [answer["planning_time_s"] for _, answer in warm],
+               "/slideplan/execute request to the first trajectory message (perceive, plan, open the hand, reach)": executes}
     lines = [f"# Planning node latency ({datetime.date.today().isoformat()})", "",
              f"CPU: {cpu_name()}, the node pinned to one core, the client on the other. "
              f"`python benchmarks/ros_bench.py --calls {args.calls}`: `/slideplan/plan` (std_srvs/Trigger over "
              "Fast DDS, localhost) on the demo scene's rendered 320 x 240 depth cloud; the warm node knows the "
              "table plane from its first cloud.", "",
-             f"The first call of a fresh node (cold): {cold_s:.3f} s.", "",
+             f"The first call of a fresh node (cold): {cold_s:.3f} s. `/slideplan/execute` right after a "
+             f"`/slideplan/plan` (it executes that plan): {1000 * after_plan:.0f} ms to the first trajectory message.", "",
              "| warm node, per call | median | p95 |", "|---|---|---|"]
     for name, values in columns.items():
         lines.append(f"| {name} | {1000 * np.median(values):.0f} ms | {1000 * np.percentile(values, 95):.0f} ms |")
