@@ -11,6 +11,7 @@ import numpy as np
 from .. import _core
 from ..objects import ThinObject
 from ..planning import PlanResult
+from .runner import straight_up
 
 HOVER_M = 0.03  # the reach comes down onto the first contact from this far above the object
 REACH_CLEARANCE_M = 0.15  # or by way of this much higher, where the direct move collides
@@ -63,7 +64,8 @@ def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = 
     tip = np.asarray(robot.fk(start))
 
     def above(height: float, seed: np.ndarray, pose: np.ndarray = tip) -> np.ndarray:
-        """A fingertip pose (the start's) ``height`` above the object's top (the start presses below it)."""
+        """A configuration with the fingertip (at the start's pose) ``height`` above the object's top (the
+        start presses below it): the high way points, reached by joint-linear moves checked for collisions."""
         target = pose.copy()
         target[2, 3] = max(target[2, 3], top) + height
         config = robot.ik(target, seed=seed, rng_seed=0, options=_core.contact_ik_options(robot))
@@ -78,14 +80,23 @@ def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = 
                 return world.collisions(config, mode)
         return []
 
-    hover = above(HOVER_M, start)
-    down = dense([hover, start])
+    def up_from(config: np.ndarray, what: str) -> np.ndarray:
+        """Straight up from ``config`` to HOVER_M above the object's top, a centimetre at a time (one IK
+        call for the whole height may land on another branch of the arm)."""
+        z = float(np.asarray(robot.fk(config))[2, 3])
+        way = straight_up(robot, config, max(z, top) + HOVER_M - z)
+        if way is None:
+            raise Unreachable(f"no inverse kinematics straight up {100 * HOVER_M:.0f} cm above the object {what}")
+        return dense(list(way))
+
+    up = up_from(start, "at the first contact")
+    hover, down = up[-1], up[::-1]
     if blocked(down, _core.ContactMode.SLIDING):
         raise Unreachable(f"the move down onto the first contact from {100 * HOVER_M:.0f} cm above collides")
     current = np.asarray(current, dtype=float)
     rise = np.zeros((0, len(current)))
     if pressed:
-        rise = dense([current, above(HOVER_M, current, np.asarray(robot.fk(current)))])
+        rise = up_from(current, "from where the finger is")
         if blocked(rise, _core.ContactMode.SLIDING):
             raise Unreachable("lifting the finger off collides")
         current, rise = rise[-1], rise[:-1]
