@@ -44,7 +44,7 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Protocol
 
 import numpy as np
 import shapely
@@ -335,10 +335,6 @@ class Segment:
         """Where Eq. 2 puts the object (motion from its perceived pose) with the fingertip at ``tip`` (4, 4)."""
         return compose_planar(self.base, planar_motion(row_to_pose(self.result.fingertip_poses[0]), tip))
 
-    def tip(self, robot, runner: Runner, elapsed: float) -> np.ndarray:
-        """The fingertip pose (4, 4) at the commanded configuration."""
-        return np.asarray(robot.fk(runner.commanded(np.asarray(self.result.trajectory), self.times, elapsed)))
-
     def rest(self, robot, stop_s: float, config: np.ndarray) -> PlanResult:
         """This slide stopped at ``stop_s`` with the arm at ``config``: from there, at rest, through the
         waypoints after it, timed from rest under the plan's limits (its grasp, at the same end, stays)."""
@@ -574,6 +570,241 @@ class Watch:
         return again, event, dataclasses.replace(seen, motion=motion)
 
 
+@dataclass
+class Stop:
+    """Where a look during a slide leaves it (:meth:`SlideLoop.look`).
+
+    Attributes:
+        plan: the new plan a confirmed drift asks for, followed from ``config``; None: blind (no look
+            has seen the object for ``BLIND_S``), the arm stops at ``config`` to look from above.
+        motion: where the object was seen (motion from its perceived pose); None when blind.
+        config: the configuration the new plan starts from, or the arm stops at.
+        at_s: its time into the slide (s).
+    """
+
+    plan: PlanResult | None
+    motion: tuple | None
+    config: np.ndarray
+    at_s: float
+
+
+class Arm(Protocol):
+    """What drives the arm for a :class:`SlideLoop`: the MuJoCo runner of :func:`run` or the ROS node's
+    controller (:mod:`slideplan.ros.serve`)."""
+
+    def slide(self, segment: Segment, look: Callable[..., Stop | None] | None) -> Stop | None:
+        """Follow ``segment`` to its end; with a ``look`` (:meth:`SlideLoop.look`), call it at each new
+        frame, and leave the slide at the first :class:`Stop` it returns (returned)."""
+
+    def stop(self, stop: Stop) -> None:
+        """Bring the arm to rest at ``stop.config`` (a blind stop)."""
+
+    def switch(self, stop: Stop) -> None:
+        """Go on with ``stop.plan`` from ``stop.config`` (a one-configuration plan: rest there)."""
+
+    def move(self, result: PlanResult, path: np.ndarray, phase: str) -> None:
+        """Move along ``path`` from rest to rest under ``result``'s limits: ``"clear"`` (straight up to look
+        and back, the fingertip's speed capped) or ``"reach"`` (to a new slide's first contact)."""
+
+    def frames(self) -> Callable[[], tuple[np.ndarray, np.ndarray]]:
+        """What gives the next (depth image, measured fingertip pose) with the arm at rest."""
+
+    def clock(self) -> float:
+        """Time since the slide started (s)."""
+
+    def record(self, event: Replan) -> None:
+        """A look that asked for a plan, its outcome known."""
+
+    def replanned(self, trigger: str, outcome: str, replans: int) -> None:
+        """A new plan is followed (``replans`` so far)."""
+
+
+class SlideLoop:
+    """The closed loop's decisions over a slide, whatever drives the arm (:func:`run` in MuJoCo, the ROS
+    node): a confirmed drift switches to a new plan; a slide blind for ``BLIND_S`` stops to look from
+    above; the end of a slide is looked at (from ``CLEAR_LIFT_M`` above when the arm hides the object) and
+    slid on, grasped, or slid anew from a new contact when the object was pushed from under the finger.
+
+    Args:
+        watch: the judge of the frames; None: open loop (the slide as planned, no look).
+        robot: the core robot model.
+        top: the object's top surface height (m).
+        end_replans: slides re-planned at most this many times after a slide ends (and blind stops at most
+            this many).
+        arm: what moves the arm (:class:`Arm`).
+
+    Attributes:
+        replans: new plans followed.
+    """
+
+    def __init__(self, watch: Watch | None, robot, top: float, end_replans: int, arm: Arm) -> None:
+        self.watch, self.robot, self.top, self.end_replans, self.arm = watch, robot, top, end_replans, arm
+        self.replans = self.ends = self.blinds = 0
+        self.unseen = Unseen()
+        self.segment: Segment | None = None
+
+    def look(self, frames, stamp: float, tip: np.ndarray, config: np.ndarray, at_s: float,
+             start_tip: np.ndarray | None = None) -> Stop | None:
+        """A look during the slide, the frame taken at ``stamp`` (s, :meth:`Arm.clock`) with the fingertip
+        commanded at ``tip`` (4, 4); a new plan would start from ``config``, ``at_s`` into the slide (its
+        fingertip ``start_tip`` when later than the look's). Returns where to leave the slide, or None."""
+        segment = self.segment
+        again, event, seen = self.watch.replan("drift", stamp, frames, segment.predicted(tip), config, segment=segment,
+                                               tip=tip, start_tip=start_tip)
+        if event is not None:
+            self.arm.record(event)
+        if again is None:
+            if (self.unseen.update(seen.ok, stamp) < BLIND_S or segment.times[-1] - at_s < BLIND_S
+                    or max(self.ends, self.blinds) >= self.end_replans):
+                return None
+            return Stop(None, None, config, at_s)
+        self.unseen.update(True, stamp)
+        return Stop(again, seen.motion, config, at_s)
+
+    def run(self, result: PlanResult) -> tuple[PlanResult, tuple]:
+        """Slide along ``result`` and whatever the looks ask for. Returns the plan whose grasp is made, and
+        the object's motion from its perceived pose then: as last seen (the tracker's best guess, the
+        prediction or the last pose seen carried on, when the last look did not see it), or where Eq. 2
+        puts it (open loop)."""
+        robot, arm, watch = self.robot, self.arm, self.watch
+        segment = slide_segment(result, self.top, (0.0, 0.0, 0.0))
+        while True:
+            self.segment = segment
+            stop = arm.slide(segment, None if watch is None else self.look)
+            if stop is not None and stop.plan is not None:
+                self.replans += 1
+                arm.replanned("drift", "grasp" if len(stop.plan.trajectory) == 1 else "slide", self.replans)
+                arm.switch(stop)
+                if len(stop.plan.trajectory) == 1:  # already graspable where it was seen: the slide ends here
+                    return stop.plan, stop.motion
+                segment = slide_segment(stop.plan, self.top, stop.motion)
+                continue
+            blind = stop is not None
+            end_config, end_s = (stop.config, stop.at_s) if blind else (np.asarray(segment.result.trajectory)[-1], float(segment.times[-1]))
+            predicted = segment.predicted(np.asarray(robot.fk(end_config)))
+            if watch is None:
+                return segment.result, predicted
+            if blind:
+                self.blinds += 1
+                arm.stop(stop)
+            lifted, trigger = (straight_up(robot, end_config, CLEAR_LIFT_M), "blind") if blind else (None, "clear")
+            if lifted is None:
+                again, event, seen = watch.replan("end", arm.clock(), arm.frames(), predicted, end_config)
+                arm.record(event)
+                lifted = straight_up(robot, end_config, CLEAR_LIFT_M) if event.outcome == "lost" else None
+            if lifted is not None:  # the arm hides the object: the finger rises clear, looks and comes back
+                arm.move(segment.result, lifted, "clear")
+                again, event, seen = watch.replan(trigger, arm.clock(), arm.frames(), predicted, end_config,
+                                                  segment=segment, tip=np.asarray(robot.fk(end_config)))
+                arm.record(event)
+                arm.move(segment.result, lifted[::-1], "clear")
+            self.unseen.update(True, arm.clock())
+            outcome = event.outcome
+            if again is None and outcome == "refused" and self.ends < self.end_replans:
+                again, outcome = self.new_contact(seen.motion, end_config), "new_contact"  # pushed from under the finger
+            replanned = again is not None
+            if blind and not replanned:  # on track, not seen or no new plan: the rest of the slide, from rest
+                again = segment.rest(robot, end_s, end_config)
+            if again is None or self.ends >= self.end_replans:
+                return segment.result, seen.motion  # its own grasp, from where Eq. 2 put the object
+            if replanned:
+                self.replans += 1
+                arm.replanned("blind" if blind else "end", outcome, self.replans)
+            if len(again.trajectory) == 1:
+                return again, seen.motion
+            self.ends += replanned
+            segment = slide_segment(again, self.top, seen.motion)
+
+    def new_contact(self, motion, config: np.ndarray) -> PlanResult | None:
+        """A whole new slide for the object seen at ``motion`` (verified) and the reach to its first contact
+        from ``config`` (the finger lifted off first, every link checked), followed; None when there is none
+        (the event says why)."""
+        from .verify import verify
+
+        watch, started = self.watch, time.perf_counter()
+        event = Replan(self.arm.clock(), "new_contact", 0.0, 0.0, 0.0, 0.0, "refused")
+        seen = watch.perceived.moved(motion)
+        fresh = reach = None
+        try:
+            fresh = plan(watch.scene, seen, watch.replan_config)
+            checked = verify(fresh) if fresh.solved else None
+            if checked is not None and not checked.ok:
+                event.detail = f"the new plan fails verification: {checked.violations[0]}"
+            elif checked is not None:
+                reach = reach_path(fresh, seen, config, pressed=True)
+        except (InputError, Unreachable) as error:  # e.g. pushed mostly off the table: no slide from there
+            event.detail = error.problem if isinstance(error, InputError) else str(error)
+        event.plan_s = time.perf_counter() - started
+        if fresh is not None and not fresh.solved:
+            event.outcome = "timeout"
+        elif reach is not None:
+            event.outcome = "grasp" if len(fresh.trajectory) == 1 else "slide"
+        self.arm.record(event)
+        if reach is None:
+            return None
+        self.arm.move(fresh, reach, "reach")
+        return fresh
+
+
+class _Simulated:
+    """The :class:`Arm` of :func:`run`: MuJoCo's servos (:class:`~slideplan.execute.runner.Runner`), a look
+    every ``period`` of simulated time, the frames rendered; ``on_step(clock)`` before each step (the
+    disturbance)."""
+
+    def __init__(self, runner: Runner, robot, settings: ExecutionSettings, frames, events: list, period: float,
+                 on_step: Callable[[float], None]) -> None:
+        self.runner, self.robot, self.settings, self._frames = runner, robot, settings, frames
+        self.events, self.period, self.on_step = events, period, on_step
+        self.started = float(runner.built.data.time)
+
+    def clock(self) -> float:
+        return float(self.runner.built.data.time) - self.started
+
+    def slide(self, segment: Segment, look) -> Stop | None:
+        runner, path = self.runner, np.asarray(segment.result.trajectory)
+        stops: list[Stop] = []
+        next_look = [self.clock() + self.period]
+
+        def during(elapsed: float, step: int) -> bool:
+            now = self.clock()
+            self.on_step(now)
+            if look is None or now < next_look[0] or elapsed >= segment.times[-1]:
+                return False
+            next_look[0] += self.period
+            config = runner.commanded(path, segment.times, elapsed)  # where the servos' reference is: no jump
+            stop = look(self._frames, now, np.asarray(self.robot.fk(config)), config, elapsed)
+            if stop is not None:
+                stops.append(stop)
+            return stop is not None
+
+        runner.slide(path, segment.times, segment.depths, SETTLE_S, during)
+        return stops[0] if stops else None
+
+    def stop(self, stop: Stop) -> None:
+        self.runner.follow(stop.config[None, :], np.zeros(1), SETTLE_S)
+
+    def switch(self, stop: Stop) -> None:
+        """Nothing to do: the new plan starts at the servos' reference."""
+
+    def move(self, result: PlanResult, path: np.ndarray, phase: str) -> None:
+        if phase == "reach":
+            tips = np.array([np.asarray(self.robot.fk(joints))[:3, 3] for joints in path])
+            times = time_path(path, tips, np.zeros(len(path), dtype=bool), result.timing["limits"], phase)["time_from_start"]
+        else:
+            path, times = timed_way(self.robot, path, resolve_limits(result, timing_options(self.settings, self.robot.velocity_limits)),
+                                    phase)
+        self.runner.follow(path, times, SETTLE_S)
+
+    def frames(self):
+        return self._frames
+
+    def record(self, event: Replan) -> None:
+        self.events.append(event)
+
+    def replanned(self, trigger: str, outcome: str, replans: int) -> None:
+        """Nothing to say: the report has the loop's count and the events."""
+
+
 def run(
     scene: Scene | str | Path,
     object_name: str | Path,
@@ -681,121 +912,20 @@ def run(
                             DEPTH_DROPOUT, noise_rng)
         return frame, np.asarray(robot.fk(data.qpos[built.arm_qpos]))
 
-    disturbed = [disturbance is None]
-    slide_start = [0.0]
+    pending = [disturbance]
 
-    def disturb() -> None:
-        disturbance.apply(built)
-        disturbed[0] = True
+    def on_step(now: float) -> None:
+        if pending[0] is not None and now >= pending[0].after_s:
+            pending[0].apply(built)
+            pending[0] = None
 
-    grasp_plan, seen_motion = first, None
+    runner.press(first.trajectory[0], segment.depths[0])
+    loop = SlideLoop(watch if closed else None, robot, top, end_replans,
+                     _Simulated(runner, robot, settings, frames, report["events"], replan_period, on_step))
     try:
-        runner.press(first.trajectory[0], segment.depths[0])
-        slide_start[0] = float(data.time)
-        ends = blinds = 0
-        unseen = Unseen()
-
-        def new_contact(motion, current: np.ndarray) -> PlanResult | None:
-            """A whole new slide for the object seen at ``motion`` and the reach to its first contact from
-            ``current`` (the finger lifted off first, every link checked), followed; None when there is
-            none (the event says why)."""
-            started = time.perf_counter()
-            event = Replan(data.time - slide_start[0], "new_contact", 0.0, 0.0, 0.0, 0.0, "refused")
-            report["events"].append(event)
-            seen_obj = perceived.moved(motion)
-            try:
-                fresh = plan(watch.scene, seen_obj, watch.replan_config)
-                if not fresh.solved:
-                    event.outcome = "timeout"
-                    return None
-                reach = reach_path(fresh, seen_obj, current, pressed=True)
-            except (InputError, Unreachable) as error:
-                event.detail = error.problem if isinstance(error, InputError) else str(error)
-                return None
-            finally:
-                event.plan_s = time.perf_counter() - started
-            tips = np.array([np.asarray(robot.fk(joints))[:3, 3] for joints in reach])
-            runner.follow(reach, time_path(reach, tips, np.zeros(len(reach), dtype=bool), fresh.timing["limits"], "reach")["time_from_start"],
-                          SETTLE_S)
-            event.outcome = "grasp" if len(fresh.trajectory) == 1 else "slide"
-            return fresh
-        while True:
-            switch: list = []
-            next_look = [data.time - slide_start[0] + replan_period]
-
-            def during(elapsed: float, step: int) -> bool:
-                now = data.time - slide_start[0]
-                if not disturbed[0] and now >= disturbance.after_s:
-                    disturb()
-                if not closed or now < next_look[0] or elapsed >= segment.times[-1]:
-                    return False
-                next_look[0] += replan_period
-                path = np.asarray(segment.result.trajectory)
-                tip = segment.tip(robot, runner, elapsed)
-                again, event, seen = watch.replan("drift", now, frames, segment.predicted(tip),
-                                                  runner.commanded(path, segment.times, elapsed), segment=segment, tip=tip)
-                if event is not None:
-                    report["events"].append(event)
-                if again is None:
-                    if (unseen.update(seen.ok, now) < BLIND_S or segment.times[-1] - elapsed < BLIND_S
-                            or max(ends, blinds) >= end_replans):
-                        return False
-                    switch.append((None, elapsed))  # blind: stop here, rise clear and look
-                    return True
-                unseen.update(True, now)
-                switch.append((again, seen.motion))
-                return True
-
-            runner.slide(np.asarray(segment.result.trajectory), segment.times, segment.depths, SETTLE_S, during)
-            blind = bool(switch) and switch[0][0] is None
-            if switch and not blind:
-                new, seen_motion = switch[0]
-                report["replans"] += 1
-                if len(new.trajectory) == 1:  # already graspable where it was seen: the slide ends here
-                    grasp_plan = new
-                    break
-                segment = slide_segment(new, top, seen_motion)
-                continue
-            stop_s = switch[0][1] if blind else float(segment.times[-1])
-            end_config = runner.commanded(np.asarray(segment.result.trajectory), segment.times, stop_s)
-            if blind:  # the arm stops where the servos were sent
-                blinds += 1
-                runner.follow(end_config[None, :], np.zeros(1), SETTLE_S)
-            predicted_end = segment.predicted(segment.tip(robot, runner, stop_s))
-            if not closed:
-                seen_motion = watch.look(*frames(), predicted_end).motion
-                grasp_plan = segment.result
-                break
-            lifted, trigger = (straight_up(robot, end_config, CLEAR_LIFT_M), "blind") if blind else (None, "clear")
-            if lifted is None:
-                again, event, seen = watch.replan("end", data.time - slide_start[0], frames, predicted_end, end_config)
-                report["events"].append(event)
-                lifted = straight_up(robot, end_config, CLEAR_LIFT_M) if event.outcome == "lost" else None
-            if lifted is not None:  # the arm hides the object: the finger rises clear, looks and comes back
-                way, way_times = timed_way(robot, lifted, resolve_limits(segment.result, timing_options(settings, robot.velocity_limits)),
-                                           "clear")
-                runner.follow(way, way_times, SETTLE_S)
-                again, event, seen = watch.replan(trigger, data.time - slide_start[0], frames, predicted_end, end_config,
-                                                  segment=segment, tip=np.asarray(robot.fk(end_config)))
-                report["events"].append(event)
-                runner.follow(way[::-1], way_times, SETTLE_S)
-            unseen.update(True, data.time - slide_start[0])
-            seen_motion = seen.motion
-            replanned = event.outcome in ("slide", "grasp")
-            if again is None and event.outcome == "refused" and ends < end_replans:
-                again = new_contact(seen.motion, end_config)  # pushed from under the finger
-                replanned = again is not None
-            if blind and not replanned:  # on track, not seen or no new plan: the rest of the slide, from rest
-                again = segment.rest(robot, stop_s, end_config)
-            if again is None or ends >= end_replans:
-                grasp_plan = segment.result  # its own grasp, from where Eq. 2 put the object
-                break
-            report["replans"] += replanned
-            if len(again.trajectory) == 1:
-                grasp_plan = again
-                break
-            ends += replanned
-            segment = slide_segment(again, top, seen.motion)
+        grasp_plan, seen_motion = loop.run(first)
+        if not closed:  # the camera only watched: where it sees the object, for the verdict
+            seen_motion = watch.look(*frames(), seen_motion).motion
         _judge(report, scene.table, perceived, truth, config, seen_motion, runner)
         failure = runner.grasp(np.asarray(grasp_plan.grasp["approach"], dtype=float),
                                _times(grasp_plan, "approach", len(grasp_plan.grasp["approach"])),
@@ -808,7 +938,7 @@ def run(
     except Unstable as error:
         report.update(failed_stage="simulation", failure=str(error), lifted=False)
     finally:
-        report.update(looks=watch.looks, lost_looks=watch.lost_looks, kept=watch.kept)
+        report.update(replans=loop.replans, looks=watch.looks, lost_looks=watch.lost_looks, kept=watch.kept)
         recorder.close()
         depth_renderer.close()
     planned = [event.latency_s for event in report["events"] if event.outcome in ("slide", "grasp", "refused", "timeout")]

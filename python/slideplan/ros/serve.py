@@ -14,16 +14,16 @@ the numbers, or the ``reason`` it failed.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
 from .. import jsontext
-from ..closed_loop import BLIND_S, CLEAR_LIFT_M, Unseen, Watch, slide_segment
+from ..closed_loop import SlideLoop, Stop, Watch
 from ..errors import InputError
 from ..execute.reach import Unreachable, reach_path
 from ..execute.runner import reference, straight_up
@@ -44,8 +44,8 @@ THRESHOLD = (0.003, math.radians(2.0))
 REPLAN_TIME_LIMIT_S = 1.0
 END_REPLANS = 3
 CLOCK_STALL_S = 5.0
-CLOUD_WAIT_S = 10.0
-MIN_CHECK_POINTS = 30  # cloud points over the object's footprint that can tell whether it is there  # wall time: a simulator may run well below real time while the finger slides
+CLOUD_WAIT_S = 10.0  # wall time: a simulator may run well below real time while the finger slides
+MIN_CHECK_POINTS = 30  # cloud points over the object's footprint that can tell whether it is there
 LOOKAHEAD_S = 0.15  # a re-plan starts where the arm will be this much later (grown to 1.5 x the slowest re-plan)
 DEFAULTS = {"camera_pose": [0.0] * 6, "target": 0, "controller": "joint_trajectory_controller", "closed_loop": True,
             "time_limit": 5.0, "seed": 0}  # the node's ROS parameters (docs/ros2.md)
@@ -430,113 +430,16 @@ class Execution:
                 "replan_latency_s": round(float(np.median(latencies)), 4) if latencies else None}
 
     def slide(self, result: PlanResult) -> tuple[PlanResult, int, tuple]:
-        """Follow the slide; with ``closed_loop``, watch the object in each new cloud and switch to a new
-        plan when it drifts, and look again when a slide ends (as :func:`slideplan.closed_loop.run`).
-        Return the plan whose grasp is made, the re-plans followed, and where the object is expected
-        at the grasp (motion from its perceived pose: as last seen, or as Eq. 2 puts it)."""
+        """Follow the slide; with ``closed_loop``, watch the object in each new cloud and re-plan as
+        :func:`slideplan.closed_loop.run` does (:class:`~slideplan.closed_loop.SlideLoop`). Return the plan
+        whose grasp is made, the re-plans followed, and where the object is expected at the grasp (motion
+        from its perceived pose: as last seen, or as Eq. 2 puts it)."""
         node, task = self.node, self.task
-        closed = bool(node.parameter("closed_loop"))
-        watch = self.judge = self._watch() if closed else None
+        watch = self.judge = self._watch() if bool(node.parameter("closed_loop")) else None
         robot = result.robot_model()
-        top = task.scene.table.height + task.obj.thickness
-        segment = slide_segment(result, top, (0.0, 0.0, 0.0))
-        replans = ends = blinds = 0
-        delay = 0.0  # the first point of a re-planned slide is where the old one would be by then
-        unseen = Unseen()
-        while True:
-            path, times = np.asarray(segment.result.trajectory, dtype=float), segment.times
-            started = node.send(result.joint_names, path, segment.result.timing["trajectory"], "slide", delay)
-            switch: list = []
-            seen_at = [started]
-
-            def frames_after(stamp_box):
-                """The next cloud after the last one used, as (depth, measured fingertip pose)."""
-                def frames():
-                    cloud = node.next_cloud(stamp_box[0], timeout=CLOUD_WAIT_S)
-                    if cloud is None:
-                        raise Refused("slide", f"no new cloud on /camera/points for {CLOUD_WAIT_S:.0f} s while watching the slide")
-                    stamp_box[0] = cloud[0]
-                    return _depth(cloud[1]), np.asarray(robot.fk(node.joints()[0]))
-                return frames
-
-            def during(elapsed: float) -> bool:
-                """A look at each new cloud; True when the slide switches to a new plan."""
-                if watch is None or node.newest_cloud() <= seen_at[0]:
-                    return False
-                look = node.newest_cloud() - started - delay  # when the frame arrived, into this slide
-                ahead = look + self.lookahead_s
-                if look <= 0.0 or ahead >= times[-1]:
-                    return False
-                tip = np.asarray(robot.fk(reference(path, times, look)))
-                start_config = reference(path, times, ahead)
-                stamp = node.newest_cloud()
-                again, event, seen = watch.replan("drift", look, frames_after(seen_at), segment.predicted(tip), start_config,
-                                                  segment=segment, tip=tip, start_tip=np.asarray(robot.fk(start_config)))
-                if event is not None:
-                    self.record(event)
-                    if event.outcome in ("slide", "grasp"):
-                        self.lookahead_s = max(self.lookahead_s, 1.5 * event.latency_s)
-                if again is None:
-                    if unseen.update(seen.ok, stamp) < BLIND_S or times[-1] - ahead < BLIND_S or max(ends, blinds) >= END_REPLANS:
-                        return False
-                    switch.append((None, start_config, ahead))  # blind: stop there, rise clear and look
-                    return True
-                unseen.update(True, stamp)
-                switch.append((again, seen.motion, started + delay + ahead))
-                return True
-
-            node.wait_arrived(path[-1], started, float(times[-1] + delay), "slide", during)
-            blind = bool(switch) and switch[0][0] is None
-            if switch and not blind:
-                new, motion, starts_at = switch[0]
-                replans += 1
-                delay = max(0.0, starts_at - node.now())
-                node.publish_status("replan", trigger="drift", replans=replans, outcome=self.events[-1].outcome)
-                segment = slide_segment(new, top, motion)
-                if len(new.trajectory) == 1:  # graspable where it was seen: stop there
-                    stop = np.asarray(new.trajectory, dtype=float)
-                    node.move(new.joint_names, stop, {"time_from_start": np.zeros(1), "velocities": np.zeros_like(stop)},
-                              "slide", delay)
-                    return new, replans, motion
-                continue
-            if watch is None:
-                return segment.result, replans, segment.predicted(np.asarray(robot.fk(path[-1])))
-            end_config, end_s = (switch[0][1], switch[0][2]) if blind else (path[-1], float(times[-1]))
-            if blind:  # the arm stops where it will be once the message has arrived
-                blinds += 1
-                node.move(result.joint_names, end_config[None, :], {"time_from_start": np.zeros(1),
-                          "velocities": np.zeros((1, len(end_config)))}, "slide", max(0.0, started + delay + end_s - node.now()))
-            delay = 0.0
-            predicted = segment.predicted(np.asarray(robot.fk(end_config)))
-            lifted, trigger = (straight_up(robot, end_config, CLEAR_LIFT_M), "blind") if blind else (None, "clear")
-            if lifted is None:
-                again, event, seen = watch.replan("end", end_s, frames_after([node.now()]), predicted, end_config)
-                self.record(event)
-                lifted = straight_up(robot, end_config, CLEAR_LIFT_M) if event.outcome == "lost" else None
-            if lifted is not None:  # the arm hides the object: the finger rises clear, looks and comes back
-                up = lifted
-                node.move(result.joint_names, up, timed(segment.result, up, "clear", capped=True), "clear")
-                again, event, seen = watch.replan(trigger, end_s, frames_after([node.now()]), predicted, end_config,
-                                                  segment=segment, tip=np.asarray(robot.fk(end_config)))
-                self.record(event)
-                node.move(result.joint_names, up[::-1], timed(segment.result, up[::-1], "clear", capped=True), "clear")
-            unseen.update(True, node.newest_cloud())
-            outcome = event.outcome
-            if again is None and outcome == "refused" and ends < END_REPLANS:
-                # The finger is off the object as seen (pushed from under it): a new slide from a new contact.
-                again, outcome = self.new_contact(seen.motion), "new_contact"
-            replanned = again is not None
-            if blind and not replanned:  # on track, not seen or no new plan: the rest of the slide, from rest
-                again = segment.rest(robot, end_s, end_config)
-            if again is None or ends >= END_REPLANS:  # its own grasp, from where Eq. 2 put the object
-                return segment.result, replans, seen.motion if seen.ok else predicted
-            if replanned:
-                replans += 1
-                node.publish_status("replan", trigger="blind" if blind else "end", replans=replans, outcome=outcome)
-            if len(again.trajectory) == 1:
-                return again, replans, seen.motion
-            ends += replanned
-            segment = slide_segment(again, top, seen.motion)
+        loop = SlideLoop(watch, robot, task.scene.table.height + task.obj.thickness, END_REPLANS, _Controlled(self, result, robot))
+        final, expected = loop.run(result)
+        return final, loop.replans, expected
 
     def object_share(self, expected, phase: str) -> float | None:
         """Of the next cloud's points over the object's footprint where it is expected (a motion from its
@@ -582,30 +485,6 @@ class Execution:
                                    f"{100 * share:.0f}% of its footprint): the grasp missed it or let it go")
         return share is not None
 
-    def new_contact(self, motion):
-        """Plan a whole new slide for the object seen at ``motion`` and reach its first contact (the finger
-        lifted off first); None if there is no plan within the re-plan time limit."""
-        from ..verify import verify
-
-        node, task = self.node, self.task
-        seen = task.obj.moved(motion)
-        try:
-            fresh = plan(task.scene, seen, dataclasses.replace(task.config, time_limit_s=REPLAN_TIME_LIMIT_S))
-        except InputError as error:  # e.g. pushed mostly off the table: there is no slide from there
-            node.publish_status("look", trigger="new_contact", outcome="refused", detail=error.problem, off_m=0.0,
-                                off_deg=0.0, latency_s=0.0)
-            return None
-        node.publish_status("look", trigger="new_contact", outcome=fresh.status, detail="", off_m=0.0, off_deg=0.0,
-                            latency_s=round(fresh.planning_time_s, 4))
-        if not fresh.solved or not verify(fresh).ok:
-            return None
-        try:
-            reach = reach_path(fresh, seen, node.joints()[0], pressed=True)
-        except Unreachable as error:
-            raise Refused("reach", str(error)) from None
-        node.move(fresh.joint_names, reach, timed(fresh, reach, "reach", capped=False), "reach")
-        return fresh
-
     def record(self, event) -> None:
         """Keep a look that asked for a plan, and say what came of it on /slideplan/status."""
         self.events.append(event)
@@ -622,6 +501,89 @@ class Execution:
         node, task = self.node, self.task
         camera = tracking_camera(node.latest_points(), node.parameter("camera_pose"))
         return Watch(task.scene, task.obj, task.config, camera, THRESHOLD, REPLAN_TIME_LIMIT_S)
+
+
+def _hold(config: np.ndarray) -> dict[str, np.ndarray]:
+    """The timing of a one-point trajectory: be at ``config``, at rest."""
+    return {"time_from_start": np.zeros(1), "velocities": np.zeros((1, len(config)))}
+
+
+class _Controlled:
+    """The :class:`~slideplan.closed_loop.Arm` of an execution: trajectories on the controller's topic, a
+    look at each new cloud; a new plan starts where the arm will be ``lookahead_s`` after the frame (it
+    goes on moving while the loop plans)."""
+
+    def __init__(self, execution: Execution, result: PlanResult, robot) -> None:
+        self.execution, self.node, self.names, self.robot = execution, execution.node, result.joint_names, robot
+        self.began = self.node.now()
+        self.delay = 0.0  # the first point of the next slide is where the old one would be by then
+        self.sent = (self.began, 0.0)  # the last slide's start (ROS time) and delay
+
+    def clock(self) -> float:
+        return self.node.now() - self.began
+
+    def _frames_after(self, stamp_box: list) -> Callable[[], tuple[np.ndarray, np.ndarray]]:
+        """The next cloud after the last one used (``stamp_box[0]``, updated), as (depth, measured fingertip pose)."""
+        def frames():
+            cloud = self.node.next_cloud(stamp_box[0], timeout=CLOUD_WAIT_S)
+            if cloud is None:
+                raise Refused("slide", f"no new cloud on /camera/points for {CLOUD_WAIT_S:.0f} s while watching the slide")
+            stamp_box[0] = cloud[0]
+            return _depth(cloud[1]), np.asarray(self.robot.fk(self.node.joints()[0]))
+        return frames
+
+    def frames(self) -> Callable[[], tuple[np.ndarray, np.ndarray]]:
+        return self._frames_after([self.node.now()])
+
+    def slide(self, segment, look) -> Stop | None:
+        node, robot = self.node, self.robot
+        path, times = np.asarray(segment.result.trajectory, dtype=float), segment.times
+        started = node.send(self.names, path, segment.result.timing["trajectory"], "slide", self.delay)
+        self.sent, delay, self.delay = (started, self.delay), self.delay, 0.0
+        stops: list[Stop] = []
+        seen_at = [started]
+
+        def during(elapsed: float) -> bool:
+            newest = node.newest_cloud()
+            if look is None or newest <= seen_at[0]:
+                return False
+            at = newest - started - delay  # when the frame arrived, into this slide
+            ahead = at + self.execution.lookahead_s
+            if at <= 0.0 or ahead >= times[-1]:
+                return False
+            config = reference(path, times, ahead)
+            stop = look(self._frames_after(seen_at), newest - self.began, np.asarray(robot.fk(reference(path, times, at))), config,
+                        ahead, start_tip=np.asarray(robot.fk(config)))
+            if stop is not None:
+                stops.append(stop)
+            return stop is not None
+
+        node.wait_arrived(path[-1], started, float(times[-1] + delay), "slide", during)
+        return stops[0] if stops else None
+
+    def _arrival(self, stop: Stop) -> float:
+        """How long from now until the last slide sent is at ``stop`` (s, >= 0)."""
+        started, delay = self.sent
+        return max(0.0, started + delay + stop.at_s - self.node.now())
+
+    def stop(self, stop: Stop) -> None:
+        self.node.move(self.names, stop.config[None, :], _hold(stop.config), "slide", self._arrival(stop))
+
+    def switch(self, stop: Stop) -> None:
+        self.delay = self._arrival(stop)
+        if len(stop.plan.trajectory) == 1:  # graspable where it was seen: stop there
+            self.node.move(self.names, stop.config[None, :], _hold(stop.config), "slide", self.delay)
+
+    def move(self, result: PlanResult, path: np.ndarray, phase: str) -> None:
+        self.node.move(self.names, path, timed(result, path, phase, capped=phase != "reach"), phase)
+
+    def record(self, event) -> None:
+        self.execution.record(event)
+        if event.trigger == "drift" and event.outcome in ("slide", "grasp"):  # the arm went on this long meanwhile
+            self.execution.lookahead_s = max(self.execution.lookahead_s, 1.5 * event.latency_s)
+
+    def replanned(self, trigger: str, outcome: str, replans: int) -> None:
+        self.node.publish_status("replan", trigger=trigger, replans=replans, outcome=outcome)
 
 
 def _depth(points: np.ndarray) -> np.ndarray:
