@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <fcl/geometry/bvh/BVH_model.h>
 #include <fcl/geometry/shape/box.h>
+#include <fcl/geometry/shape/capsule.h>
 #include <fcl/geometry/shape/convex.h>
 #include <fcl/geometry/shape/cylinder.h>
 #include <fcl/geometry/shape/sphere.h>
@@ -356,6 +357,33 @@ namespace slideplan
         std::vector<std::pair<std::string, std::string>> report;
         check(q, mode, &report);
         return report;
+    }
+
+    std::vector<bool> CollisionWorld::hiddenLines(const JointsRef &q, const Eigen::Vector3d &eye,
+                                                  const Eigen::Matrix<double, Eigen::Dynamic, 3> &points, double radius) const
+    {
+        if (q.size() != static_cast<long>(robot_->dof()) || !q.allFinite())
+            throw std::invalid_argument("configuration has the wrong size or is not finite");
+        if (!eye.allFinite() || !points.allFinite() || !(radius > 0.0))
+            throw std::invalid_argument("lines of sight need a finite eye and points and a radius > 0");
+        impl_->pose(*robot_, q);
+        std::vector<bool> hidden(static_cast<std::size_t>(points.rows()), false);
+        for (Eigen::Index i = 0; i < points.rows(); ++i)
+        {
+            const Eigen::Vector3d line = points.row(i).transpose() - eye;
+            const double length = line.norm();
+            if (!(length > 0.0))
+                throw std::invalid_argument("a point of a line of sight is at the eye");
+            // fcl's capsule lies along its z axis, centred on its origin.
+            Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+            pose.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), line / length).toRotationMatrix();
+            pose.translation() = eye + 0.5 * line;
+            fcl::CollisionObjectd sight(std::make_shared<fcl::Capsuled>(radius, length), pose);
+            sight.computeAABB();
+            hidden[static_cast<std::size_t>(i)] = std::any_of(impl_->shapes.begin(), impl_->shapes.end(),
+                                                              [&](const Impl::RobotShape &shape) { return collide(*shape.object, sight); });
+        }
+        return hidden;
     }
 
     bool CollisionWorld::check(const JointsRef &q, ContactMode mode, std::vector<std::pair<std::string, std::string>> *report,

@@ -14,8 +14,9 @@ where it is seen.
 3. when a slide ends, track the object and plan from the final configuration with the object where it
    was seen: the plan is that configuration and its grasp when the object overhangs enough (else it
    slides on, up to ``end_replans`` times); then approach, close, lift 5 cm and hold 1 s. When the
-   hand hides the object from the camera there, the finger rises ``CLEAR_LIFT_M`` straight up, looks
-   from there, and comes back down to where it was before the plan from what it saw goes on.
+   hand hides the object from the camera there, the finger rises ``CLEAR_LIFT_M`` straight up (and on
+   ``CLEAR_ASIDE_M`` across where the arm still hides it: :meth:`SlideLoop.clear_way`), looks from
+   there, and comes back to where it was before the plan from what it saw goes on.
 
 The simulation waits while the loop tracks and plans; each re-plan's latency (track + plan with its
 timing) is measured on the wall clock and reported: a real arm would go on moving along the old plan
@@ -49,12 +50,12 @@ from typing import Any, Callable, Protocol
 import numpy as np
 import shapely
 
-from . import jsontext
+from . import _core, jsontext
 from ._fields import as_numbers
 from .errors import InputError
 from .execute.model import DEPTH_CAMERA, build_model
-from .execute.reach import Unreachable, reach_path
-from .execute.runner import SETTLE_S, Runner, Unstable, straight_up, timed_way, timing_of, timing_options
+from .execute.reach import Unreachable, collision_world, dense, reach_path
+from .execute.runner import SETTLE_S, Runner, Unstable, straight_line, straight_up, timed_way, timing_of, timing_options
 from .execute.settings import ExecutionSettings, stress_settings
 from .execute.video import Recorder, plan_points
 from .objects import ThinObject, load_object, load_outline, place_outline
@@ -82,6 +83,10 @@ AGREE = 3.0  # two looks agree within this many thresholds
 END_LOOKS = 4  # frames at most at the end of a slide for two in a row that agree
 ON_TABLE_SLACK_M = 0.003  # the perceived object may cross a table edge by this much (about a pixel)
 CLEAR_LIFT_M = 0.1  # when the arm hides the object at the end of a slide, the finger rises this far to look
+CLEAR_ASIDE_M = 0.15  # and where the arm still hides it from there (a camera behind the arm), this far across
+SIGHT_LINES = 24  # lines of sight from the camera to the object's points that tell whether the arm hides it
+SIGHT_RADIUS_M = 0.005  # each a capsule of this radius (CollisionWorld.hidden_lines)
+HIDDEN_SHARE = 0.25  # a pose that hides at most this share of them shows the tracker enough of the object
 BLIND_S = 1.0  # a slide no look has seen the object in for this long stops, and the finger rises clear to look
 
 
@@ -687,12 +692,12 @@ class SlideLoop:
             if blind:
                 self.blinds += 1
                 arm.stop(stop)
-            lifted, trigger = (straight_up(robot, end_config, CLEAR_LIFT_M), "blind") if blind else (None, "clear")
+            lifted, trigger = (self.clear_way(segment.result, end_config, predicted), "blind") if blind else (None, "clear")
             if lifted is None:
                 again, event, seen = watch.replan("end", arm.clock(), arm.frames(), predicted, end_config)
                 arm.record(event)
-                lifted = straight_up(robot, end_config, CLEAR_LIFT_M) if event.outcome == "lost" else None
-            if lifted is not None:  # the arm hides the object: the finger rises clear, looks and comes back
+                lifted = self.clear_way(segment.result, end_config, predicted) if event.outcome == "lost" else None
+            if lifted is not None:  # the arm hides the object: the finger moves clear, looks and comes back
                 arm.move(segment.result, lifted, "clear")
                 again, event, seen = watch.replan(trigger, arm.clock(), arm.frames(), predicted, end_config,
                                                   segment=segment, tip=np.asarray(robot.fk(end_config)))
@@ -714,6 +719,34 @@ class SlideLoop:
                 return again, seen.motion
             self.ends += replanned
             segment = slide_segment(again, self.top, seen.motion)
+
+    def clear_way(self, result: PlanResult, config: np.ndarray, motion) -> np.ndarray | None:
+        """Where the finger goes from ``config`` to look when the hand hides the object (at ``motion``) from
+        the camera: ``CLEAR_LIFT_M`` straight up; where the arm still hides more than ``HIDDEN_SHARE`` of the
+        object from there (a camera behind the arm sees past the hand but not the forearm), on
+        ``CLEAR_ASIDE_M`` across in whichever of 8 directions hides least, clear of the table, clutter and
+        object. None without inverse kinematics straight up."""
+        up = straight_up(self.robot, config, CLEAR_LIFT_M)
+        if up is None:
+            return None
+        obj = self.watch.perceived.moved(motion)
+        world = collision_world(result, obj)
+        eye, points = np.asarray(self.watch.tracker.camera.position, dtype=float), obj.points[
+            np.linspace(0, len(obj.points) - 1, SIGHT_LINES).round().astype(int)]
+
+        def hidden(joints: np.ndarray) -> int:
+            return int(np.sum(world.hidden_lines(joints, eye, points, SIGHT_RADIUS_M)))
+
+        best, most = up, hidden(up[-1])
+        if most <= HIDDEN_SHARE * SIGHT_LINES:
+            return up
+        for angle in np.arange(8) * (math.pi / 4):
+            aside = straight_line(self.robot, up[-1], CLEAR_ASIDE_M * np.array([math.cos(angle), math.sin(angle), 0.0]))
+            if aside is None or (count := hidden(aside[-1])) >= most:
+                continue
+            if all(world.is_valid(joints, _core.ContactMode.FREE) for joints in dense(list(aside))):
+                best, most = np.vstack([up, aside[1:]]), count
+        return best
 
     def new_contact(self, motion, config: np.ndarray) -> PlanResult | None:
         """A whole new slide for the object seen at ``motion`` (verified) and the reach to its first contact

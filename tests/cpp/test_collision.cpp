@@ -207,3 +207,26 @@ TEST(CollisionWorld, RejectsUnknownContactLinks)
 {
     EXPECT_THROW(CollisionWorld(wamT42(), squareTable(), {}, {"no_such_link"}), std::invalid_argument);
 }
+
+TEST(CollisionWorld, LinesOfSightAcrossTheArmAreHidden)
+{
+    const auto robot = wamT42();
+    CollisionWorld world(robot, squareTable(), {}, kContactLinks);
+    // Upright, the arm stands over its base: a line across the base's vertical halfway up crosses it, the
+    // same line 0.4 m aside does not. With the shoulder pitched over, that height is clear.
+    const Eigen::VectorXd upright = Eigen::VectorXd::Zero(7);
+    std::vector<Eigen::Isometry3d> poses;
+    robot->linkPoses(upright, poses);
+    const Eigen::Vector3d foot = poses.front().translation(), top = robot->fk(upright).translation();
+    const Eigen::Vector3d middle(foot.x(), foot.y(), 0.5 * (foot.z() + top.z()));
+    const Eigen::Vector3d eye = middle - Eigen::Vector3d::UnitY();
+    Eigen::Matrix<double, Eigen::Dynamic, 3> points(2, 3);
+    points.row(0) = (middle + Eigen::Vector3d::UnitY()).transpose();
+    points.row(1) = (middle + Eigen::Vector3d(0.4, 1.0, 0.0)).transpose();
+    EXPECT_EQ(world.hiddenLines(upright, eye, points, 0.005), (std::vector<bool>{true, false}));
+    Eigen::VectorXd bent = upright;
+    bent(1) = 1.5;
+    EXPECT_EQ(world.hiddenLines(bent, eye, points, 0.005), (std::vector<bool>{false, false}));
+    EXPECT_THROW(world.hiddenLines(upright, eye, points, 0.0), std::invalid_argument);
+    EXPECT_THROW(world.hiddenLines(upright, points.row(0).transpose(), points, 0.005), std::invalid_argument);
+}

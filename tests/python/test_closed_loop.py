@@ -208,6 +208,21 @@ def test_when_the_arm_hides_the_object_at_the_end_the_finger_rises_clear_to_look
     assert report.success, report.summary()
 
 
+def test_with_a_camera_behind_the_arm_the_finger_moves_aside_to_look(monkeypatch):
+    # Behind the arm and above its shoulder, the camera sees the object past the hand, but at the slide's
+    # end the forearm hides it, also from 10 cm higher: only a move across clears its lines of sight.
+    from slideplan import closed_loop
+    from slideplan.rendering import Camera
+
+    monkeypatch.setattr(closed_loop, "BLIND_S", math.inf)
+    height = load_scene("square").table.height
+    report = run(*DEMO, seed=1, closed=True, camera=Camera((-0.1, 0.05, height + 0.6), (0.4, -0.15, height)))
+    triggers = [(event.trigger, event.outcome) for event in report.events]
+    assert ("end", "lost") in triggers, triggers
+    assert any(trigger == "clear" and outcome in ("slide", "grasp") for trigger, outcome in triggers), triggers
+    assert report.success, report.summary()
+
+
 def test_a_slide_hidden_from_the_camera_stops_to_look_from_above_and_recovers_from_a_push(monkeypatch):
     # The hand hides the object from every look with the finger on it (a camera behind the arm): the
     # push goes unseen until the slide stops, the finger rises clear and looks from there.

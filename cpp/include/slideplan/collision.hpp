@@ -65,6 +65,14 @@ namespace slideplan
         std::vector<std::pair<std::string, std::string>> collisions(const JointsRef &q,
                                                                     ContactMode mode = ContactMode::Sliding) const;
 
+        /// For each row of `points`, whether a link at q crosses the line of sight to it from `eye` (a
+        /// capsule of `radius` around the segment): what a camera at `eye` cannot see of the points with the
+        /// robot there. Only the robot is checked. Not thread-safe, as isValid.
+        /// \throws std::invalid_argument for a wrong-sized or non-finite q, non-finite eye or points, a
+        /// radius not > 0, or a point at the eye.
+        std::vector<bool> hiddenLines(const JointsRef &q, const Eigen::Vector3d &eye,
+                                      const Eigen::Matrix<double, Eigen::Dynamic, 3> &points, double radius) const;
+
         /// Put the object in the world as a prism over the convex hull of `outlineXY` between the table
         /// top and `topZ`.
         void setObject(const std::vector<Eigen::Vector2d> &outlineXY, double topZ);

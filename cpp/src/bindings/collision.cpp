@@ -70,6 +70,10 @@ namespace slideplan::bindings
                 },
                 py::arg("outline_xy"), py::arg("top_z"),
                 "Add the object as a prism over the convex hull of outline_xy, from the table top to top_z.")
+            .def("hidden_lines", &CollisionWorld::hiddenLines, py::arg("q"), py::arg("eye"), py::arg("points"), py::arg("radius"),
+                 "For each row of points (n, 3), whether a link at q crosses the line of sight to it from eye (3,), a "
+                 "capsule of radius (m) around it: what a camera at eye cannot see with the robot there. Only the robot "
+                 "is checked. Raises ValueError for bad sizes, non-finite values, radius <= 0 or a point at the eye.")
             .def("clear_object", &CollisionWorld::clearObject, "Remove the object.")
             .def(
                 "rigid_collision",

@@ -17,7 +17,7 @@ _CLOSE_S = 0.8
 _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
-UP_STEP_M = 0.01  # a move straight up is solved a centimetre at a time
+UP_STEP_M = 0.01  # a straight move (up, or aside to look) is solved a centimetre at a time
 MAX_JOINT_STEP_RAD = 0.3  # a centimetre's step turning a joint further has left the arm's branch
 
 
@@ -45,19 +45,27 @@ def timing_options(settings: ExecutionSettings, urdf_velocity) -> TimingOptions:
 
 
 def straight_up(robot, config: np.ndarray, height: float) -> np.ndarray | None:
-    """Configurations taking the fingertip from where it is at ``config`` ``height`` straight up (its yaw
-    free for an arm with fewer than six joints, as the planner's contact), ``UP_STEP_M`` apart, each
-    IK seeded by the one before; None where a step has no IK or turns a joint more than
-    ``MAX_JOINT_STEP_RAD``. One IK call for the whole height may land on another branch of the arm,
-    and the joint-linear move there swings the hand through the table and the object."""
+    """Configurations taking the fingertip from where it is at ``config`` ``height`` straight up:
+    :func:`straight_line` by (0, 0, ``height``)."""
+    return straight_line(robot, config, (0.0, 0.0, height))
+
+
+def straight_line(robot, config: np.ndarray, offset) -> np.ndarray | None:
+    """Configurations taking the fingertip from where it is at ``config`` along the straight line to
+    ``offset`` (m, world frame) from there, its orientation kept (its yaw free for an arm with fewer than
+    six joints, as the planner's contact), ``UP_STEP_M`` apart, each IK seeded by the one before; None
+    where a step has no IK or turns a joint more than ``MAX_JOINT_STEP_RAD``. One IK call for the whole
+    move may land on another branch of the arm, and the joint-linear move there swings the hand through
+    the table and the object."""
     from .. import _core
 
     start = np.asarray(robot.fk(config))
-    steps = max(1, math.ceil(height / UP_STEP_M - 1e-9))
+    offset = np.asarray(offset, dtype=float)
+    steps = max(1, math.ceil(float(np.linalg.norm(offset)) / UP_STEP_M - 1e-9))
     path = [np.asarray(config, dtype=float)]
     for step in range(1, steps + 1):
         target = start.copy()
-        target[2, 3] += height * step / steps
+        target[:3, 3] += offset * step / steps
         found = robot.ik(target, seed=path[-1], rng_seed=0, options=_core.contact_ik_options(robot))
         if found is None or np.max(np.abs(np.asarray(found) - path[-1])) > MAX_JOINT_STEP_RAD:
             return None
