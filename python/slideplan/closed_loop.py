@@ -608,8 +608,8 @@ class Arm(Protocol):
         """Go on with ``stop.plan`` from ``stop.config`` (a one-configuration plan: rest there)."""
 
     def move(self, result: PlanResult, path: np.ndarray, phase: str) -> None:
-        """Move along ``path`` from rest to rest under ``result``'s limits: ``"clear"`` (straight up to look
-        and back, the fingertip's speed capped) or ``"reach"`` (to a new slide's first contact)."""
+        """Move along ``path`` from rest to rest under ``result``'s limits: ``"clear"`` (to look from clear
+        of the object and back, the fingertip's speed capped) or ``"reach"`` (to a new slide's first contact)."""
 
     def frames(self) -> Callable[[], tuple[np.ndarray, np.ndarray]]:
         """What gives the next (depth image, measured fingertip pose) with the arm at rest."""
@@ -820,13 +820,11 @@ class _Simulated:
         """Nothing to do: the new plan starts at the servos' reference."""
 
     def move(self, result: PlanResult, path: np.ndarray, phase: str) -> None:
-        if phase == "reach":
-            tips = np.array([np.asarray(self.robot.fk(joints))[:3, 3] for joints in path])
-            times = time_path(path, tips, np.zeros(len(path), dtype=bool), result.timing["limits"], phase)["time_from_start"]
+        if phase == "reach":  # under the new plan's own limits, as a reach to a first contact
+            way = timed_way(self.robot, path, result.timing["limits"], phase, capped=False)
         else:
-            path, times = timed_way(self.robot, path, resolve_limits(result, timing_options(self.settings, self.robot.velocity_limits)),
-                                    phase)
-        self.runner.follow(path, times, SETTLE_S)
+            way = timed_way(self.robot, path, resolve_limits(result, timing_options(self.settings, self.robot.velocity_limits)), phase)
+        self.runner.follow(*way, SETTLE_S)
 
     def frames(self):
         return self._frames

@@ -73,12 +73,13 @@ def straight_line(robot, config: np.ndarray, offset) -> np.ndarray | None:
     return np.array(path)
 
 
-def timed_way(robot, path: np.ndarray, limits: dict[str, Any], name: str) -> tuple[np.ndarray, np.ndarray]:
+def timed_way(robot, path: np.ndarray, limits: dict[str, Any], name: str, *, capped: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """A way through ``path``'s configurations and its times from rest to rest, the fingertip speed
-    capped all the way: the moves a plan does not hold (the lift after the grasp, the closed loop's
-    look from above). ``name`` names it in a timing error."""
+    capped all the way unless ``capped`` is False: the moves a plan does not hold (the lift after the
+    grasp, the closed loop's look from clear, its reach to a new contact). ``name`` names it in a
+    timing error."""
     tips = np.array([np.asarray(robot.fk(config))[:3, 3] for config in path])
-    return path, time_path(path, tips, np.ones(len(path), dtype=bool), limits, name)["time_from_start"]
+    return path, time_path(path, tips, np.full(len(path), capped), limits, name)["time_from_start"]
 
 
 def reference(path: np.ndarray, times: np.ndarray, t: float) -> np.ndarray:
