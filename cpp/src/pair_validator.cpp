@@ -9,7 +9,10 @@
 #include <ompl/geometric/PathGeometric.h>
 #include <ompl/geometric/planners/rrt/RRTConnect.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <optional>
 #include <stdexcept>
 
 namespace ob = ompl::base;
@@ -35,6 +38,35 @@ namespace slideplan
             Eigen::Isometry3d result = grasp;
             result.linear() = grasp.linear() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
             return result;
+        }
+
+        /// grasp_hold: the offset along the edge from H_g to the nearest strip `hold` wide across the approach
+        /// in which the object extends `hold` along it, given the points within the hand's reach as
+        /// (along the edge from H_g, along the outward normal); none if no strip holds that much.
+        std::optional<double> holdingOffset(const std::vector<Eigen::Vector2d> &reached, double hold)
+        {
+            const auto holdsAt = [&](double along) {
+                double low = std::numeric_limits<double>::infinity(), high = -low;
+                for (const Eigen::Vector2d &point : reached)
+                    if (std::abs(point.x() - along) <= 0.5 * hold)
+                    {
+                        low = std::min(low, point.y());
+                        high = std::max(high, point.y());
+                    }
+                return high - low >= hold;
+            };
+            if (holdsAt(0.0))
+                return 0.0;  // the paper's H_g holds the object
+            std::vector<double> candidates;
+            for (const Eigen::Vector2d &point : reached)
+                candidates.push_back(point.x());
+            // Nearest first; of two equally near, the one on the edge's negative side (the verifier's order).
+            std::sort(candidates.begin(), candidates.end(),
+                      [](double a, double b) { return std::abs(a) < std::abs(b) || (std::abs(a) == std::abs(b) && a < b); });
+            for (double along : candidates)
+                if (holdsAt(along))
+                    return along;
+            return std::nullopt;
         }
 
         /// Clears the object from the transfer world however the check ends.
@@ -101,12 +133,27 @@ namespace slideplan
         result.graspPoint = result.outsideCentroid + (graspBeyond - centroidBeyond) * result.edge.outwardNormal;
         result.held = params_.graspStandoff > 0.0 ? result.overhang - std::max(0.0, graspBeyond - params_.graspStandoff)
                                                   : result.overhang;
+        if (params_.graspHold > 0.0)
+        {
+            // The fingers close on what lies beyond their reach towards the table, on either side of H_g.
+            const Eigen::Vector2d along(-result.edge.outwardNormal.y(), result.edge.outwardNormal.x());
+            const double reach = std::max(params_.graspStandoff, params_.graspHold);
+            std::vector<Eigen::Vector2d> &reached = reached_;
+            reached.clear();
+            for (const auto &point : outside)
+                if (const double beyond = (point - result.graspPoint).dot(result.edge.outwardNormal); beyond >= -reach)
+                    reached.emplace_back((point - result.graspPoint).dot(along), beyond);
+            const std::optional<double> offset = holdingOffset(reached, params_.graspHold);
+            result.holds = offset.has_value();
+            if (offset)
+                result.graspPoint += *offset * along;
+        }
         return result;
     }
 
     bool PairValidator::graspable(const Overhang &overhang) const
     {
-        return overhang.outsideCount > 0 && overhang.held >= params_.uStar;
+        return overhang.outsideCount > 0 && overhang.held >= params_.uStar && overhang.holds;
     }
 
     Eigen::Isometry3d PairValidator::graspPose(const Overhang &overhang) const
@@ -349,7 +396,7 @@ namespace slideplan
         const Overhang &result = verdict.overhang;
         if (!graspable(result))
         {
-            verdict.reason = "overhang below u*";
+            verdict.reason = result.holds ? "overhang below u*" : "no place along the edge holds grasp_hold of the object";
             return verdict;
         }
         if (!result.comInside)
@@ -373,7 +420,8 @@ namespace slideplan
         verdict.overhang = overhang(result.motion, true);
         if (!graspable(result))
         {
-            verdict.reason = "overhang below u* on the full cloud";
+            verdict.reason = result.holds ? "overhang below u* on the full cloud"
+                                          : "no place along the edge holds grasp_hold of the object on the full cloud";
             return verdict;
         }
         if (knownUnreachable(result))

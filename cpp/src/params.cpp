@@ -28,6 +28,7 @@ namespace slideplan
         require(finite(graspLift) && graspLift > 0.0, "grasp_lift must be > 0");
         require(finite(graspBackoff) && graspBackoff >= 0.0, "grasp_backoff must be >= 0");
         require(finite(graspStandoff) && graspStandoff >= 0.0, "grasp_standoff must be >= 0");
+        require(finite(graspHold) && graspHold >= 0.0, "grasp_hold must be >= 0");
         for (const auto &[value, name] : {std::pair{graspTiltTolerance, "grasp_tilt_tolerance"},
                                           std::pair{graspYawTolerance, "grasp_yaw_tolerance"},
                                           std::pair{graspRollTolerance, "grasp_roll_tolerance"}})
@@ -60,6 +61,7 @@ namespace slideplan
         params.dzMax = 0.025;
         params.nStar = 100.0;
         params.graspStandoff = 0.0;
+        params.graspHold = 0.0;
         params.graspTiltTolerance = params.graspYawTolerance = params.graspRollTolerance = 0.0;
         params.screenPairs = false;
         params.graspFlip = false;

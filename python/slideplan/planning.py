@@ -50,7 +50,7 @@ PRESETS = ("default", "paper")
 # gives. The others (beta0, u_star, d_goal, the grasp motion's lift and backoff, ...) the paper leaves
 # open: they keep the hand's and the built-in defaults.
 PAPER_FIELDS = (
-    "delta_beta", "dz_min", "dz_max", "n_star", "grasp_standoff", "screen_pairs", "grasp_flip", "grasp_map",
+    "delta_beta", "dz_min", "dz_max", "n_star", "grasp_standoff", "grasp_hold", "screen_pairs", "grasp_flip", "grasp_map",
     "goal_grasp_filter", "lift_check", "cache_verdicts", "paired_goals", "contact_radius", "shortcut_attempts",
     "com_margin", "max_object_yaw", "max_yaw_rate",
 )
@@ -81,6 +81,12 @@ class PlannerConfig:
             towards the table (m; fingers that reach past the frame): the grasp frame lies at least
             this far beyond the edge and the overhang held, ``u - max(0, d_g - grasp_standoff)``,
             must reach ``u*``; 0 is the paper's grasp at the centroid of ``P_out``.
+        grasp_hold: beyond the paper, the length of object the fingers must close on (m): where the
+            strip ``grasp_hold`` wide across the approach at ``H_g`` holds less than ``grasp_hold`` of the
+            object along it (within the fingers' reach, ``max(grasp_standoff, grasp_hold)`` towards the
+            table), ``H_g`` slides along the edge to the nearest strip that does; with none, the pose is
+            not graspable. A crescent overhanging with both horns has the centroid of ``P_out`` between
+            them. 0 is the paper's ``H_g``.
         grasp_tilt_tolerance, grasp_yaw_tolerance, grasp_roll_tolerance: beyond the paper, how far the
             hand may turn away from ``H_g``'s orientation at the grasp (rad), about its x (along the table
             edge), y (the vertical closing axis: the approach's heading) and z (the approach axis): a
@@ -147,6 +153,7 @@ class PlannerConfig:
     grasp_lift: float | None = None
     grasp_backoff: float | None = None
     grasp_standoff: float | None = None
+    grasp_hold: float | None = None
     grasp_tilt_tolerance: float | None = None
     grasp_yaw_tolerance: float | None = None
     grasp_roll_tolerance: float | None = None

@@ -561,11 +561,30 @@ def check_turning(result: PlanResult) -> list[str]:
     return violations
 
 
+def _holding_shift(reached: np.ndarray, hold: float) -> float | None:
+    """``grasp_hold``: how far along the edge from the paper's ``H_g`` the nearest strip ``hold`` wide lies
+    in which the object extends ``hold`` along the approach; None if none does.
+
+    Args:
+        reached: (N, 2) the overhanging points within the fingers' reach, as (along the edge from ``H_g``,
+            beyond it along the outward normal).
+        hold: ``grasp_hold`` (m).
+    """
+    def holds(shift: float) -> bool:
+        strip = reached[np.abs(reached[:, 0] - shift) <= 0.5 * hold, 1]
+        return strip.size > 0 and float(strip.max() - strip.min()) >= hold
+
+    if holds(0.0):
+        return 0.0
+    return next((float(shift) for shift in sorted(reached[:, 0], key=lambda value: (abs(value), value)) if holds(shift)), None)
+
+
 def check_grasp_pose(result: PlanResult, world: _PlanWorld,
                      tolerance: tuple[float, float] = (GRASP_TOLERANCE_M, GRASP_ANGLE_TOLERANCE_RAD)) -> list[str]:
     """Check the grasp frame against ``H_g`` of IV-C.1, recomputed from the object's points at their
     final pose: at the centroid of ``P_out`` (moved outward along the closest edge's normal until it is
-    ``grasp_standoff`` beyond the edge), at mid-thickness, approaching perpendicular to that edge in
+    ``grasp_standoff`` beyond the edge, then along the edge to the nearest place where the fingers close
+    on ``grasp_hold`` of the object), at mid-thickness, approaching perpendicular to that edge in
     the table plane, the fingers closing vertically (``y`` up; down too when ``grasp_flip``).
 
     Returns:
@@ -578,14 +597,27 @@ def check_grasp_pose(result: PlanResult, world: _PlanWorld,
     start, normal = edge
     centroid = moved[outside].mean(axis=0)
     beyond = float((centroid - start) @ normal)
-    xy = centroid + (max(beyond, result.params.get("grasp_standoff", 0.0)) - beyond) * normal
+    standoff, hold = result.params.get("grasp_standoff", 0.0), result.params.get("grasp_hold", 0.0)
+    xy = centroid + (max(beyond, standoff) - beyond) * normal
+    where = "the centroid of the overhanging points (IV-C.1)"
+    if hold > 0.0:
+        along = np.array([-normal[1], normal[0]])
+        relative = moved[outside] - xy
+        reached = np.column_stack([relative @ along, relative @ normal])
+        shift = _holding_shift(reached[reached[:, 1] >= -max(standoff, hold)], hold)
+        if shift is None:
+            return [f"grasp.pose: no place along the table edge puts grasp_hold = {hold} m of the object between "
+                    f"the fingers, yet the plan grasps it"]
+        xy = xy + shift * along
+        if shift != 0.0:
+            where = f"the centroid of the overhanging points (IV-C.1) moved {shift:+.4f} m along the edge onto the object"
     expected = np.array([*xy, float(result.table["height"]) + 0.5 * float(result.object["thickness"])])
     pose = row_to_pose(result.grasp["pose"])
     violations = []
     offset = float(np.linalg.norm(pose[:3, 3] - expected))
     if offset > tolerance[0]:
         violations.append(f"grasp.pose: {offset:.4f} m from H_g at ({expected[0]:.4f}, {expected[1]:.4f}, "
-                          f"{expected[2]:.4f}), the centroid of the overhanging points (IV-C.1)")
+                          f"{expected[2]:.4f}), {where}")
     # H_g's orientation (x along the edge, y up: the closing axis, z the approach), or rolled by pi about
     # z (grasp_flip); the hand may turn from it within the tolerated rotation about these axes, as the
     # planner's grasp IK allows (a dead zone on each component of the rotation between the two).

@@ -336,6 +336,49 @@ TEST(PairValidator, RejectsTooLittleOverhangAndACentreOfMassOffTheTable)
               "centre of mass off the table or within com_margin of its edge");
 }
 
+TEST(PairValidator, MovesTheGraspAlongTheEdgeOntoTheObjectWhereTheCentroidHoldsNothing)
+{
+    // A U-shaped plate (2 mm grid): a 10 x 2 cm bar and two 2 x 8 cm horns, slid until 3 cm of both horns
+    // overhang the edge x = 0.30. The centroid of P_out lies between the horns, on nothing.
+    Eigen::Matrix<double, Eigen::Dynamic, 3> cloud(0, 3);
+    std::vector<Eigen::Vector3d> points;
+    for (int i = 0; i <= 50; ++i)
+        for (int j = 0; j <= 50; ++j)
+        {
+            const Eigen::Vector2d p(0.32 + 0.002 * i, -0.05 + 0.002 * j);
+            if (p.x() >= 0.40 - 1e-9 || std::abs(p.y()) >= 0.03 - 1e-9)
+                points.emplace_back(p.x(), p.y(), kThickness);
+        }
+    cloud.resize(static_cast<long>(points.size()), 3);
+    for (std::size_t k = 0; k < points.size(); ++k)
+        cloud.row(static_cast<long>(k)) = points[k].transpose();
+    const Eigen::Vector2d com = cloud.leftCols<2>().colwise().mean().transpose();
+    const auto task = std::make_shared<SlidingTask>(SlidingTask::make(
+        wamT42(), std::make_shared<SupportSurface>(squareTable()), {}, kContactLinks, kGraspLink, Eigen::Isometry3d::Identity(),
+        cloud, com));
+    PlanarMotion motion;
+    motion.x = -0.05;  // the horns' ends from x = 0.32 to 0.27
+    PlannerParams params;
+    params.graspStandoff = 0.03;
+    for (bool exact : {false, true})
+    {
+        const Overhang held = PairValidator(task, params).overhang(motion, exact);
+        ASSERT_TRUE(held.holds);
+        EXPECT_NEAR(held.outsideCentroid.y(), 0.0, 1e-9);
+        EXPECT_GE(std::abs(held.graspPoint.y()), 0.03 - 0.005);  // on a horn (its points within grasp_hold / 2)
+        EXPECT_LE(std::abs(held.graspPoint.y()), 0.05);
+        EXPECT_NEAR(held.graspPoint.x(), 0.27, 1e-9);  // grasp_standoff beyond the edge, as before
+        PlannerParams paper = params;
+        paper.graspHold = 0.0;
+        EXPECT_NEAR(PairValidator(task, paper).overhang(motion, exact).graspPoint.y(), 0.0, 1e-9);
+        PlannerParams longer = params;
+        longer.graspHold = 0.2;  // more than the plate's length: no strip holds it
+        const Overhang none = PairValidator(task, longer).overhang(motion, exact);
+        EXPECT_FALSE(none.holds);
+        EXPECT_FALSE(PairValidator(task, longer).graspable(none));
+    }
+}
+
 TEST(PairValidator, FixedResolutionFootprintAgreesWithTheDenseCloudWithinAMillimetre)
 {
     // 60,000 random points on an L-shaped plate (a non-convex object), moved partly over the table edges.
@@ -554,6 +597,7 @@ TEST(PlannerParams, AsPublishedTurnsEveryDepartureOffAndKeepsThePapersValues)
     EXPECT_EQ(paper.comMargin, 0.0);
     EXPECT_EQ(paper.maxYawRate, 0.0);
     EXPECT_EQ(paper.graspStandoff, 0.0);
+    EXPECT_EQ(paper.graspHold, 0.0);
     EXPECT_GE(paper.maxObjectYaw, M_PI);
     // Section V: Delta_beta = 0.1 rad, Delta_Z = [0.5 cm, 2.5 cm], N* = 100.
     EXPECT_EQ(paper.deltaBeta, 0.1);

@@ -250,3 +250,42 @@ def test_a_dense_clouds_point_spacing_comes_from_a_sample_and_still_bounds_the_s
     assert _start_contact_violations(cloud, np.array([0.5, -0.1])) == []
     (violation,) = _start_contact_violations(cloud, np.array([0.4 + 0.398 + 0.01, -0.1]))
     assert "the fingertip is 0.0100 m from the nearest point of the object (point spacing 0.0020 m)" in violation
+
+
+def test_a_crescent_overhanging_with_both_horns_is_grasped_on_a_horn_not_between_them():
+    """grasp_hold: the paper's H_g (the centroid of P_out) lies between the horns, on nothing; the planner
+    slides it along the edge onto the object and the verifier recomputes the same grasp, or reports the
+    paper's."""
+    from shapely.geometry import Polygon, box
+    from shapely.affinity import rotate, translate
+
+    from slideplan.objects import load_object
+    from slideplan.planning import PlannerConfig, plan
+    from slideplan.transforms import row_to_pose
+
+    scene = load_scene("round")
+    crescent = load_object("crescent", table_height=scene.table.height, pose=(0.5041, -0.1354, -2.3101))
+    result = plan(scene, crescent, PlannerConfig.for_scene(scene, seed=2707478050))
+    assert result.solved and verify(result).ok, verify(result).violations
+    motion, hold = result.object_motion, result.params["grasp_hold"]
+    reach = max(result.params["grasp_standoff"], hold)
+    moved = translate(rotate(Polygon(crescent.outline.exterior.coords), motion["yaw"], origin=(0, 0), use_radians=True),
+                      motion["x"], motion["y"])
+
+    def strip(xy):
+        """The fingers' strip at the grasp: grasp_hold wide, from H_g to its reach line towards the table."""
+        pose = row_to_pose(result.grasp["pose"])
+        approach = pose[:2, 2] / np.linalg.norm(pose[:2, 2])
+        angle = float(np.arctan2(approach[1], approach[0]))
+        local = box(-2.0, -hold / 2, reach, hold / 2)  # beyond H_g, outward, is inside the hand too
+        return translate(rotate(local, angle, origin=(0, 0), use_radians=True), *xy)
+
+    grasp_xy = np.asarray(result.grasp["pose"][:2])
+    assert strip(grasp_xy).intersection(moved).area >= 0.5 * hold * hold
+    _, outside, (start, normal) = overhang(SupportSurface.from_vertices(result.table["polygon"], result.table["height"]), moved_object_xy(result))
+    centroid = moved_object_xy(result)[outside].mean(axis=0)
+    paper_xy = centroid + max(0.0, result.params["grasp_standoff"] - float((centroid - start) @ normal)) * normal
+    assert strip(paper_xy).intersection(moved).area == 0.0  # the paper's H_g holds nothing here
+    paper = copy.deepcopy(result)
+    paper.params["grasp_hold"] = 0.0
+    assert_reported(paper, "grasp.pose:", "the centroid of the overhanging points (IV-C.1)")

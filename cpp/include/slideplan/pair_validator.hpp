@@ -26,6 +26,8 @@ namespace slideplan
         EdgeQuery edge;               ///< edge (e_i, e_j) of Q closest to that centroid
         double overhang{0.0};         ///< u: largest distance of P_out beyond that edge
         Eigen::Vector2d graspPoint{Eigen::Vector2d::Zero()};  ///< H_g's position: the centroid, moved out to grasp_standoff
+                                                                ///< and along the edge onto the object (grasp_hold)
+        bool holds{true};             ///< some place along the edge puts grasp_hold of the object between the fingers
         double held{0.0};             ///< overhang held by the hand: u, less what lies within the hand's free length
         bool comInside{false};        ///< CoM of P'_o inside Q, at least params.comMargin from its boundary
         double comMargin{0.0};        ///< signed distance of that CoM to the boundary of Q (m, > 0 inside)
@@ -111,6 +113,7 @@ namespace slideplan
         PlannerParams params_;
         std::unique_ptr<CollisionWorld> world_;  ///< holds the object at its final pose while a pair is checked
         mutable std::vector<Eigen::Vector2d> outside_;  ///< overhang()'s points beyond Q, kept to reuse the memory
+        mutable std::vector<Eigen::Vector2d> reached_;  ///< of those, the ones within the fingers' reach (grasp_hold)
         mutable std::vector<Eigen::VectorXd> graspSeeds_;  ///< recent successful grasp configurations
         std::shared_ptr<const GraspMap> graspMap_;
         mutable std::set<std::pair<int, long>> unreachable_;  ///< stretches where this plan's grasp IK failed

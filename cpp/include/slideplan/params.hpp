@@ -40,6 +40,14 @@ namespace slideplan
         /// counted from where this free length ends: u - max(0, d_g - s) >= u*. 0 is the paper: H_g at
         /// the centroid of P_out and u >= u*. Hand-specific: set in the scene's [hand] params.
         double graspStandoff{0.0};
+        /// Beyond the paper: the length of object the fingers must close on (m). H_g at the centroid of
+        /// P_out may hold nothing: a crescent overhanging with both horns has its centroid between them
+        /// (15 of 120 closed-loop runs on the crescent closed on air). Where no point of P_out lies
+        /// within grasp_hold/2 across the approach from H_g and extending grasp_hold along it (within the
+        /// hand's reach, max(grasp_standoff, grasp_hold), from H_g towards the table), H_g slides along
+        /// the edge to the nearest place that has such a strip; with none, the pose is not graspable.
+        /// 0 is the paper: H_g at the centroid.
+        double graspHold{0.01};
         /// Beyond the paper: how far the hand may turn away from H_g's orientation at the grasp (rad),
         /// about H_g's x (along the table edge: a tilt of the approach), y (the closing axis, vertical: the
         /// approach's heading) and z (the approach axis: a roll). An arm with five joints cannot reach

@@ -158,6 +158,9 @@ namespace slideplan::bindings
             .def_readwrite("grasp_backoff", &PlannerParams::graspBackoff, "Pre-grasp offset along the approach (m).")
             .def_readwrite("grasp_standoff", &PlannerParams::graspStandoff,
                            "Free length the hand needs beyond H_g towards the table (m); 0: the paper's H_g.")
+            .def_readwrite("grasp_hold", &PlannerParams::graspHold,
+                           "Beyond the paper: the length of object the fingers must close on (m); H_g slides along the "
+                           "edge until a strip this wide holds this much. 0: the paper's H_g at the centroid of P_out.")
             .def_readwrite("grasp_tilt_tolerance", &PlannerParams::graspTiltTolerance,
                            "Beyond the paper: the grasp may turn this far about H_g's x, along the table edge (rad).")
             .def_readwrite("grasp_yaw_tolerance", &PlannerParams::graspYawTolerance,
