@@ -1,5 +1,6 @@
 #include "slideplan/grasp_map.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -30,18 +31,30 @@ namespace slideplan
                          int abandonAfter)
     {
         const RobotModel &robot = *task.robot;
-        Eigen::Isometry3d lifted = grasp;
-        lifted.translation().z() += params.graspLift;
         IkOptions options = graspIkOptions(params);
         options.maxAttempts = attempts;
         options.abandonAfter = abandonAfter;
         // Asked of every solution, so that the restarts look for another posture rather than give up.
+        // The lift as the execution makes it (slideplan.execute.runner.straight_line): straight up a
+        // centimetre at a time, each IK seeded by the last, no joint turning more than kLiftJointStep
+        // per step. One IK for the whole lift landed on another branch: a WAM grasp with its wrist at
+        // its limit "lifted" by turning it a full turn, and the execution found no lift (closed-loop sweep).
         if (params.liftCheck)
             options.accept = [&](const Eigen::VectorXd &q) {
                 IkOptions near = graspIkOptions(params);
                 near.maxAttempts = 1;
-                Eigen::VectorXd raised;
-                return robot.ikForLink(task.graspLink, lifted, q, rng, raised, near, task.graspOffset);
+                const int steps = std::max(1, static_cast<int>(std::ceil(params.graspLift / kLiftStep - 1e-9)));
+                Eigen::VectorXd from = q, raised;
+                for (int step = 1; step <= steps; ++step)
+                {
+                    Eigen::Isometry3d target = grasp;
+                    target.translation().z() += params.graspLift * step / steps;
+                    if (!robot.ikForLink(task.graspLink, target, from, rng, raised, near, task.graspOffset) ||
+                        (raised - from).cwiseAbs().maxCoeff() > kLiftJointStep)
+                        return false;
+                    from = raised;
+                }
+                return true;
             };
         return robot.ikForLink(task.graspLink, grasp, seed, rng, solution, options, task.graspOffset);
     }

@@ -505,6 +505,23 @@ def test_the_five_joint_so101_slides_grasps_and_lifts():
     assert execution.success, execution.failure
 
 
+def test_the_planners_grasp_lifts_straight_up_where_its_wrist_sits_at_a_limit():
+    # The sweep's long/square pose at (0.475, 0.225): the grasp IK found the WAM's last joint at its +3.0 rad
+    # limit; one IK 5 cm higher "lifted" by turning that joint a full turn, so the planner's lift check
+    # passed and the execution found no straight lift (2-3 runs per setting of the closed-loop sweep).
+    from slideplan import load_object, load_scene, plan
+    from slideplan.execute.runner import straight_up
+    from slideplan.experiments.tasks import build_spec
+
+    scene = load_scene("long")
+    task = next(task for task in build_spec("closed-loop", poses=10).tasks
+                if task.scene == "long" and task.object == "square" and abs(task.x - 0.4751) < 1e-3)
+    result = plan(scene, load_object(task.object, table_height=scene.table.height, pose=(task.x, task.y, task.yaw)),
+                  task.planner_config())
+    assert result.solved
+    assert straight_up(result.robot_model(), np.asarray(result.grasp["config"]), result.params["grasp_lift"]) is not None
+
+
 def test_a_move_straight_up_stays_on_the_vertical_and_on_the_arms_branch():
     # The sweep's square/irregular pose 0: one IK call for 10 cm above the slide's end lands on another
     # branch (a joint turned by 3.4 rad), and the joint-linear move there swept the hand 25 cm down

@@ -7,6 +7,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .. import _core
 from ..errors import InputError
 from ..timing import TimingOptions, time_path
 from .model import Model, enable_hand_collisions
@@ -17,8 +18,10 @@ _CLOSE_S = 0.8
 _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
-UP_STEP_M = 0.01  # a straight move (up, or aside to look) is solved a centimetre at a time
-MAX_JOINT_STEP_RAD = 0.3  # a centimetre's step turning a joint further has left the arm's branch
+# A straight move (up, or aside to look) is solved a centimetre at a time; a step turning a joint further
+# than MAX_JOINT_STEP_RAD has left the arm's branch. The planner's lift check (lift_check) uses the same.
+UP_STEP_M = _core.LIFT_STEP_M
+MAX_JOINT_STEP_RAD = _core.LIFT_JOINT_STEP_RAD
 
 
 class Unstable(Exception):
@@ -57,8 +60,6 @@ def straight_line(robot, config: np.ndarray, offset) -> np.ndarray | None:
     where a step has no IK or turns a joint more than ``MAX_JOINT_STEP_RAD``. One IK call for the whole
     move may land on another branch of the arm, and the joint-linear move there swings the hand through
     the table and the object."""
-    from .. import _core
-
     start = np.asarray(robot.fk(config))
     offset = np.asarray(offset, dtype=float)
     steps = max(1, math.ceil(float(np.linalg.norm(offset)) / UP_STEP_M - 1e-9))
