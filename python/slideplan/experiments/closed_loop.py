@@ -173,7 +173,11 @@ def plot_closed_loop(runs: pd.DataFrame, out_dir: str | Path, name: str = "close
     replan_axes.set(xlabel="re-plans per closed-loop run", ylabel="fraction of runs")
     latency_axes.set(xlabel="median re-plan latency of a run (ms): track + plan", ylabel="fraction of runs")
     latency_axes.axvline(50, color="grey", linestyle=":")
-    error_axes.set(xlabel="overhang seen after the slide - true (mm)", ylabel="fraction of runs")
+    # Log and symmetric-log axes: a run whose object fell off the table is metres off, and a slow re-plan
+    # hundreds of milliseconds; linear axes squeezed every other run into one line.
+    latency_axes.set_xscale("log")
+    error_axes.set_xscale("symlog", linthresh=10.0)
+    error_axes.set(xlabel="overhang seen after the slide - true (mm, linear within +-10)", ylabel="fraction of runs")
     for axes in (success_axes, replan_axes, latency_axes, error_axes):
         axes.legend(fontsize=8)
         axes.grid(alpha=0.3)
