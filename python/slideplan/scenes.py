@@ -20,7 +20,7 @@ from .paths import data_dir, find_data_file
 from .transforms import move_planar
 
 # Planner parameters a hand may give defaults for ([hand] params).
-HAND_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "grasp_lift", "grasp_backoff", "grasp_standoff",
+HAND_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "grasp_lift", "grasp_backoff", "grasp_standoff", "grasp_hold",
                "max_yaw_rate", "grasp_flip", "grasp_tilt_tolerance", "grasp_yaw_tolerance", "grasp_roll_tolerance")
 ROBOT_KEYS = {"urdf", "attach", "base_pose", "base_link", "fixed_joints", "package_dirs"}
 LEGACY_HAND_KEYS = ("tip_link", "contact_links")  # once in [robot], now in [hand]; still read there
