@@ -125,7 +125,8 @@ class Replan:
         trigger: ``"drift"`` (off the predicted pose during a slide), ``"end"`` (a slide ended) or
             ``"clear"`` (the look after an end look that did not see the object, the finger lifted clear)
             or ``"blind"`` (the same when no look had seen the object for ``BLIND_S`` of a slide, which
-            stopped there), or ``"new_contact"`` (after a look that found the fingertip off the object:
+            stopped there), or ``"search"`` (after a clear look that did not see the object: the whole
+            table's frame searched for it), or ``"new_contact"`` (after a look that found the fingertip off the object:
             a whole new slide, reached from where the finger is).
         position_error_m, yaw_error_deg: how far the seen pose was from the predicted one.
         track_s, plan_s: wall time of tracking and of planning with timing (s).
@@ -468,6 +469,11 @@ class Watch:
             self.lost_looks += 1
         return seen
 
+    def locate(self, frames, predicted):
+        """Where to look for an object not seen near ``predicted``: over the whole table in the next frame
+        (:meth:`slideplan.tracking.Tracker.locate`), or None."""
+        return self.tracker.locate(frames()[0], predicted, self.scene.table.polygon)
+
     def settled(self, frames, predicted, *, pressed: bool = True) -> Any:
         """At the end of a slide, the arm at rest: frames (``frames()`` gives the next ``(depth, tip)``)
         until two in a row agree (a single frame's fit can be a wrong one, and the grasp is made where
@@ -521,7 +527,8 @@ class Watch:
                 clear of the object, after an end look that did not see it) or ``"blind"`` (lifted clear
                 where the slide ``segment``, not seen for ``BLIND_S``, stopped with the fingertip at
                 ``tip``: where its rest still works from the pose seen, or nothing is seen, no new plan and
-                the event's outcome ``"kept"``).
+                the event's outcome ``"kept"``) or ``"search"`` (as ``"clear"``, ``predicted`` where the whole
+                table's frame shows the object, after a clear look that lost it).
             elapsed: time into the slide, for the event (s).
             frames: gives the next ``(depth, measured fingertip pose)``.
             predicted: where Eq. 2 puts the object now (motion from its perceived pose).
@@ -542,7 +549,7 @@ class Watch:
                 sensed[0] += time.perf_counter() - begun
 
         started = time.perf_counter()
-        if trigger in ("end", "clear", "blind"):
+        if trigger in ("end", "clear", "blind", "search"):
             seen = self.settled(timed_frames, predicted, pressed=trigger == "end")
         else:
             seen = self.look(*timed_frames(), predicted)
@@ -702,6 +709,13 @@ class SlideLoop:
                 again, event, seen = watch.replan(trigger, arm.clock(), arm.frames(), predicted, end_config,
                                                   segment=segment, tip=np.asarray(robot.fk(end_config)))
                 arm.record(event)
+                if event.outcome == "lost" and (found := watch.locate(arm.frames(), predicted)) is not None:
+                    # Not near where it was expected even from clear (pushed away, or left behind by a pad
+                    # that slipped over it): the whole table is searched, and a new contact slides it on.
+                    searched = watch.replan("search", arm.clock(), arm.frames(), found, end_config)
+                    arm.record(searched[1])
+                    if searched[1].outcome != "lost":  # else the pose Eq. 2 predicts stays the best guess
+                        again, event, seen = searched
                 arm.move(segment.result, lifted[::-1], "clear")
             self.unseen.update(True, arm.clock())
             outcome = event.outcome

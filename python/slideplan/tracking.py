@@ -149,6 +149,38 @@ class Tracker:
         edge = (is_object & binary_dilation(is_table, cross)) | (is_table & binary_dilation(is_object, cross))
         return world[edge][:, :2], world[is_object][:, :2], world[is_table][:, :2]
 
+    def locate(self, depth: np.ndarray, guess, region: Polygon):
+        """Where to start tracking an object that is nowhere near ``guess``: ``guess`` shifted so that the
+        object's centre of mass lies at the middle of the largest patch of pixels at the object's height
+        over ``region`` anywhere in the frame (:meth:`track` looks only near its guess, and a push or a
+        slide gone wrong can leave the object farther away). None when no patch has ``MIN_EDGE_POINTS``
+        pixels.
+
+        Args:
+            depth: (height, width) depth image of the tracker's camera (m), NaN for no return.
+            guess: (x, y, yaw) motion of the reference object: its yaw is kept.
+            region: where the object may lie (the table top), world xy.
+        """
+        from scipy.ndimage import label, median_filter
+
+        filled = np.where(np.isfinite(depth), depth, np.inf)
+        world = pixel_points(median_filter(filled, size=3, mode="nearest"), self.camera)
+        height = world[..., 2] - self.table_height
+        with np.errstate(invalid="ignore"):
+            level = (height > 0.5 * self.obj.thickness) & (height < self.obj.thickness + self.hand_clearance)
+        level &= np.isfinite(world[..., 0])
+        level[level] = shapely.contains_xy(region, world[level][:, 0], world[level][:, 1])
+        patches, count = label(level)
+        if count == 0:
+            return None
+        sizes = np.bincount(patches.ravel())[1:]
+        if sizes.max() < MIN_EDGE_POINTS:
+            return None
+        centre = world[patches == 1 + int(np.argmax(sizes))][:, :2].mean(axis=0)
+        yaw = float(guess[2])
+        shift = centre - rotation_2d(yaw) @ self._centre
+        return (float(shift[0]), float(shift[1]), yaw)
+
     def track(self, depth: np.ndarray, guess=(0.0, 0.0, 0.0), contact=None) -> TrackedPose:
         """Estimate where the object is in one frame.
 
