@@ -176,8 +176,9 @@ def plot_closed_loop(runs: pd.DataFrame, out_dir: str | Path, name: str = "close
     # Log and symmetric-log axes: a run whose object fell off the table is metres off, and a slow re-plan
     # hundreds of milliseconds; linear axes squeezed every other run into one line.
     latency_axes.set_xscale("log")
-    error_axes.set_xscale("symlog", linthresh=10.0)
-    error_axes.set(xlabel="overhang seen after the slide - true (mm, linear within +-10)", ylabel="fraction of runs")
+    error_axes.set_xscale("symlog", linthresh=10.0, linscale=4.0)
+    error_axes.set_xticks([-1000, -10, -5, 0, 5, 10, 100], ["-1000", "-10", "-5", "0", "5", "10", "100"])
+    error_axes.set(xlabel="seen - true overhang after the slide (mm)", ylabel="fraction of runs")
     for axes in (success_axes, replan_axes, latency_axes, error_axes):
         axes.legend(fontsize=8)
         axes.grid(alpha=0.3)
