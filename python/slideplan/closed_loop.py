@@ -88,6 +88,7 @@ SIGHT_LINES = 24  # lines of sight from the camera to the object's points that t
 SIGHT_RADIUS_M = 0.005  # each a capsule of this radius (CollisionWorld.hidden_lines)
 HIDDEN_SHARE = 0.25  # a pose that hides at most this share of them shows the tracker enough of the object
 BLIND_S = 1.0  # a slide no look has seen the object in for this long stops, and the finger rises clear to look
+OBSTACLE_MARGIN = 0.01  # a search of the table keeps this far from an obstacle's footprint (its sides, depth noise)
 
 
 @dataclass(frozen=True)
@@ -424,6 +425,10 @@ class Watch:
         self.scene, self.perceived, self.threshold = scene, perceived, threshold
         self.replan_config = dataclasses.replace(config, time_limit_s=replan_time_limit)
         self.tracker = Tracker(perceived, camera, table_height=scene.table.height)
+        # The sides of an obstacle rise through the object's height: a search of the table leaves them out.
+        obstacles = scene.footprints(scene.table.height + perceived.thickness + self.tracker.hand_clearance)
+        self.free_table = scene.table.polygon if obstacles is None else scene.table.polygon.difference(
+            obstacles.buffer(OBSTACLE_MARGIN))
         perceived.symmetry_turns  # computed once, before the first look's latency
         self.looks = self.lost_looks = self.kept = 0
         self._last: tuple | None = None  # (motion seen, fingertip pose then) of the last look that found the object
@@ -470,9 +475,9 @@ class Watch:
         return seen
 
     def locate(self, frames, predicted):
-        """Where to look for an object not seen near ``predicted``: over the whole table in the next frame
-        (:meth:`slideplan.tracking.Tracker.locate`), or None."""
-        return self.tracker.locate(frames()[0], predicted, self.scene.table.polygon)
+        """Where to look for an object not seen near ``predicted``: over the whole table but the obstacles
+        in the next frame (:meth:`slideplan.tracking.Tracker.locate`), or None."""
+        return self.tracker.locate(frames()[0], predicted, self.free_table)
 
     def settled(self, frames, predicted, *, pressed: bool = True) -> Any:
         """At the end of a slide, the arm at rest: frames (``frames()`` gives the next ``(depth, tip)``)

@@ -10,8 +10,10 @@ from typer.testing import CliRunner
 
 from slideplan import InputError, PlannerConfig, load_scene, plan
 from slideplan.cli import app
-from slideplan.closed_loop import Disturbance, default_camera, run
+from slideplan.closed_loop import Disturbance, Watch, default_camera, run
 from slideplan.objects import load_object
+from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_mjcf
+from slideplan.tracking import Tracker
 from slideplan.transforms import row_to_pose, wrap_angle
 from slideplan.verify import planar_motion
 
@@ -309,3 +311,28 @@ def test_a_push_from_under_the_finger_is_followed_by_a_new_slide_from_a_new_cont
     contact = [index for index, (trigger, _) in enumerate(triggers) if trigger == "new_contact"]
     assert contact and triggers[contact[0]][1] == "slide" and triggers[contact[0] - 1][1] == "refused", triggers
     assert report.success, report.summary()
+
+
+def test_a_search_of_the_table_leaves_out_the_obstacles_whose_sides_rise_through_the_object_s_height():
+    """clutter_boxed's 8 cm walls: over the whole table the largest patch at the object's height is a
+    wall's side, so the search for a lost object (Watch.locate) leaves the obstacles out, and finds the
+    object itself among them."""
+    scene = load_scene("clutter_boxed")
+    camera = default_camera(scene)
+    walls = [Box(tuple(o.center), tuple(o.size), o.yaw) for o in scene.obstacles]
+    pose = (0.5, -0.05, 0.3)
+    obj = load_object("crescent", table_height=scene.table.height, pose=(0.5, -0.05, 0.0))
+    watch = Watch(scene, obj, PlannerConfig.for_scene(scene), camera, (0.003, math.radians(2.0)), 0.05)
+
+    def frame(objects):
+        mjcf = scene_mjcf(scene.table, place_objects(objects), walls, camera)
+        return noisy_depth(depth_image(mjcf, camera), 0.002, 0.05, np.random.default_rng(3))
+
+    empty = frame([])
+    tracker = Tracker(obj, camera, table_height=scene.table.height)
+    assert tracker.locate(empty, (0.0, 0.0, 0.0), scene.table.polygon) is not None  # a wall, taken for it
+    assert watch.locate(lambda: (empty, None), (0.0, 0.0, 0.0)) is None
+    found = watch.locate(lambda: (frame([("crescent", pose)]), None), (0.0, 0.0, 0.0))
+    truth = load_object("crescent", table_height=scene.table.height, pose=pose)
+    assert found is not None
+    assert np.linalg.norm(obj.moved(found).centroid_xy - truth.centroid_xy) < 0.02  # a start for tracking

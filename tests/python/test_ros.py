@@ -32,7 +32,7 @@ from slideplan.errors import InputError  # noqa: E402
 from slideplan.objects import load_object  # noqa: E402
 from slideplan.planning import PlannerConfig, robot_model  # noqa: E402
 from slideplan.ros.messages import cloud_message, cloud_points, pose_matrix, seconds, trajectory_arrays, trajectory_message  # noqa: E402,E501
-from slideplan.ros.serve import Refused, cloud_in_world, tracking_camera  # noqa: E402
+from slideplan.ros.serve import Execution, Refused, Task, cloud_in_world, tracking_camera  # noqa: E402
 from slideplan.ros.sim import Sim, camera_pose_of  # noqa: E402
 from slideplan.scenes import load_scene  # noqa: E402
 from slideplan.verify import overhang  # noqa: E402
@@ -301,3 +301,48 @@ def test_the_tracking_camera_is_recovered_from_an_organized_cloud():
     assert np.allclose(camera.pixels(world), sim.camera.pixels(world), atol=1e-3)
     with pytest.raises(Refused, match="unorganized"):
         tracking_camera(points.reshape(1, -1, 3), camera_pose_of(sim.camera))
+
+
+class _StillNode:
+    """What an execution's lift check asks of the node, from one frame of a scene standing still."""
+
+    def __init__(self, points: np.ndarray, camera_pose: list[float]) -> None:
+        self.points, self.camera_pose = points, camera_pose
+
+    def now(self) -> float:
+        return 0.0
+
+    def parameter(self, name: str):
+        return {"camera_pose": self.camera_pose, "closed_loop": False}[name]
+
+    def latest_points(self) -> np.ndarray:
+        return self.points
+
+    def next_cloud(self, after: float, timeout: float = 2.0) -> tuple[float, np.ndarray]:
+        return after + 1.0, self.points
+
+
+def test_the_lift_check_finds_the_object_left_on_the_table_away_from_where_it_was_grasped():
+    """After the lift the node looks for the object on the whole table, not only where it was grasped
+    (a push can leave it elsewhere, and the table is seen there): found, the answer is a grasp failure;
+    held 5 cm up, it is not found (the hand and the object above the table are not the object on it)."""
+    import mujoco
+
+    scene = load_scene("square")
+    obj = load_object("crescent", table_height=scene.table.height, pose=POSE)
+    task = Task(result=None, obj=obj, scene=scene, reach=None, config=PlannerConfig.for_scene(scene))
+    grasped_at = (-0.08, 0.0, 0.0)  # where the grasp expected it: 8 cm away, on the table
+    assert scene.table.polygon.contains(obj.moved(grasped_at).outline)
+    sim = Sim(scene, "crescent", POSE)
+    sim.step_to(0.05)
+    left = Execution(_StillNode(sim.optical_points(sim.depth()), camera_pose_of(sim.camera)), task)
+    assert left.object_share(grasped_at, left.node.points) < 0.5  # the table is seen where it was grasped
+    with pytest.raises(Refused, match=r"on the table 8 cm from where it was grasped") as refused:
+        left.check_lifted(grasped_at)
+    assert refused.value.status == "grasp"
+    body = sim.built.object_body
+    sim.data.qpos[sim.model.jnt_qposadr[sim.model.body_jntadr[body]] + 2] += 0.05
+    mujoco.mj_forward(sim.model, sim.data)
+    held = Execution(_StillNode(sim.optical_points(sim.depth()), camera_pose_of(sim.camera)), task)
+    sim.close()
+    assert held.check_lifted(grasped_at) is True

@@ -441,17 +441,26 @@ class Execution:
         final, expected = loop.run(result)
         return final, loop.replans, expected
 
-    def object_share(self, expected, phase: str) -> float | None:
-        """Of the next cloud's points over the object's footprint where it is expected (a motion from its
+    def next_points(self, phase: str) -> np.ndarray:
+        """The points of the next cloud, in the camera's optical frame as they came.
+
+        Raises:
+            Refused: (``phase``) no cloud within ``CLOUD_WAIT_S``.
+        """
+        node = self.node
+        cloud = node.next_cloud(node.now(), timeout=CLOUD_WAIT_S)
+        if cloud is None:
+            raise Refused(phase, f"no cloud on /camera/points for {CLOUD_WAIT_S:.0f} s to check the {phase}")
+        return cloud[1]
+
+    def object_share(self, expected, points: np.ndarray) -> float | None:
+        """Of a cloud's points over the object's footprint where it is expected (a motion from its
         perceived pose; within 4 mm of its cloud), the share at the object's top rather than at the
         table's; None where too few are in view to tell."""
         from scipy.spatial import cKDTree
 
-        node, task = self.node, self.task
-        cloud = node.next_cloud(node.now(), timeout=CLOUD_WAIT_S)
-        if cloud is None:
-            raise Refused(phase, f"no cloud on /camera/points for {CLOUD_WAIT_S:.0f} s to check the {phase}")
-        world = cloud_in_world(cloud[1], node.parameter("camera_pose"))
+        task = self.task
+        world = cloud_in_world(points, self.node.parameter("camera_pose"))
         footprint = cKDTree(task.obj.moved(expected).points[:, :2])
         over = np.isfinite(footprint.query(world[:, :2], distance_upper_bound=0.004)[0])
         height = world[over, 2] - task.scene.table.height
@@ -467,23 +476,47 @@ class Execution:
             Refused: (``release``) the table is seen there instead (it fell when the finger let go, or
                 the slide left it elsewhere).
         """
-        share = self.object_share(expected, "release")
+        share = self.object_share(expected, self.next_points("release"))
         if share is not None and share < 0.5:
             raise Refused("release", f"the object is not where the grasp expects it (the table is seen over "
                                      f"{100 * (1 - share):.0f}% of its footprint there): it fell or slid elsewhere")
 
     def check_lifted(self, expected) -> bool:
-        """After the lift, look where the object was grasped: its top seen there on the table, the grasp
-        missed or let go. Return False when too little of the place is in view to tell.
+        """After the lift, look for the object on the table: where it was grasped, then (from an organized
+        cloud) anywhere on the table, as the closed loop searches for a lost object
+        (:meth:`~slideplan.closed_loop.Watch.locate`, then a fit there). Seen on the table, the grasp
+        missed it, let it go or knocked it away. Return False when too little of the place where it was
+        grasped is in view to tell.
 
         Raises:
             Refused: (``grasp``) the object is still on the table.
         """
-        share = self.object_share(expected, "grasp")
+        points = self.next_points("grasp")
+        share = self.object_share(expected, points)
         if share is not None and share >= 0.5:
             raise Refused("grasp", f"the object is still on the table after the lift (its top seen over "
                                    f"{100 * share:.0f}% of its footprint): the grasp missed it or let it go")
+        off_m = self.found_on_table(expected, points)
+        if off_m is not None:
+            raise Refused("grasp", f"the object is on the table {100 * off_m:.0f} cm from where it was grasped after "
+                                   f"the lift: the grasp missed it or knocked it away")
         return share is not None
+
+    def found_on_table(self, expected, points: np.ndarray) -> float | None:
+        """How far from ``expected`` (m) a search of the table finds the object in an organized cloud (a
+        fit there, with its top seen over at least half its footprint), or None (not found, or the cloud
+        is unorganized)."""
+        try:
+            watch = self.judge or self._watch()
+        except Refused:  # an unorganized cloud: no depth image to search
+            return None
+        depth = _depth(points)
+        guess = watch.locate(lambda: (depth, None), expected)
+        seen = None if guess is None else watch.tracker.track(depth, guess)
+        if seen is None or not seen.ok:
+            return None
+        share = self.object_share(seen.motion, points)
+        return watch.error(seen.motion, expected)[0] if share is not None and share >= 0.5 else None
 
     def record(self, event) -> None:
         """Keep a look that asked for a plan, and say what came of it on /slideplan/status."""
