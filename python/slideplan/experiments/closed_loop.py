@@ -140,6 +140,7 @@ def plot_closed_loop(runs: pd.DataFrame, out_dir: str | Path, name: str = "close
         The files written.
     """
     from matplotlib.figure import Figure
+    from matplotlib.ticker import NullFormatter
 
     from ..plots import save_figures
 
@@ -176,6 +177,8 @@ def plot_closed_loop(runs: pd.DataFrame, out_dir: str | Path, name: str = "close
     # Log and symmetric-log axes: a run whose object fell off the table is metres off, and a slow re-plan
     # hundreds of milliseconds; linear axes squeezed every other run into one line.
     latency_axes.set_xscale("log")
+    latency_axes.set_xticks([10, 20, 50], ["10", "20", "50"])
+    latency_axes.xaxis.set_minor_formatter(NullFormatter())
     error_axes.set_xscale("symlog", linthresh=10.0, linscale=4.0)
     error_axes.set_xticks([-1000, -10, -5, 0, 5, 10, 100], ["-1000", "-10", "-5", "0", "5", "10", "100"])
     error_axes.set(xlabel="seen - true overhang after the slide (mm)", ylabel="fraction of runs")
