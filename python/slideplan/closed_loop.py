@@ -767,6 +767,25 @@ class SlideLoop:
                 best, most = np.vstack([up, aside[1:]]), count
         return best
 
+    def touch(self, seen: ThinObject, config: np.ndarray) -> PlanResult:
+        """A plan for the object ``seen`` partly over an edge, the finger off it (it slid on ahead of the
+        finger): the planner takes such an object only from a state, so the state is the finger set down on
+        it, turned and pressed as at ``config``, at the object's point nearest its centre; from there the
+        plan is the grasp where the object already overhangs enough, or else the rest of the slide.
+
+        Raises:
+            Unreachable: no inverse kinematics puts the finger there.
+            InputError: that configuration is not a valid contact (``start_config``: why).
+        """
+        points = seen.points[:, :2]
+        point = points[np.argmin(np.linalg.norm(points - seen.centroid_xy, axis=1))]
+        target = np.asarray(self.robot.fk(config))
+        target[:2, 3] = point
+        on = self.robot.ik(target, seed=config, rng_seed=0, options=_core.contact_ik_options(self.robot))
+        if on is None:
+            raise Unreachable(f"no inverse kinematics puts the finger on the object at ({point[0]:.3f}, {point[1]:.3f})")
+        return plan(self.watch.scene, seen, self.watch.replan_config, start_config=on)
+
     def new_contact(self, motion, config: np.ndarray) -> PlanResult | None:
         """A whole new slide for the object seen at ``motion`` (verified) and the reach to its first contact
         from ``config`` (the finger lifted off first, every link checked), followed; None when there is none
@@ -778,7 +797,8 @@ class SlideLoop:
         seen = watch.perceived.moved(motion)
         fresh = reach = None
         try:
-            fresh = plan(watch.scene, seen, watch.replan_config)
+            fresh = (plan(watch.scene, seen, watch.replan_config) if watch.scene.table.polygon.contains(seen.outline)
+                     else self.touch(seen, config))
             checked = verify(fresh) if fresh.solved else None
             if checked is not None and not checked.ok:
                 event.detail = f"the new plan fails verification: {checked.violations[0]}"
