@@ -70,6 +70,7 @@ bench: install
 	  --variants "slideplan hand" --out docs/benchmarks/robots.md
 	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --poses 10 --scenes clutter_can clutter_books clutter_boxed \
 	  --variants "slideplan hand" --out docs/benchmarks/clutter.md
+	$(PYTHON) benchmarks/support_bench.py
 	$(PYTHON) benchmarks/thread_bench.py
 	$(PYTHON) benchmarks/hands_sweep.py
 	$(PYTHON) benchmarks/timing_bench.py

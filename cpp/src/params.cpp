@@ -75,6 +75,7 @@ namespace slideplan
         params.comMargin = 0.0;
         params.maxObjectYaw = M_PI;
         params.maxYawRate = 0.0;
+        params.comSupported = false;
         return params;
     }
 

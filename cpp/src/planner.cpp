@@ -149,8 +149,13 @@ namespace slideplan
     bool SlidingPlanner::stepValid(const JointsRef &q, const Eigen::Isometry3d &tip, const Eigen::Isometry3d *startTip) const
     {
         // Where the slide started is known in start trees only: there the object must stay clear of
-        // the obstacles (goal trees are checked once connected, pathClear).
-        return validity_->isValid(q, tip) && (!startTip || task_->objectClear(objectMotion(*startTip, tip)));
+        // the obstacles and on the table (goal trees are checked once connected, pathClear).
+        if (!validity_->isValid(q, tip))
+            return false;
+        if (!startTip)
+            return true;
+        const PlanarMotion motion = objectMotion(*startTip, tip);
+        return task_->objectClear(motion) && (!params_.comSupported || task_->comOnTable(motion));
     }
 
     bool SlidingPlanner::projectedStep(const JointsRef &from, const Eigen::Isometry3d &fromTip, const JointsRef &target,
@@ -286,9 +291,15 @@ namespace slideplan
         const Eigen::Isometry3d startTip = tips.back();
         for (Node *node = goalNode->parent; node; node = node->parent)
         {
-            if (!task_->objectClear(objectMotion(startTip, node->tip)))
+            const PlanarMotion motion = objectMotion(startTip, node->tip);
+            if (!task_->objectClear(motion))
             {
                 ++result_.stats.rejections["object meets an obstacle along the path"];
+                return false;
+            }
+            if (params_.comSupported && !task_->comOnTable(motion))
+            {
+                ++result_.stats.rejections["centre of mass off the table along the path"];
                 return false;
             }
             path.push_back(node->q);

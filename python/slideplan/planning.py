@@ -37,7 +37,7 @@ READABLE_SCHEMAS = ("slideplan.plan/1", PLAN_SCHEMA)  # /1: the same fields with
 STATUSES = ("solved", "timeout", "invalid")
 
 _INT_FIELDS = ("projection_iterations", "root_ik_attempts", "shortcut_attempts")
-_BOOL_FIELDS = ("screen_pairs", "grasp_flip", "grasp_map", "goal_grasp_filter", "lift_check", "cache_verdicts")
+_BOOL_FIELDS = ("screen_pairs", "grasp_flip", "grasp_map", "goal_grasp_filter", "lift_check", "cache_verdicts", "com_supported")
 # PlannerConfig fields that are not PlannerParams attributes (or are named differently there).
 _NOT_PARAMS = ("planner", "seed", "time_limit_s", "preset")
 
@@ -52,7 +52,7 @@ PRESETS = ("default", "paper")
 PAPER_FIELDS = (
     "delta_beta", "dz_min", "dz_max", "n_star", "grasp_standoff", "grasp_hold", "screen_pairs", "grasp_flip", "grasp_map",
     "goal_grasp_filter", "lift_check", "cache_verdicts", "paired_goals", "contact_radius", "shortcut_attempts",
-    "com_margin", "max_object_yaw", "max_yaw_rate",
+    "com_margin", "max_object_yaw", "max_yaw_rate", "com_supported",
 )
 
 
@@ -127,6 +127,8 @@ class PlannerConfig:
             pose (rad); ``math.pi`` accepts any, as the paper does.
         max_yaw_rate: beyond the paper, the largest turn of the object per metre of fingertip travel
             in each extension step (rad/m); 0 allows any turn, as the paper does.
+        com_supported: beyond the paper, the object's centre of mass stays on the table at every state
+            of the slide; False checks only the final pose, as the paper does.
         planner: ``"slideplan"`` (Algorithm 1), ``"cbirrt"`` or ``"cbirrt2"`` (baselines, paper V-6).
         seed: random seed; the same seed gives the same plan.
         time_limit_s: planning time budget (s).
@@ -176,6 +178,7 @@ class PlannerConfig:
     max_object_yaw: float | None = None
     max_yaw_rate: float | None = None
     com_margin: float | None = None
+    com_supported: bool | None = None
     planner: str = _CORE_DEFAULTS.policy
     seed: int = 0
     time_limit_s: float = 60.0

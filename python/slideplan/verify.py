@@ -88,7 +88,7 @@ def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_
     is collision-free (sliding mode); the density bounds between waypoints; Eq. 2 (the
     recorded object motion is the planar motion of the fingertip from first to last
     waypoint); the final object pose (overhang ``u >= u*`` and equal to the recorded one,
-    centre of mass on the table); and the grasp (its recorded pose is the forward
+    centre of mass on the table, and with ``com_supported`` at every waypoint); and the grasp (its recorded pose is the forward
     kinematics of the grasp link, the approach runs densely and without collision from the
     goal to the grasp configuration).
 
@@ -117,6 +117,7 @@ def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_
     violations += check_turning(result)
     violations += check_clutter(result, world)
     violations += check_graspability(result, world.table)
+    violations += check_support(result, world.table)
     violations += check_grasp_pose(result, world, grasp_tolerance)
     violations += check_grasp(result, world)
     violations += check_timing(result, world)
@@ -525,6 +526,26 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
         violations.append(f"final object pose: centre of mass {margin:.4f} m inside the table edge, "
                           f"less than com_margin {result.params['com_margin']}")
     return violations
+
+
+def check_support(result: PlanResult, table: SupportSurface) -> list[str]:
+    """With ``com_supported`` (beyond the paper), the centre of mass lies on the table at every waypoint
+    (Eq. 2 from the first). Plans without the parameter (the paper's check: the final pose only) pass.
+
+    Returns:
+        At most one violation: the first waypoint off, and by how much.
+    """
+    if not result.params.get("com_supported", False):
+        return []
+    com = np.asarray(result.object["com_xy"], dtype=float)
+    first = row_to_pose(result.fingertip_poses[0])
+    for index, row in enumerate(result.fingertip_poses):
+        moved = move_planar(com, planar_motion(first, row_to_pose(row)))
+        margin = table.edge_margin(moved)
+        if margin < -MOTION_TOLERANCE:
+            return [f"trajectory[{index}]: centre of mass ({moved[0]:.4f}, {moved[1]:.4f}) {-margin:.4f} m off the table "
+                    f"(com_supported)"]
+    return []
 
 
 def check_turning(result: PlanResult) -> list[str]:

@@ -77,6 +77,9 @@ namespace
             EXPECT_TRUE(task.table->contains(tip.translation().head<2>())) << "waypoint " << i;
             EXPECT_TRUE(world.isValid(q)) << "waypoint " << i;
             EXPECT_TRUE(task.robot->withinLimits(q)) << "waypoint " << i;
+            if (params.comSupported)  // Eq. 2 from the first waypoint leaves the centre of mass on the table
+                EXPECT_TRUE(task.table->contains(objectMotion(task.robot->fk(result.trajectory.front()), tip).apply(task.objectCom)))
+                    << "waypoint " << i;
             if (i > 0)
             {
                 EXPECT_LE((q - result.trajectory[i - 1]).cwiseAbs().maxCoeff(), params.maxJointStep + 1e-12);
@@ -590,7 +593,7 @@ TEST(PlannerParams, AsPublishedTurnsEveryDepartureOffAndKeepsThePapersValues)
     const PlannerParams paper = PlannerParams::asPublished();
     EXPECT_NO_THROW(paper.validate());
     EXPECT_FALSE(paper.screenPairs || paper.graspFlip || paper.graspMap || paper.goalGraspFilter || paper.liftCheck ||
-                 paper.cacheVerdicts);
+                 paper.cacheVerdicts || paper.comSupported);
     EXPECT_EQ(paper.pairedGoals, 0.0);
     EXPECT_EQ(paper.contactRadius, 0.0);
     EXPECT_EQ(paper.shortcutAttempts, 0);

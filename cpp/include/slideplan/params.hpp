@@ -135,6 +135,12 @@ namespace slideplan
         /// from 373 to 55 deg (square table, 20 plans) at the same planning time.
         double maxYawRate{0.0};
 
+        /// Beyond the paper: the object's centre of mass stays on the table (inside Q) at every state of
+        /// the slide, not only at its end (Eq. 2 moves it through every state). The paper checks the final
+        /// pose only; a re-plan from an object already at an edge could then swing its centre of mass over
+        /// the edge and back, and in MuJoCo the object fell there (closed loop, triangle table).
+        bool comSupported{true};
+
         /// Beyond the paper: the shortcut keeps a walk when it lowers fingertip travel (m) plus this
         /// weight times the object's yaw travel (rad): turning the object in place is what fails in
         /// execution (docs/physics-facts.md), so a radian of yaw costs like this many metres of travel.

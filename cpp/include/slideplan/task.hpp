@@ -43,6 +43,8 @@ namespace slideplan
         /// reaches down to it: its fixed-resolution footprint and hull vertices against the obstacles'
         /// footprints (its outline, not its convex hull, so a crescent may wrap around a can).
         bool objectClear(const PlanarMotion &motion) const { return overlappedObstacle(motion) < 0; }
+        /// Whether the object's centre of mass, moved by `motion`, lies on the table.
+        bool comOnTable(const PlanarMotion &motion) const { return table->contains(motion.apply(objectCom)); }
         /// The index in `obstacles` of the first obstacle the moved object overlaps (as objectClear), or -1.
         int overlappedObstacle(const PlanarMotion &motion) const;
         double extent{0.0};      ///< largest distance between two points of P_o (over its convex hull)

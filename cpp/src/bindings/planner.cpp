@@ -189,6 +189,8 @@ namespace slideplan::bindings
                            "Beyond the paper: the final centre of mass at least this far inside the table (m).")
             .def_readwrite("max_yaw_rate", &PlannerParams::maxYawRate,
                            "Largest turn of the object per metre of fingertip travel in each step (rad/m); 0: any.")
+            .def_readwrite("com_supported", &PlannerParams::comSupported,
+                           "Beyond the paper: the centre of mass stays on the table at every state of the slide.")
             .def_readwrite("max_object_yaw", &PlannerParams::maxObjectYaw,
                            "Beyond the paper: largest turn of the object between start and final pose (rad); pi: any.")
             .def_readwrite("shortcut_yaw_weight", &PlannerParams::shortcutYawWeight,
