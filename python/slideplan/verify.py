@@ -88,9 +88,9 @@ def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_
     is collision-free (sliding mode); the density bounds between waypoints; Eq. 2 (the
     recorded object motion is the planar motion of the fingertip from first to last
     waypoint); the final object pose (overhang ``u >= u*`` and equal to the recorded one,
-    centre of mass on the table, and with ``com_supported`` at every waypoint); and the grasp (its recorded pose is the forward
-    kinematics of the grasp link, the approach runs densely and without collision from the
-    goal to the grasp configuration).
+    centre of mass on the table, and with ``com_supported`` at every waypoint); and the grasp
+    (its recorded pose is the forward kinematics of the grasp link, the approach runs densely
+    and without collision from the goal to the grasp configuration).
 
     Args:
         result: the plan.
