@@ -1,12 +1,30 @@
-"""Independent re-check of a plan from the plan data alone.
+"""A second check of a plan, from the plan data alone (not independent of the planner: see below).
 
 :func:`verify` recomputes, from the fields of a :class:`~slideplan.planning.PlanResult`
 (robot URDF and mount, table, object cloud, configurations), everything the plan claims:
 the contact constraint at every waypoint (docs/design.md 3, paper IV-C.3), the path density,
 the object motion of Eq. 2, the graspability of the final object pose (paper IV-C.1) and
-the approach to the grasp. It deliberately shares no code with the planner: it uses only
-the robot model and collision world of the core (kinematics and FCL, which the plan data
-cannot replace) and the data layer's geometry.
+the approach to the grasp.
+
+It is not independent of the planner's code. It shares with the planner:
+
+- the C++ core's robot model (``_core.RobotModel``, loaded through ``planning.plan_robot``
+  by :meth:`PlanResult.robot_model`): the URDF parse, the forward kinematics (``fk``,
+  ``frame_pose``), the joint names and limits;
+- the core's FCL collision world (``_core.CollisionWorld`` with ``_core.SupportSurface`` and
+  ``_core.ContactMode``): the links' collision shapes, which links may touch while sliding,
+  and the object prism it sets;
+- ``planning.core_obstacles`` (the plan's obstacles as the core's) and
+  ``scenes.obstacle_footprint`` (their footprints);
+- the data layer: ``geometry.SupportSurface`` (the table polygon: ``contains``,
+  ``edge_margin``), ``geometry.area_centroid`` (the core's ``_core.area_centroid``, the one
+  centre-of-mass computation the planner uses too), ``transforms`` and ``timing.NEAR_TABLE_M``.
+
+A bug in any of these can pass both the planner and the verifier. What it computes on its own,
+from the plan's numbers: the contact depth and angle bands, the density bounds, Eq. 2's motion,
+the overhang and the centre-of-mass margins, ``H_g`` (with ``grasp_hold``) and the grasp frame's
+turn, and the timing limits; it calls none of the planner's search, projection, IK or
+validators.
 """
 
 from __future__ import annotations
