@@ -23,6 +23,7 @@ from .geometry import SupportSurface
 from .objects import ThinObject, load_object
 from .perception import Perception, perceive
 from .planning import PlannerConfig, PlanResult, plan
+from .provenance import build_info
 from .scenes import Scene, load_scene
 from .verify import Verification, verify
 
@@ -52,6 +53,7 @@ __all__ = [
     "ThinObject",
     "Verification",
     "__version__",
+    "build_info",
     "load_object",
     "load_scene",
     "perceive",
