@@ -195,10 +195,10 @@ namespace slideplan
                task.graspOffset.isApprox(geometry_.graspOffset, 0.0) &&
                std::abs(micrometres(task.thickness()) - thickness_) < 1.5e-6 &&  // rounding may straddle
                theirs.height() == mine.height() && theirs.vertices().rows() == mine.vertices().rows() &&
-               theirs.vertices() == mine.vertices() && params.graspStandoff == params_.graspStandoff &&
-               params.uStar == params_.uStar && params.graspLift == params_.graspLift && params.graspFlip == params_.graspFlip &&
-               params.liftCheck == params_.liftCheck && params.graspTiltTolerance == params_.graspTiltTolerance &&
-               params.graspYawTolerance == params_.graspYawTolerance && params.graspRollTolerance == params_.graspRollTolerance;
+               theirs.vertices() == mine.vertices() &&
+               std::all_of(parameters().begin(), parameters().end(), [&](const ParameterSpec &spec) {
+                   return !spec.graspMap || spec.get(params) == spec.get(params_);
+               });
     }
 
     std::size_t GraspMap::probed() const

@@ -4,6 +4,7 @@
 #include "slideplan/validity.hpp"
 
 #include <ompl/base/SpaceInformation.h>
+#include <ompl/base/terminationconditions/IterationTerminationCondition.h>
 #include <ompl/base/spaces/RealVectorStateSpace.h>
 #include <ompl/datastructures/NearestNeighborsLinear.h>
 #include <ompl/geometric/PathGeometric.h>
@@ -342,7 +343,7 @@ namespace slideplan
     {
         if (straightMotion(from, to, path))
             return true;
-        if (params_.transferTime <= 0.0)
+        if (params_.transferIterations <= 0)
             return false;
         const RobotModel &robot = *task_->robot;
         const unsigned dof = robot.dof();
@@ -368,8 +369,9 @@ namespace slideplan
         og::RRTConnect planner(si);
         planner.setNearestNeighbors<ompl::NearestNeighborsLinear>();  // deterministic, and trees stay small
         planner.setProblemDefinition(pdef);
-        const ob::PlannerStatus status =
-            planner.solve(ob::plannerOrTerminationCondition(ptc, ob::timedPlannerTerminationCondition(params_.transferTime)));
+        // A count, not a time: the same pair gets the same verdict on any machine under any load.
+        ob::IterationTerminationCondition iterations(static_cast<unsigned>(params_.transferIterations));
+        const ob::PlannerStatus status = planner.solve(ob::plannerOrTerminationCondition(ptc, iterations));
         if (status != ob::PlannerStatus::EXACT_SOLUTION)
             return false;
         const auto &states = pdef->getSolutionPath()->as<og::PathGeometric>()->getStates();

@@ -1,81 +1,261 @@
 #include "slideplan/params.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <sstream>
 #include <stdexcept>
-#include <utility>
+#include <type_traits>
 
 namespace slideplan
 {
     namespace
     {
-        void require(bool condition, const std::string &message)
+        constexpr double inf = std::numeric_limits<double>::infinity();
+        constexpr bool open = true, closed = false;
+        const std::optional<double> leftOpen;  // the paper gives no value
+
+        ParameterSpec real(std::string name, double PlannerParams::*member, std::string unit, double value, double lower,
+                           bool lowerOpen, double upper, bool upperOpen, std::optional<double> paper, std::string paperSource,
+                           bool hand, bool graspMap, std::string doc)
         {
-            if (!condition)
-                throw std::invalid_argument("planner parameter " + message);
+            return {std::move(name), member, std::move(unit), value, lower, upper, lowerOpen, upperOpen, paper,
+                    std::move(paperSource), hand, graspMap, std::move(doc)};
+        }
+
+        ParameterSpec count(std::string name, int PlannerParams::*member, int value, int lower, std::optional<double> paper,
+                            std::string paperSource, std::string doc)
+        {
+            return {std::move(name), member, "", double(value), double(lower), double(std::numeric_limits<int>::max()), false,
+                    false, paper, std::move(paperSource), false, false, std::move(doc)};
+        }
+
+        ParameterSpec flag(std::string name, bool PlannerParams::*member, bool value, std::optional<double> paper,
+                           std::string paperSource, bool hand, bool graspMap, std::string doc)
+        {
+            return {std::move(name), member, "", value ? 1.0 : 0.0, 0.0, 1.0, false, false, paper, std::move(paperSource),
+                    hand, graspMap, std::move(doc)};
+        }
+
+        const std::string beyond = "beyond the paper: off (the paper has no such rule)";
+
+        std::vector<ParameterSpec> declare()
+        {
+            using P = PlannerParams;
+            return {
+                // Constraint and its relaxations (IV-C.3, Eqs. 3-4).
+                real("beta0", &P::beta0, "rad", 1.0, 0.0, open, M_PI / 2, closed, leftOpen,
+                     "open: Eq. 3's beta_0 is the user's (the hand's)", true, false,
+                     "Contact pitch beta_0 of Eqs. 3-4: the T42's fingertip pad presses at about 57 deg."),
+                real("delta_beta", &P::deltaBeta, "rad", 0.1, 0.0, closed, M_PI / 2, open, 0.1,
+                     "V: \"we fix it to be 0.1 rad\"", true, false,
+                     "Pitch relaxation Delta_beta: the pitch may vary in [beta0 - delta_beta, beta0 + delta_beta]; "
+                     "must be < beta0."),
+                real("dz_min", &P::dzMin, "m", 0.005, 0.0, closed, inf, open, 0.005, "V-5: Delta_Z^- = 0.5 cm", true, false,
+                     "Delta_Z^-: the contact lies at least this far below the object's top."),
+                real("dz_max", &P::dzMax, "m", 0.025, 0.0, closed, inf, open, 0.025,
+                     "Fig. 10 caption: Delta_Z = [0.5, 2.5] cm", true, false,
+                     "Delta_Z^+: the contact lies at most this far below the object's top; dz_max - dz_min is the "
+                     "reconfiguration range Delta_Z^*; must be >= dz_min."),
+                // Root sampling (Eq. 5) and regions (Eq. 4).
+                real("n_star", &P::nStar, "", 100.0, 0.0, open, inf, open, 100.0, "V-7: best of the five values tried",
+                     false, false, "N* of Eq. 5: how conservatively new roots are added."),
+                real("d_goal", &P::dGoal, "m", 0.05, 0.0, open, inf, open, leftOpen, "open: Eq. 4's band width is not given",
+                     true, false, "Width of the goal band P_g inside the table edges (Eq. 4)."),
+                // Pair validation (IV-C.1) and the motion to the grasp.
+                real("u_star", &P::uStar, "m", 0.02, 0.0, open, inf, open, leftOpen,
+                     "open: IV-C.1's minimum contact size is the hand's", true, true,
+                     "Minimum overhang u* for a grasp: the T42's minimum contact size."),
+                real("grasp_lift", &P::graspLift, "m", 0.05, 0.0, open, inf, open, leftOpen,
+                     "open: the paper does not say how the hand moves from phi_g to H_g", true, true,
+                     "The fingertip rises this far above the object's top before the transfer to the grasp; the "
+                     "grasp's own lift check lifts H_g as far."),
+                real("grasp_backoff", &P::graspBackoff, "m", 0.06, 0.0, closed, inf, open, leftOpen,
+                     "open: the paper does not say how the hand moves from phi_g to H_g", true, false,
+                     "Pre-grasp offset along the approach axis: the last motion is a straight approach."),
+                real("grasp_standoff", &P::graspStandoff, "m", 0.0, 0.0, closed, inf, open, 0.0, beyond + ": H_g at the "
+                     "centroid of P_out, u >= u*", true, true,
+                     "Beyond the paper: the free length the hand needs beyond H_g towards the table (fingers that reach "
+                     "past the grasp frame). H_g moves outward to at least this far beyond the edge, and the overhang "
+                     "held, u - max(0, d_g - grasp_standoff), must reach u*. Hand-specific."),
+                real("grasp_hold", &P::graspHold, "m", 0.01, 0.0, closed, inf, open, 0.0, beyond + ": H_g at the centroid of P_out",
+                     true, false,
+                     "Beyond the paper: the length of object the fingers must close on. Where the strip this wide "
+                     "across the approach at H_g holds less than this of the object (within the fingers' reach), H_g "
+                     "slides along the edge to the nearest strip that does; with none the pose is not graspable."),
+                real("grasp_tilt_tolerance", &P::graspTiltTolerance, "rad", 0.0, 0.0, closed, M_PI, closed, 0.0,
+                     beyond + ": H_g exactly", true, true,
+                     "Beyond the paper: how far the hand may turn about H_g's x (along the table edge) at the grasp."),
+                real("grasp_yaw_tolerance", &P::graspYawTolerance, "rad", 0.0, 0.0, closed, M_PI, closed, 0.0,
+                     beyond + ": H_g exactly", true, true,
+                     "Beyond the paper: how far the hand may turn about H_g's y (the vertical closing axis: the "
+                     "approach's heading) at the grasp; a five-joint arm needs it."),
+                real("grasp_roll_tolerance", &P::graspRollTolerance, "rad", 0.0, 0.0, closed, M_PI, closed, 0.0,
+                     beyond + ": H_g exactly", true, true,
+                     "Beyond the paper: how far the hand may turn about H_g's z (the approach axis) at the grasp."),
+                count("transfer_iterations", &P::transferIterations, 2000, 0, leftOpen,
+                      "open: the paper does not say how the hand moves from phi_g to H_g",
+                      "RRTConnect iterations per transfer to the pre-grasp when the straight motion is blocked (a "
+                      "count, so the plan does not depend on the machine's speed); 0: straight motions only."),
+                // Constrained extension (CBiRRT [16]).
+                real("max_joint_step", &P::maxJointStep, "rad", 0.02, 1e-3, closed, inf, open, leftOpen,
+                     "open: CBiRRT's step size; 0.02 rad is the dense path's bound", false, false,
+                     "Largest joint change between tree nodes, and so between waypoints of the dense path."),
+                real("max_tip_step", &P::maxTipStep, "m", 0.01, 1e-4, closed, inf, open, leftOpen,
+                     "open: CBiRRT's step size; 1 cm is the dense path's bound", false, false,
+                     "Largest fingertip displacement between tree nodes."),
+                // The verifier allows 1e-3 m / 1e-3 rad off the constraint: a sin residual of 5e-4 stays within it.
+                real("projection_tolerance", &P::projectionTolerance, "", 1e-4, 0.0, open, 5e-4, closed, leftOpen,
+                     "open: CBiRRT's projection tolerance", false, false,
+                     "Residual tolerance of the projection onto the constraint (m of depth, sin of rad)."),
+                count("projection_iterations", &P::projectionIterations, 30, 1, leftOpen, "open: CBiRRT's projection",
+                      "Newton steps of one projection."),
+                count("root_ik_attempts", &P::rootIkAttempts, 3, 1, leftOpen, "open: how Gamma of Eqs. 3-4 is computed",
+                      "IK attempts (seed and restarts) per root draw: a draw is cheap to reject."),
+                // Departures (docs/paper-to-code.md).
+                flag("screen_pairs", &P::screenPairs, true, 0.0, "Algorithm 1's NearestTree", false, false,
+                     "Beyond the paper: NearestTree skips trees whose root pair was rejected or fails the cheap part "
+                     "of IsPairValid, and goal roots the finger cannot lift off from are not kept."),
+                flag("grasp_flip", &P::graspFlip, true, 0.0, beyond + ": H_g as defined", true, true,
+                     "Beyond the paper: a grasp may also be made with the hand rolled by pi about its approach axis "
+                     "(the same grasp for a hand whose fingers close symmetrically)."),
+                flag("grasp_map", &P::graspMap, true, 0.0, beyond + ": a grasp IK for every pair", false, false,
+                     "Beyond the paper: remember the 1 cm table-edge stretches where no side grasp was reachable, and "
+                     "reject and screen pairs whose grasp falls there without another IK."),
+                real("paired_goals", &P::pairedGoals, "", 0.9, 0.0, closed, 1.0, closed, 0.0,
+                     "Algorithm 1: every goal root drawn from C_g", false, false,
+                     "Beyond the paper: the share of goal-root draws made for a start root so that Eq. 2 leaves the "
+                     "object overhanging an edge with its centre of mass on the table."),
+                flag("goal_grasp_filter", &P::goalGraspFilter, true, 0.0, "Algorithm 1: every goal root kept", false, false,
+                     "Beyond the paper (with grasp_map): a goal root by an edge stretch without a reachable side grasp "
+                     "is kept one time in ten."),
+                flag("lift_check", &P::liftCheck, true, 0.0, "IV-C.1: any IK solution of H_g", false, true,
+                     "Beyond the paper: a grasp IK solution counts only if H_g raised by grasp_lift is reachable from "
+                     "it, a centimetre at a time as the execution lifts."),
+                flag("cache_verdicts", &P::cacheVerdicts, true, 0.0, "Algorithm 1: every connection checked", false, false,
+                     "Beyond the paper: IsPairValid's verdict is remembered per root pair."),
+                real("contact_radius", &P::contactRadius, "m", 0.03, 0.0, closed, inf, open, 0.0, "Eq. 3: the whole cloud",
+                     false, false,
+                     "Beyond the paper: start contacts are drawn from the cloud points at most this much farther from "
+                     "the centre of mass than the closest one (0: the whole cloud)."),
+                count("shortcut_attempts", &P::shortcutAttempts, 50, 0, 0.0, "Algorithm 1 returns the tree path",
+                      "Beyond the paper: tries to shorten the solved path by constrained walks between two waypoints."),
+                real("shortcut_yaw_weight", &P::shortcutYawWeight, "m/rad", 0.05, 0.0, closed, inf, open, leftOpen,
+                     "open, and moot in the paper preset: it weighs the shortcut, which the paper has not", false, false,
+                     "Beyond the paper: the shortcut keeps a walk that lowers fingertip travel plus this many metres "
+                     "per radian of the object's yaw travel."),
+                real("com_margin", &P::comMargin, "m", 0.005, 0.0, closed, inf, open, 0.0, "IV-C.1: the CoM inside Q", false,
+                     false, "Beyond the paper: the final centre of mass lies at least this far inside the table."),
+                flag("com_supported", &P::comSupported, true, 0.0, "IV-C.1: the final pose only", false, false,
+                     "Beyond the paper: the object's centre of mass stays on the table at every state of the slide."),
+                real("max_object_yaw", &P::maxObjectYaw, "rad", 1.0, 0.0, open, inf, open, M_PI, "IV-C.1: any turn", false,
+                     false, "Beyond the paper: the largest turn of the object between its start and final pose."),
+                real("max_yaw_rate", &P::maxYawRate, "rad/m", 0.0, 0.0, closed, inf, open, 0.0, "the paper: any turn", true,
+                     false,
+                     "Beyond the paper: the largest turn of the object per metre of fingertip travel in each "
+                     "extension step (0: any). Hand-specific: how fast its pad can turn an object."),
+            };
         }
     }  // namespace
 
-    void PlannerParams::validate() const
+    const std::vector<ParameterSpec> &parameters()
     {
-        const auto finite = [](double value) { return std::isfinite(value); };
-        require(finite(beta0) && beta0 > 0.0 && beta0 <= M_PI / 2, "beta0 must lie in (0, pi/2]");
-        require(finite(deltaBeta) && deltaBeta >= 0.0 && deltaBeta < beta0, "delta_beta must lie in [0, beta0)");
-        require(finite(dzMin) && dzMin >= 0.0, "dz_min must be >= 0");
-        require(finite(dzMax) && dzMax >= dzMin, "dz_max must be >= dz_min (the reconfiguration range dz_max - dz_min cannot be negative)");
-        require(finite(nStar) && nStar > 0.0, "n_star must be > 0");
-        require(finite(dGoal) && dGoal > 0.0, "d_goal must be > 0");
-        require(finite(uStar) && uStar > 0.0, "u_star must be > 0");
-        require(finite(graspLift) && graspLift > 0.0, "grasp_lift must be > 0");
-        require(finite(graspBackoff) && graspBackoff >= 0.0, "grasp_backoff must be >= 0");
-        require(finite(graspStandoff) && graspStandoff >= 0.0, "grasp_standoff must be >= 0");
-        require(finite(graspHold) && graspHold >= 0.0, "grasp_hold must be >= 0");
-        for (const auto &[value, name] : {std::pair{graspTiltTolerance, "grasp_tilt_tolerance"},
-                                          std::pair{graspYawTolerance, "grasp_yaw_tolerance"},
-                                          std::pair{graspRollTolerance, "grasp_roll_tolerance"}})
-            require(finite(value) && value >= 0.0 && value <= M_PI, std::string(name) + " must lie in [0, pi]");
-        require(finite(transferTime) && transferTime >= 0.0, "transfer_time must be >= 0");
-        // The dense path has a state per step: finer steps than these make paths of millions of states
-        // (gigabytes, minutes past the time limit) for no better plan.
-        require(finite(maxJointStep) && maxJointStep >= 1e-3, "max_joint_step must be >= 1e-3 rad");
-        require(finite(maxTipStep) && maxTipStep >= 1e-4, "max_tip_step must be >= 1e-4 m");
-        // Projected states must land inside the slack slideplan.verify allows on the constraint rows (1e-3 m of
-        // depth, 1e-3 rad of roll and pitch): a sin residual of 5e-4 is under 1e-3 rad at any pitch up to 60 deg.
-        require(finite(projectionTolerance) && projectionTolerance > 0.0 && projectionTolerance <= 5e-4,
-                "projection_tolerance must be in (0, 5e-4]: the verifier allows 1e-3 m / 1e-3 rad off the constraint");
-        require(projectionIterations > 0, "projection_iterations must be > 0");
-        require(rootIkAttempts > 0, "root_ik_attempts must be > 0");
-        require(shortcutAttempts >= 0, "shortcut_attempts must be >= 0");
-        require(finite(maxObjectYaw) && maxObjectYaw > 0.0, "max_object_yaw must be > 0");
-        require(finite(maxYawRate) && maxYawRate >= 0.0, "max_yaw_rate must be >= 0");
-        require(finite(comMargin) && comMargin >= 0.0, "com_margin must be >= 0");
-        require(finite(contactRadius) && contactRadius >= 0.0, "contact_radius must be >= 0");
-        require(finite(pairedGoals) && pairedGoals >= 0.0 && pairedGoals <= 1.0, "paired_goals must be in [0, 1]");
-        require(finite(shortcutYawWeight) && shortcutYawWeight >= 0.0, "shortcut_yaw_weight must be >= 0");
+        static const std::vector<ParameterSpec> all = declare();  // immutable once built (thread-safe static)
+        return all;
+    }
+
+    const ParameterSpec &parameter(const std::string &name)
+    {
+        for (const ParameterSpec &spec : parameters())
+            if (spec.name == name)
+                return spec;
+        throw std::invalid_argument("unknown planner parameter '" + name + "'");
+    }
+
+    const char *ParameterSpec::kind() const
+    {
+        static const char *const kinds[] = {"real", "int", "bool"};
+        return kinds[member.index()];
+    }
+
+    double ParameterSpec::get(const PlannerParams &params) const
+    {
+        return std::visit([&](auto field) { return static_cast<double>(params.*field); }, member);
+    }
+
+    void ParameterSpec::set(PlannerParams &params, double value) const
+    {
+        std::visit(
+            [&](auto field) {
+                using T = std::remove_reference_t<decltype(params.*field)>;
+                if constexpr (std::is_same_v<T, double>)
+                    params.*field = value;
+                else if constexpr (std::is_same_v<T, bool>)
+                    params.*field = value != 0.0;
+                else
+                    params.*field = static_cast<T>(std::llround(value));
+            },
+            member);
+    }
+
+    std::string ParameterSpec::check(double value) const
+    {
+        std::ostringstream interval;
+        interval << (lowerOpen ? "(" : "[") << lower << ", ";
+        if (upper >= std::numeric_limits<int>::max())  // inf, or an int's largest value
+            interval << "inf)";
+        else
+            interval << upper << (upperOpen ? ")" : "]");
+        const bool inside = std::isfinite(value) && (lowerOpen ? value > lower : value >= lower) &&
+                            (upperOpen ? value < upper : value <= upper);
+        if (member.index() == 2)
+            return value == 0.0 || value == 1.0 ? "" : "must be true or false";
+        if (member.index() == 1 && (!inside || value != std::floor(value)))
+            return "must be an integer in " + interval.str();
+        return inside ? "" : "must lie in " + interval.str() + (unit.empty() ? "" : " " + unit);
+    }
+
+    PlannerParams::PlannerParams()
+    {
+        for (const ParameterSpec &spec : parameters())
+            spec.set(*this, spec.defaultValue);
+    }
+
+    void PlannerParams::validate(const std::vector<std::string> *given) const
+    {
+        const auto isGiven = [given](const std::string &name) {
+            return !given || std::find(given->begin(), given->end(), name) != given->end();
+        };
+        for (const ParameterSpec &spec : parameters())
+            if (const std::string problem = isGiven(spec.name) ? spec.check(spec.get(*this)) : ""; !problem.empty())
+            {
+                std::ostringstream message;
+                message << "planner parameter " << spec.name << " " << problem << ", got " << spec.get(*this);
+                throw std::invalid_argument(message.str());
+            }
+        // The two pairs: name both, since the user may have set only one of them.
+        if (isGiven("delta_beta") && isGiven("beta0") && deltaBeta >= beta0)
+        {
+            std::ostringstream message;
+            message << "planner parameter delta_beta must be < beta0 (the pitch band beta0 +- delta_beta stays above 0): "
+                    << "delta_beta = " << deltaBeta << ", beta0 = " << beta0 << "; lower delta_beta or raise beta0";
+            throw std::invalid_argument(message.str());
+        }
+        if (isGiven("dz_max") && isGiven("dz_min") && dzMax < dzMin)
+        {
+            std::ostringstream message;
+            message << "planner parameter dz_max must be >= dz_min (the reconfiguration range dz_max - dz_min cannot be "
+                    << "negative): dz_max = " << dzMax << ", dz_min = " << dzMin << "; raise dz_max or lower dz_min";
+            throw std::invalid_argument(message.str());
+        }
     }
 
     PlannerParams PlannerParams::asPublished()
     {
         PlannerParams params;
-        params.deltaBeta = 0.1;
-        params.dzMin = 0.005;
-        params.dzMax = 0.025;
-        params.nStar = 100.0;
-        params.graspStandoff = 0.0;
-        params.graspHold = 0.0;
-        params.graspTiltTolerance = params.graspYawTolerance = params.graspRollTolerance = 0.0;
-        params.screenPairs = false;
-        params.graspFlip = false;
-        params.graspMap = false;
-        params.goalGraspFilter = false;
-        params.liftCheck = false;
-        params.cacheVerdicts = false;
-        params.pairedGoals = 0.0;
-        params.contactRadius = 0.0;
-        params.shortcutAttempts = 0;
-        params.comMargin = 0.0;
-        params.maxObjectYaw = M_PI;
-        params.maxYawRate = 0.0;
-        params.comSupported = false;
+        for (const ParameterSpec &spec : parameters())
+            if (spec.paper)
+                spec.set(params, *spec.paper);
         return params;
     }
 

@@ -217,7 +217,7 @@ namespace slideplan
                 total += stepCost(poses[k - 1], poses[k]);
             return total;
         };
-        // The path is valid after every attempt, so the time limit may stop the shortcut anywhere.
+        // A deadline that stops the shortcut also discards the plan (extractPath): its length must not depend on time.
         for (int attempt = 0; attempt < params_.shortcutAttempts && path.size() > 2 && !ptc; ++attempt)
         {
             std::uniform_int_distribution<std::size_t> pick(0, path.size() - 1);
@@ -431,6 +431,14 @@ namespace slideplan
             result_.fingertipPoses.push_back(node->tip);
         }
         shortcut(result_.trajectory, result_.fingertipPoses, ptc);
+        // ptc only ever turns true: if it is false now, no step of this plan (an IK, a transfer, the
+        // shortcut) was cut by it, so the plan is the one any machine makes. Otherwise it is not returned.
+        if (ptc)
+        {
+            result_.trajectory.clear();
+            result_.fingertipPoses.clear();
+            return;
+        }
         for (std::size_t k = 1; k < result_.fingertipPoses.size(); ++k)
         {
             const PlanarMotion step = objectMotion(result_.fingertipPoses[k - 1], result_.fingertipPoses[k]);
@@ -545,7 +553,7 @@ namespace slideplan
             {
                 extractPath(start, start, verdict, ptc);
                 result_.planningTime = elapsed();
-                return ob::PlannerStatus::EXACT_SOLUTION;
+                return result_.status == "solved" ? ob::PlannerStatus::EXACT_SOLUTION : ob::PlannerStatus::TIMEOUT;
             }
             ++result_.stats.pairsRejected;
         }

@@ -23,7 +23,7 @@ from xml.etree import ElementTree
 import numpy as np
 import shapely
 
-from . import _core, grasp_cache, jsontext
+from . import _core, grasp_cache, jsontext, parameters
 from ._fields import as_number, as_numbers, is_number
 from .errors import InputError, MeshWarning, require_type
 from .objects import ThinObject
@@ -36,187 +36,33 @@ PLAN_SCHEMA = "slideplan.plan/2"
 READABLE_SCHEMAS = ("slideplan.plan/1", PLAN_SCHEMA)  # /1: the same fields without timing
 STATUSES = ("solved", "timeout", "invalid")
 
-_INT_FIELDS = ("projection_iterations", "root_ik_attempts", "shortcut_attempts")
-_BOOL_FIELDS = ("screen_pairs", "grasp_flip", "grasp_map", "goal_grasp_filter", "lift_check", "cache_verdicts", "com_supported")
-# PlannerConfig fields that are not PlannerParams attributes (or are named differently there).
-_NOT_PARAMS = ("planner", "seed", "time_limit_s", "preset")
-
-_CORE_DEFAULTS = _core.PlannerParams()
-# The bounds of the validator's cross-field rules: an unset partner at its most permissive value.
-_LENIENT_UNSET = {"beta0": math.pi / 2, "delta_beta": 0.0, "dz_min": 0.0, "dz_max": 1e9}
-_CORE_PUBLISHED = _core.PlannerParams.as_published()
 PRESETS = ("default", "paper")
-# What the "paper" preset fixes (PlannerParams::asPublished): every departure and the values section V
-# gives. The others (beta0, u_star, d_goal, the grasp motion's lift and backoff, ...) the paper leaves
-# open: they keep the hand's and the built-in defaults.
-PAPER_FIELDS = (
-    "delta_beta", "dz_min", "dz_max", "n_star", "grasp_standoff", "grasp_hold", "screen_pairs", "grasp_flip", "grasp_map",
-    "goal_grasp_filter", "lift_check", "cache_verdicts", "paired_goals", "contact_radius", "shortcut_attempts",
-    "com_margin", "max_object_yaw", "max_yaw_rate", "com_supported",
-)
+PARAMETERS = parameters.NAMES
+"""The parameters proper (the registry's names): PlannerConfig's fields before ``planner``, ``seed``,
+``time_limit_s`` and ``preset``."""
 
 
-@dataclass(frozen=True)
-class PlannerConfig:
-    """Planner parameters (defaults: paper section V where it gives them, docs otherwise).
-
-    A parameter left unset (None) is filled when planning: from the scene's hand (its ``[hand]
-    params``), else the built-in default (:meth:`resolved`); the plan JSON records where each value
-    came from (``params.sources``: ``built-in``, ``hand``, ``paper`` or ``user``). So
-    ``PlannerConfig(seed=1)`` plans with the hand's contact depth band and grasp standoff, as
-    ``plan(scene, obj)`` does.
-
-    Attributes:
-        beta0: contact pitch ``beta_0`` of Eqs. 3-4 (rad).
-        delta_beta: pitch relaxation ``Delta_beta`` (rad).
-        dz_min: minimum contact depth ``Delta_Z^-`` below the object top (m).
-        dz_max: maximum contact depth ``Delta_Z^+`` (m); ``dz_max - dz_min`` is the
-            reconfiguration range ``Delta_Z^*``.
-        n_star: ``N*`` of Eq. 5 (root-adding conservativeness).
-        d_goal: width of the goal band ``P_g`` inside the table edges (m).
-        u_star: minimum overhang ``u*`` for a grasp (m).
-        grasp_lift: fingertip lift before moving to the grasp (m).
-        grasp_backoff: pre-grasp offset along the approach axis (m).
-        grasp_standoff: beyond the paper, the free length the hand needs beyond its grasp frame
-            towards the table (m; fingers that reach past the frame): the grasp frame lies at least
-            this far beyond the edge and the overhang held, ``u - max(0, d_g - grasp_standoff)``,
-            must reach ``u*``; 0 is the paper's grasp at the centroid of ``P_out``.
-        grasp_hold: beyond the paper, the length of object the fingers must close on (m): where the
-            strip ``grasp_hold`` wide across the approach at ``H_g`` holds less than ``grasp_hold`` of the
-            object along it (within the fingers' reach, ``max(grasp_standoff, grasp_hold)`` towards the
-            table), ``H_g`` slides along the edge to the nearest strip that does; with none, the pose is
-            not graspable. A crescent overhanging with both horns has the centroid of ``P_out`` between
-            them. 0 is the paper's ``H_g``.
-        grasp_tilt_tolerance, grasp_yaw_tolerance, grasp_roll_tolerance: beyond the paper, how far the
-            hand may turn away from ``H_g``'s orientation at the grasp (rad), about its x (along the table
-            edge), y (the vertical closing axis: the approach's heading) and z (the approach axis): a
-            five-joint arm reaches a side grasp only with one rotation left free; 0 is the paper's
-            ``H_g`` exactly. Hand-specific, set in the scene's ``[hand] params``.
-        transfer_time: time budget of one transfer motion to the grasp (s).
-        max_joint_step: largest joint change between waypoints (rad).
-        max_tip_step: largest fingertip displacement between waypoints (m).
-        projection_tolerance: constraint residual tolerance of the projection.
-        projection_iterations: Newton iterations of one projection.
-        root_ik_attempts: IK attempts per root sample.
-        screen_pairs: beyond the paper, NearestTree skips trees whose root pair is known to fail, and
-            goal roots the finger cannot lift off from are not kept (docs/paper-to-code.md); False is
-            Algorithm 1's NearestTree.
-        goal_grasp_filter: beyond the paper (with ``grasp_map``), a goal root by an edge stretch without
-            a reachable side grasp is kept one time in ten; False keeps every goal root.
-        lift_check: beyond the paper, a grasp IK solution counts only if the grasp frame raised by
-            ``grasp_lift`` is reachable from it; False accepts any solution, as IV-C.1 does.
-        cache_verdicts: beyond the paper, IsPairValid's verdict is remembered per root pair; False checks
-            every connection, as Algorithm 1 does.
-        grasp_flip: beyond the paper, also grasp with the hand rolled by pi about its approach axis
-            (the same grasp for a hand whose fingers close symmetrically).
-        grasp_map: beyond the paper, remember the 1 cm table-edge stretches where no side grasp was
-            reachable, and reject and screen pairs whose grasp falls there without another IK.
-        paired_goals: beyond the paper, the share of goal-root draws made for a randomly chosen start
-            root so that Eq. 2 leaves the object overhanging an edge with its centre of mass on the
-            table (docs/paper-to-code.md); 0 draws every goal root as Algorithm 1 does.
-        contact_radius: beyond the paper, start contacts are drawn from the cloud points at most this
-            much farther from the centre of mass than the closest one (m): pushes far from the centre
-            of mass left Eq. 2 in the physics replay; 0 draws from the whole cloud, as Eq. 3 does.
-        shortcut_attempts: beyond the paper, tries to shorten the solved path by constrained walks
-            between two of its waypoints; 0 returns the tree path.
-        shortcut_yaw_weight: beyond the paper, the shortcut keeps a walk that lowers fingertip travel
-            plus this many metres per radian of the object's yaw travel.
-        com_margin: beyond the paper, the final centre of mass must lie at least this far inside the
-            table (m); 0 is the paper's "inside".
-        max_object_yaw: beyond the paper, the largest turn of the object between its start and final
-            pose (rad); ``math.pi`` accepts any, as the paper does.
-        max_yaw_rate: beyond the paper, the largest turn of the object per metre of fingertip travel
-            in each extension step (rad/m); 0 allows any turn, as the paper does.
-        com_supported: beyond the paper, the object's centre of mass stays on the table at every state
-            of the slide; False checks only the final pose, as the paper does.
-        planner: ``"slideplan"`` (Algorithm 1), ``"cbirrt"`` or ``"cbirrt2"`` (baselines, paper V-6).
-        seed: random seed; the same seed gives the same plan.
-        time_limit_s: planning time budget (s).
-        preset: what the parameters started from, recorded in the plan JSON: ``"default"`` (this
-            project's), or ``"paper"`` (:meth:`as_published`: Algorithm 1 and IV-C.1 as published,
-            every departure off); fields set on top of a preset are recorded with it.
-
-    Raises:
-        InputError: on construction, naming the field: a value of the wrong type, an unknown planner
-            or preset, a time limit that is not a positive number, or one the C++ core's validator
-            (``PlannerParams::validate``, the one rule for Python and C++) refuses; a pair with an
-            unset partner (``delta_beta < beta0``, ``dz_min <= dz_max``) by :meth:`resolved`.
-    """
-
-    # Unset (None) until plan() fills it: the scene's hand's value, else the built-in one (the C++
-    # PlannerParams: every parameter is declared once, in params.hpp).
-    beta0: float | None = None
-    delta_beta: float | None = None
-    dz_min: float | None = None
-    dz_max: float | None = None
-    n_star: float | None = None
-    d_goal: float | None = None
-    u_star: float | None = None
-    grasp_lift: float | None = None
-    grasp_backoff: float | None = None
-    grasp_standoff: float | None = None
-    grasp_hold: float | None = None
-    grasp_tilt_tolerance: float | None = None
-    grasp_yaw_tolerance: float | None = None
-    grasp_roll_tolerance: float | None = None
-    transfer_time: float | None = None
-    max_joint_step: float | None = None
-    max_tip_step: float | None = None
-    projection_tolerance: float | None = None
-    projection_iterations: int | None = None
-    root_ik_attempts: int | None = None
-    screen_pairs: bool | None = None
-    goal_grasp_filter: bool | None = None
-    lift_check: bool | None = None
-    cache_verdicts: bool | None = None
-    grasp_flip: bool | None = None
-    grasp_map: bool | None = None
-    paired_goals: float | None = None
-    contact_radius: float | None = None
-    shortcut_attempts: int | None = None
-    shortcut_yaw_weight: float | None = None
-    max_object_yaw: float | None = None
-    max_yaw_rate: float | None = None
-    com_margin: float | None = None
-    com_supported: bool | None = None
-    planner: str = _CORE_DEFAULTS.policy
-    seed: int = 0
-    time_limit_s: float = 60.0
-    preset: str = "default"
+class _ConfigMethods:
+    """PlannerConfig's methods; its fields come from the parameter registry (below)."""
 
     def __post_init__(self) -> None:
-        # Types here; ranges and consistency in the C++ core's validator, the one rule for both languages.
-        for item in dataclasses.fields(self):
-            name, value = item.name, getattr(self, item.name)
-            if value is None and name in PARAMETERS:
-                continue
-            if name == "planner":
-                if value not in PLANNERS:
-                    raise InputError(f"unknown planner {value!r} (expected one of: {', '.join(PLANNERS)})", field=name)
-            elif name == "preset":
-                if value not in PRESETS:
-                    raise InputError(f"unknown preset {value!r} (expected one of: {', '.join(PRESETS)})", field=name)
-            elif name in _BOOL_FIELDS:
-                if not isinstance(value, (bool, np.bool_)):
-                    raise InputError(f"expected True or False, got {value!r}", field=name)
-            elif name in _INT_FIELDS or name == "seed":
-                if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-                    raise InputError(f"expected an integer, got {value!r}", field=name)
-                low, high = (0, 2**64) if name == "seed" else (-(2**31), 2**31)  # C++: uint64 seed, int counts
-                if not low <= value < high:
-                    raise InputError(f"must be in [{low}, {high}), got {value!r}", field=name)
-            elif not is_number(value) or not math.isfinite(value):
-                raise InputError(f"expected a finite number, got {value!r}", field=name)
-        if self.time_limit_s <= 0:
-            raise InputError(f"must be > 0, got {self.time_limit_s!r}", field="time_limit_s")
-        # Unset parameters take, for this check only, the values no hand's could make stricter, so the
-        # set ones are judged now and the pairs (delta_beta < beta0, dz_min <= dz_max) again by resolved().
-        params = self.to_params()
-        for name, lenient in _LENIENT_UNSET.items():
-            if getattr(self, name) is None:
-                setattr(params, name, lenient)
+        # Types here, by each parameter's registry entry; bounds and the pairs (delta_beta < beta0, dz_min <=
+        # dz_max) by the core's validator, a pair once both are set (an unset one may come from the hand).
+        given = [name for name in PARAMETERS if getattr(self, name) is not None]
+        for name in given:
+            _check_field(parameters.BY_NAME[name], getattr(self, name))
+        if self.planner not in PLANNERS:
+            raise InputError(f"unknown planner {self.planner!r} (expected one of: {', '.join(PLANNERS)})", field="planner")
+        if self.preset not in PRESETS:
+            raise InputError(f"unknown preset {self.preset!r} (expected one of: {', '.join(PRESETS)})", field="preset")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)):
+            raise InputError(f"expected an integer, got {self.seed!r}", field="seed")
+        if not 0 <= self.seed < 2**64:  # the core's uint64
+            raise InputError(f"must be in [0, {2**64}), got {self.seed!r}", field="seed")
+        if not is_number(self.time_limit_s) or not math.isfinite(self.time_limit_s) or self.time_limit_s <= 0:
+            raise InputError(f"must be > 0 and finite, got {self.time_limit_s!r}", field="time_limit_s")
         try:
-            params.validate()
+            self.to_params().validate(given)
         except ValueError as error:
             problem, name = _core_field_message(str(error))
             raise InputError(problem, field=name) from None
@@ -224,7 +70,8 @@ class PlannerConfig:
     @classmethod
     def for_scene(cls, scene: Scene, preset: str = "default", **overrides) -> PlannerConfig:
         """The config for a scene: built-in defaults, then the hand's ``[hand] params``, then the preset's
-        fields (``"paper"``: :data:`PAPER_FIELDS` as :meth:`as_published` has them), then ``overrides``.
+        values (``"paper"``: every parameter the paper gives, :data:`slideplan.parameters.PAPER_VALUES`),
+        then ``overrides``.
 
         Args:
             scene: the scene whose hand gives parameter defaults.
@@ -240,7 +87,7 @@ class PlannerConfig:
             raise InputError(f"unknown planner parameter(s) {unknown}", field="param")
         if preset not in PRESETS:
             raise InputError(f"unknown preset {preset!r} (expected one of: {', '.join(PRESETS)})", field="preset")
-        published = _published_fields() if preset == "paper" else {}
+        published = parameters.PAPER_VALUES if preset == "paper" else {}
         return cls(**{**scene.hand.params, **published, **overrides, "preset": preset}).resolved(scene)
 
     def resolved(self, scene: Scene | None = None) -> PlannerConfig:
@@ -250,10 +97,10 @@ class PlannerConfig:
             scene: the scene whose hand gives defaults (None: built-in defaults only).
 
         Raises:
-            InputError: a value the C++ core's validator refuses, naming the field.
+            InputError: a value the C++ core's validator refuses, naming the field (a pair names both).
         """
         hand = scene.hand.params if scene is not None else {}
-        fills = {name: hand.get(name, getattr(_CORE_DEFAULTS, name)) for name in PARAMETERS if getattr(self, name) is None}
+        fills = {name: hand.get(name, parameters.BY_NAME[name].default) for name in PARAMETERS if getattr(self, name) is None}
         return dataclasses.replace(self, **fills) if fills else self
 
     def sources(self, scene: Scene | None = None) -> dict[str, str]:
@@ -262,7 +109,7 @@ class PlannerConfig:
         ``"user"``. A value set explicitly but equal to the hand's, the preset's or the built-in
         default is named by that source."""
         hand = scene.hand.params if scene is not None else {}
-        published = _published_fields() if self.preset == "paper" else {}
+        published = parameters.PAPER_VALUES if self.preset == "paper" else {}
         sources = {}
         for name in PARAMETERS:
             value = getattr(self, name)
@@ -272,7 +119,7 @@ class PlannerConfig:
                 sources[name] = "paper"
             elif name in hand and value == hand[name]:
                 sources[name] = "hand"
-            elif value == getattr(_CORE_DEFAULTS, name):
+            elif value == parameters.BY_NAME[name].default:
                 sources[name] = "built-in"
             else:
                 sources[name] = "user"
@@ -280,16 +127,17 @@ class PlannerConfig:
 
     @classmethod
     def as_published(cls, **overrides) -> PlannerConfig:
-        """Algorithm 1 and IsPairValid as published (``preset="paper"``): every departure of
-        docs/paper-to-code.md off, the paper's section V values (``Delta_beta`` = 0.1 rad,
-        ``Delta_Z`` = [0.5, 2.5] cm, ``N*`` = 100); the rest built-in defaults. With
-        ``planner="cbirrt"`` or ``"cbirrt2"``, the baselines as published. The fields the paper leaves
-        open (``beta0``, ``u_star``, ...) stay unset: ``plan`` takes them from the scene's hand.
+        """Algorithm 1 and IsPairValid as published (``preset="paper"``): every parameter the paper gives
+        at its value (:data:`slideplan.parameters.PAPER_VALUES`: every departure of
+        docs/paper-to-code.md off, ``Delta_beta`` = 0.1 rad, ``Delta_Z`` = [0.5, 2.5] cm, ``N*`` = 100,
+        the grasp at ``H_g`` exactly). The fields the paper leaves open (``beta0``, ``u_star``, ...) stay
+        unset: ``plan`` takes them from the scene's hand. With ``planner="cbirrt"`` or ``"cbirrt2"``,
+        our reading of the baselines (docs/paper-to-code.md).
 
         Args:
             **overrides: any field, e.g. ``seed=3, planner="cbirrt"``.
         """
-        return cls(**{**_published_fields(), **overrides, "preset": "paper"})
+        return cls(**{**parameters.PAPER_VALUES, **overrides, "preset": "paper"})
 
     @property
     def reconfiguration_range(self) -> float:
@@ -334,13 +182,58 @@ class PlannerConfig:
         return dataclasses.asdict(self)
 
 
-# The parameters proper: the fields a hand may set and the plan JSON's ``params.sources`` names.
-PARAMETERS = tuple(item.name for item in dataclasses.fields(PlannerConfig) if item.name not in _NOT_PARAMS)
+def _check_field(parameter: parameters.Parameter, value) -> None:
+    """Raise InputError naming ``parameter`` if ``value`` is not of its type (a real: a finite number)."""
+    if parameter.kind == "bool":
+        if not isinstance(value, (bool, np.bool_)):
+            raise InputError(f"expected True or False, got {value!r}", field=parameter.name)
+        return
+    if parameter.kind == "int":
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise InputError(f"expected an integer, got {value!r}", field=parameter.name)
+        if not -(2**31) <= value < 2**31:  # the core's int
+            raise InputError(f"must be an {parameter.bounds()}, got {value!r}", field=parameter.name)
+    elif not is_number(value) or not math.isfinite(value):
+        raise InputError(f"expected a finite number, got {value!r}", field=parameter.name)
 
 
-def _published_fields() -> dict[str, Any]:
-    """The fields the "paper" preset fixes, with their published values."""
-    return {name: getattr(_CORE_PUBLISHED, name) for name in PAPER_FIELDS}
+def _config_doc() -> str:
+    lines = [
+        "Planner parameters, one field per entry of the parameter registry (:mod:`slideplan.parameters`).",
+        "",
+        "A parameter left unset (None) is filled when planning: from the scene's hand (its ``[hand]",
+        "params``), else the built-in default (:meth:`resolved`); the plan JSON records where each value",
+        "came from (``params.sources``: ``built-in``, ``hand``, ``paper`` or ``user``). So",
+        "``PlannerConfig(seed=1)`` plans with the hand's contact depth band and grasp standoff.",
+        "",
+        "Attributes:",
+    ]
+    for p in parameters.REGISTRY:
+        paper = f"paper: {p.paper!r}" if p.paper is not None else "paper: open"
+        lines.append(f"    {p.name}: {p.doc} ({p.bounds()}; default {p.default!r}; {paper}.)")
+    lines += [
+        "    planner: ``\"slideplan\"`` (Algorithm 1), ``\"cbirrt\"`` or ``\"cbirrt2\"`` (our reading of the",
+        "        baselines of V-6, docs/paper-to-code.md).",
+        "    seed: random seed; the same seed gives the same plan.",
+        "    time_limit_s: planning time budget (s); a plan the limit cuts short is not returned.",
+        "    preset: ``\"default\"`` (this project's) or ``\"paper\"`` (:meth:`as_published`), recorded in the plan.",
+        "",
+        "Raises:",
+        "    InputError: on construction, naming the field: a value of the wrong type or out of its bounds,",
+        "        an unknown planner or preset, a time limit that is not a positive number; once every",
+        "        parameter is set (:meth:`resolved`), an inconsistent pair (``delta_beta < beta0``,",
+        "        ``dz_min <= dz_max``), naming both.",
+    ]
+    return "\n".join(lines)
+
+
+PlannerConfig = dataclasses.make_dataclass(
+    "PlannerConfig",
+    [(p.name, p.python_type | None, field(default=None)) for p in parameters.REGISTRY]
+    + [("planner", str, field(default="slideplan")), ("seed", int, field(default=0)),
+       ("time_limit_s", float, field(default=60.0)), ("preset", str, field(default="default"))],
+    bases=(_ConfigMethods,), frozen=True, namespace={"__module__": __name__, "__doc__": _config_doc()},
+)
 
 
 def _core_field_message(message: str) -> tuple[str, str]:
@@ -1016,18 +909,13 @@ def core_obstacles(entries: list[dict[str, Any]]) -> list:
     return obstacles
 
 
-# The parameters a grasp map's answers depend on (GraspMap::fits): its key in memory and on disk.
-_GRASP_MAP_PARAMS = ("grasp_standoff", "u_star", "grasp_lift", "grasp_flip", "lift_check", "grasp_tilt_tolerance",
-                     "grasp_yaw_tolerance", "grasp_roll_tolerance")
-
-
 @functools.lru_cache(maxsize=32)
 def _cached_grasp_map(robot, vertices: tuple, height: float, grasp_link: str, grasp_offset: tuple, thickness: float,
                       params_key: tuple, stored: Path | None):
     from . import _core
 
     params = _core.PlannerParams()
-    for name, value in zip(_GRASP_MAP_PARAMS, params_key):
+    for name, value in zip(parameters.GRASP_MAP_NAMES, params_key):
         setattr(params, name, value)
     table = _core.SupportSurface(np.array(vertices, dtype=float), height)
     core_map = _core.GraspMap(robot, table, grasp_link, np.array(grasp_offset, dtype=float).reshape(4, 4), thickness, params)
@@ -1048,7 +936,7 @@ def _grasp_map_and_file(scene: Scene, obj: ThinObject, config: PlannerConfig):
     # As the core measures it (z_s is the cloud's mean height) and to the micrometre, as the map keeps
     # it: clouds of one thickness differ in the last bits of their mean and must still share the map.
     thickness = round(float(points[:, 2].mean()) - height, 6)
-    params_key = tuple(getattr(config, name) for name in _GRASP_MAP_PARAMS)
+    params_key = tuple(getattr(config, name) for name in parameters.GRASP_MAP_NAMES)
     try:
         stored = grasp_cache.map_path(robot_description(scene), vertices, height, thickness, params_key)
     except OSError as error:

@@ -16,12 +16,11 @@ import shapely.geometry
 from ._fields import Fields, read_toml
 from .errors import InputError, require_type
 from .geometry import SupportSurface
+from .parameters import BY_NAME as PARAMETERS_BY_NAME
+from .parameters import HAND_NAMES
 from .paths import data_dir, find_data_file
 from .transforms import move_planar
 
-# Planner parameters a hand may give defaults for ([hand] params).
-HAND_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "d_goal", "grasp_lift", "grasp_backoff", "grasp_standoff", "grasp_hold",
-               "max_yaw_rate", "grasp_flip", "grasp_tilt_tolerance", "grasp_yaw_tolerance", "grasp_roll_tolerance")
 ROBOT_KEYS = {"urdf", "attach", "base_pose", "base_link", "fixed_joints", "package_dirs"}
 LEGACY_HAND_KEYS = ("tip_link", "contact_links")  # once in [robot], now in [hand]; still read there
 HAND_KEYS = {"tip_link", "tip_offset", "grasp_link", "grasp_offset", "contact_links", "gripper_joints", "params"}
@@ -336,24 +335,28 @@ def _read_gripper_joints(hand: Fields, robot: Fields) -> dict[str, tuple[float, 
 
 
 def _read_hand(hand: Fields, robot: Fields) -> Hand:
-    params = hand.table("params", allowed=set(HAND_PARAMS))
+    params = hand.table("params", allowed=set(HAND_NAMES))
     return Hand(
         tip_link=hand.string("tip_link"),
         tip_offset=_read_offset(hand, "tip_offset"),
         grasp_link=hand.string("grasp_link"),
         grasp_offset=_read_offset(hand, "grasp_offset"),
         contact_links=hand.strings("contact_links"),
-        params={name: _hand_param(params, name) for name in HAND_PARAMS if params and params.has(name)},
+        params={name: _hand_param(params, name) for name in HAND_NAMES if params and params.has(name)},
         gripper_joints=_read_gripper_joints(hand, robot),
     )
 
 
 def _hand_param(params: Fields, name: str):
-    if name != "grasp_flip":
+    """A [hand] params value of the registry's type (its bounds are PlannerConfig's to check)."""
+    kind = PARAMETERS_BY_NAME[name].kind
+    if kind == "real":
         return params.number(name)
     value = params.raw(name)
-    if not isinstance(value, bool):
+    if kind == "bool" and not isinstance(value, bool):
         raise InputError(f"expected true or false, got {value!r}", source=params.source, field=params.field(name))
+    if kind == "int" and (isinstance(value, bool) or not isinstance(value, int)):
+        raise InputError(f"expected an integer, got {value!r}", source=params.source, field=params.field(name))
     return value
 
 

@@ -5,6 +5,8 @@
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
+
+#include <set>
 #include <ompl/base/PlannerData.h>
 #include <ompl/base/PlannerTerminationCondition.h>
 #include <ompl/base/ScopedState.h>
@@ -609,6 +611,95 @@ TEST(PlannerParams, AsPublishedTurnsEveryDepartureOffAndKeepsThePapersValues)
     EXPECT_EQ(paper.nStar, 100.0);
 }
 
+TEST(ParameterRegistry, EveryParameterHasAPaperValueOrSaysWhyNotAndItsValuesLieInItsBounds)
+{
+    const PlannerParams defaults, paper = PlannerParams::asPublished();
+    std::set<std::string> names;
+    for (const ParameterSpec &spec : parameters())
+    {
+        EXPECT_TRUE(names.insert(spec.name).second) << spec.name << " declared twice";
+        EXPECT_FALSE(spec.doc.empty()) << spec.name;
+        // A paper value, or the statement that the paper leaves the parameter open (and why).
+        EXPECT_TRUE(spec.paper.has_value() || spec.paperSource.rfind("open", 0) == 0) << spec.name << ": " << spec.paperSource;
+        EXPECT_EQ(spec.check(spec.defaultValue), "") << spec.name;
+        EXPECT_EQ(spec.get(defaults), spec.defaultValue) << spec.name;
+        if (spec.paper)
+        {
+            EXPECT_EQ(spec.check(*spec.paper), "") << spec.name;
+            EXPECT_EQ(spec.get(paper), *spec.paper) << spec.name;
+        }
+        else
+            EXPECT_EQ(spec.get(paper), spec.defaultValue) << spec.name;
+    }
+    // The paper's grasp is H_g exactly: every rotation tolerance is 0 in the paper preset.
+    EXPECT_EQ(paper.graspTiltTolerance, 0.0);
+    EXPECT_EQ(paper.graspYawTolerance, 0.0);
+    EXPECT_EQ(paper.graspRollTolerance, 0.0);
+    EXPECT_THROW(parameter("no_such_parameter"), std::invalid_argument);
+}
+
+TEST(ParameterRegistry, ValidateNamesTheParameterOutOfItsBoundsAndBothOfAPair)
+{
+    PlannerParams params;
+    params.contactRadius = -1.0;
+    try
+    {
+        params.validate();
+        FAIL() << "a negative contact_radius was accepted";
+    }
+    catch (const std::invalid_argument &error)
+    {
+        EXPECT_EQ(std::string(error.what()).rfind("planner parameter contact_radius ", 0), 0u) << error.what();
+    }
+    params = PlannerParams();
+    params.beta0 = 0.05;  // below the default delta_beta: the user set only beta0
+    try
+    {
+        params.validate();
+        FAIL() << "delta_beta >= beta0 was accepted";
+    }
+    catch (const std::invalid_argument &error)
+    {
+        const std::string what = error.what();
+        EXPECT_NE(what.find("delta_beta = 0.1"), std::string::npos) << what;
+        EXPECT_NE(what.find("beta0 = 0.05"), std::string::npos) << what;
+    }
+    params = PlannerParams();
+    params.shortcutAttempts = -1;
+    EXPECT_THROW(params.validate(), std::invalid_argument);
+}
+
+TEST(SlidingPlanner, ADeadlineAnywhereGivesTheSamePlanOrNone)
+{
+    // The deadline as a count of its own evaluations: it fires at the k-th. Whatever step it cuts (an
+    // IK, a transfer, the shortcut), the planner returns the plan it makes without a deadline, or none.
+    const auto task = plateTask({0.6, 0.05});
+    const PlannerParams params;
+    long evaluations = 0;
+    const PlanResult full = planSliding(task, params, 7, ompl::base::PlannerTerminationCondition([&] {
+                                            ++evaluations;
+                                            return false;
+                                        }));
+    ASSERT_EQ(full.status, "solved");
+    // k past the last evaluation never fires: the full plan. Any k within the run cuts a step, so no plan.
+    for (long k = std::max(1L, evaluations - 60); k <= evaluations + 1; ++k)
+    {
+        long count = 0;
+        const PlanResult result =
+            planSliding(task, params, 7, ompl::base::PlannerTerminationCondition([&] { return ++count >= k; }));
+        if (k <= evaluations)
+        {
+            EXPECT_EQ(result.status, "timeout") << "k = " << k << " of " << evaluations;
+            EXPECT_TRUE(result.trajectory.empty()) << "k = " << k;
+            continue;
+        }
+        ASSERT_EQ(result.status, "solved");
+        ASSERT_EQ(result.trajectory.size(), full.trajectory.size());
+        for (std::size_t i = 0; i < full.trajectory.size(); ++i)
+            EXPECT_EQ(result.trajectory[i], full.trajectory[i]);
+    }
+}
+
 TEST(SlidingPlanner, AsPublishedSolvesWithTheTreePathAndEveryConnectionChecked)
 {
     const auto task = plateTask({0.6, 0.0});
@@ -850,7 +941,7 @@ TEST(SlidingPlanner, BaselinesProduceValidPlansWhenTheySolve)
             // Work bounded by termination-condition calls, not the clock: under the sanitizers the same
             // search takes several times longer, and must give the same verdict. So no timed RRTConnect
             // transfer either: straight transfers only.
-            params.transferTime = 0.0;
+            params.transferIterations = 0;
             const PlanResult result = planSliding(task, params, seed, afterCalls(2000000));
             EXPECT_EQ(result.planner, name);
             EXPECT_EQ(result.stats.startRoots, 1);

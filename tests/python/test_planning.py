@@ -155,7 +155,7 @@ def test_the_planned_grasp_can_lift_the_object():
 @pytest.mark.parametrize(
     ("field", "value", "accepted"),
     [("beta0", 2.0, False), ("beta0", 0.0, False), ("delta_beta", 1.5, False),  # Python once accepted these
-     ("delta_beta", 0.0, True), ("transfer_time", 0.0, True), ("grasp_backoff", 0.0, True),  # and refused these
+     ("delta_beta", 0.0, True), ("transfer_iterations", 0, True), ("grasp_backoff", 0.0, True),  # and refused these
      ("paired_goals", 1.5, False), ("projection_iterations", 0, False),
      # The verifier's slack on the constraint rows is 1e-3: a coarser projection gave plans it refused.
      ("projection_tolerance", 5e-4, True), ("projection_tolerance", 1.5e-3, False),

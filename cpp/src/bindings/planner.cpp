@@ -145,78 +145,66 @@ namespace slideplan::bindings
     void bindPlanner(py::module_ &module)
     {
         py::register_exception<InvalidStartConfig>(module, "InvalidStartConfig", PyExc_ValueError);
-        py::class_<PlannerParams>(module, "PlannerParams", "Every planner parameter, declared once (params.hpp).")
-            .def(py::init<>())
-            .def_readwrite("beta0", &PlannerParams::beta0, "Contact pitch beta_0 (rad), Eqs. 3-4.")
-            .def_readwrite("delta_beta", &PlannerParams::deltaBeta, "Pitch relaxation Delta_beta (rad).")
-            .def_readwrite("dz_min", &PlannerParams::dzMin, "Delta_Z^-: minimum contact depth (m).")
-            .def_readwrite("dz_max", &PlannerParams::dzMax, "Delta_Z^+: maximum contact depth (m).")
-            .def_readwrite("n_star", &PlannerParams::nStar, "N* of Eq. 5.")
-            .def_readwrite("d_goal", &PlannerParams::dGoal, "Goal band width (m), Eq. 4.")
-            .def_readwrite("u_star", &PlannerParams::uStar, "Minimum overhang u* (m).")
-            .def_readwrite("grasp_lift", &PlannerParams::graspLift, "Fingertip lift before the transfer (m).")
-            .def_readwrite("grasp_backoff", &PlannerParams::graspBackoff, "Pre-grasp offset along the approach (m).")
-            .def_readwrite("grasp_standoff", &PlannerParams::graspStandoff,
-                           "Free length the hand needs beyond H_g towards the table (m); 0: the paper's H_g.")
-            .def_readwrite("grasp_hold", &PlannerParams::graspHold,
-                           "Beyond the paper: the length of object the fingers must close on (m); H_g slides along the "
-                           "edge until a strip this wide holds this much. 0: the paper's H_g at the centroid of P_out.")
-            .def_readwrite("grasp_tilt_tolerance", &PlannerParams::graspTiltTolerance,
-                           "Beyond the paper: the grasp may turn this far about H_g's x, along the table edge (rad).")
-            .def_readwrite("grasp_yaw_tolerance", &PlannerParams::graspYawTolerance,
-                           "Beyond the paper: the grasp may turn this far about H_g's y, the vertical closing axis (rad).")
-            .def_readwrite("grasp_roll_tolerance", &PlannerParams::graspRollTolerance,
-                           "Beyond the paper: the grasp may turn this far about H_g's z, the approach axis (rad).")
-            .def_readwrite("transfer_time", &PlannerParams::transferTime, "RRTConnect budget per transfer (s).")
-            .def_readwrite("max_joint_step", &PlannerParams::maxJointStep, "Largest joint change between waypoints (rad).")
-            .def_readwrite("max_tip_step", &PlannerParams::maxTipStep, "Largest fingertip step between waypoints (m).")
-            .def_readwrite("projection_tolerance", &PlannerParams::projectionTolerance, "Projection residual tolerance.")
-            .def_readwrite("projection_iterations", &PlannerParams::projectionIterations, "Newton steps per projection.")
-            .def_readwrite("root_ik_attempts", &PlannerParams::rootIkAttempts, "IK attempts per root draw.")
-            .def_readwrite("screen_pairs", &PlannerParams::screenPairs,
-                           "Beyond the paper: NearestTree skips trees whose root pair is known to fail, and goal roots "
-                           "the finger cannot lift off from are not kept; False is Algorithm 1's NearestTree.")
-            .def_readwrite("goal_grasp_filter", &PlannerParams::goalGraspFilter,
-                           "Beyond the paper (with grasp_map): a goal root by an edge stretch without a reachable side "
-                           "grasp is kept one time in ten; False keeps every goal root.")
-            .def_readwrite("lift_check", &PlannerParams::liftCheck,
-                           "Beyond the paper: a grasp IK solution counts only if H_g raised by grasp_lift is reachable "
-                           "from it; False accepts any solution of H_g.")
-            .def_readwrite("cache_verdicts", &PlannerParams::cacheVerdicts,
-                           "Beyond the paper: IsPairValid's verdict is remembered per root pair; False checks every "
-                           "connection.")
-            .def_readwrite("com_margin", &PlannerParams::comMargin,
-                           "Beyond the paper: the final centre of mass at least this far inside the table (m).")
-            .def_readwrite("max_yaw_rate", &PlannerParams::maxYawRate,
-                           "Largest turn of the object per metre of fingertip travel in each step (rad/m); 0: any.")
-            .def_readwrite("com_supported", &PlannerParams::comSupported,
-                           "Beyond the paper: the centre of mass stays on the table at every state of the slide.")
-            .def_readwrite("max_object_yaw", &PlannerParams::maxObjectYaw,
-                           "Beyond the paper: largest turn of the object between start and final pose (rad); pi: any.")
-            .def_readwrite("shortcut_yaw_weight", &PlannerParams::shortcutYawWeight,
-                           "Beyond the paper: metres of fingertip travel one radian of object yaw costs in the shortcut.")
-            .def_readwrite("grasp_flip", &PlannerParams::graspFlip,
-                           "Beyond the paper: also grasp with the hand rolled by pi about the approach axis (a hand "
-                           "whose fingers close symmetrically).")
-            .def_readwrite("grasp_map", &PlannerParams::graspMap,
-                           "Beyond the paper: remember the 1 cm edge stretches where no side grasp was reachable and "
-                           "reject and screen pairs whose grasp falls there.")
-            .def_readwrite("paired_goals", &PlannerParams::pairedGoals,
-                           "Beyond the paper: share of goal-root draws made for a start root so that Eq. 2 leaves the "
-                           "object overhanging an edge (0: Algorithm 1's draws only).")
-            .def_readwrite("contact_radius", &PlannerParams::contactRadius,
-                           "Beyond the paper: start contacts lie at most this much farther from the centre of mass "
-                           "than the closest cloud point (m; 0: the whole cloud, Eq. 3).")
-            .def_readwrite("shortcut_attempts", &PlannerParams::shortcutAttempts,
-                           "Beyond the paper: tries to shorten the solved path by constrained walks (0: off).")
+        auto paramsClass = py::class_<PlannerParams>(module, "PlannerParams",
+                                                     "Every planner parameter, one attribute per entry of parameters().");
+        paramsClass.def(py::init<>(), "Every parameter at its default.");
+        // One attribute per registry entry: the registry is the only list of parameters.
+        for (const ParameterSpec &spec : parameters())
+            paramsClass.def_property(
+                spec.name.c_str(),
+                [&spec](const PlannerParams &p) -> py::object {
+                    const double value = spec.get(p);
+                    if (spec.member.index() == 2)
+                        return py::bool_(value != 0.0);
+                    if (spec.member.index() == 1)
+                        return py::int_(static_cast<long long>(value));
+                    return py::float_(value);
+                },
+                [&spec](PlannerParams &p, double value) { spec.set(p, value); }, spec.doc.c_str());
+        paramsClass
             .def_property(
                 "policy", [](const PlannerParams &p) { return rootPolicyName(p.policy); },
                 [](PlannerParams &p, const std::string &name) { p.policy = rootPolicyFromName(name); },
-                "Root policy: 'slideplan' (Algorithm 1), 'cbirrt' or 'cbirrt2' (baselines of V-6).")
-            .def("validate", &PlannerParams::validate, "Raise ValueError naming the first inconsistent parameter.")
+                "Root policy: 'slideplan' (Algorithm 1), 'cbirrt' or 'cbirrt2' (our reading of the baselines of V-6).")
+            .def(
+                "validate",
+                [](const PlannerParams &p, const std::optional<std::vector<std::string>> &given) {
+                    p.validate(given ? &*given : nullptr);
+                },
+                py::arg("given") = py::none(),
+                "Raise ValueError 'planner parameter NAME ...' naming the first parameter out of its bounds, or both "
+                "parameters of an inconsistent pair. given: None checks every parameter; a list of names checks only "
+                "those, and a pair (delta_beta < beta0, dz_min <= dz_max) only when it names both.")
             .def_static("as_published", &PlannerParams::asPublished,
-                        "Algorithm 1 as published: every departure off, the paper's section V values (params.hpp).");
-
+                        "Every parameter with a paper value at it (every departure off); the others at their defaults.");
+        module.def(
+            "parameters",
+            [] {
+                py::list all;
+                for (const ParameterSpec &spec : parameters())
+                {
+                    py::dict entry;
+                    entry["name"] = spec.name;
+                    entry["kind"] = spec.kind();
+                    entry["unit"] = spec.unit;
+                    entry["default"] = spec.defaultValue;
+                    entry["lower"] = spec.lower;
+                    entry["upper"] = spec.upper;
+                    entry["lower_open"] = spec.lowerOpen;
+                    entry["upper_open"] = spec.upperOpen;
+                    entry["paper"] = spec.paper ? py::object(py::float_(*spec.paper)) : py::object(py::none());
+                    entry["paper_source"] = spec.paperSource;
+                    entry["hand"] = spec.hand;
+                    entry["grasp_map"] = spec.graspMap;
+                    entry["doc"] = spec.doc;
+                    all.append(entry);
+                }
+                return all;
+            },
+            "The parameter registry (params.cpp), in order: one dict per parameter with name, kind ('real', 'int', "
+            "'bool'), unit, default, lower, upper, lower_open, upper_open (the bounds), paper (the published value, "
+            "None where the paper leaves it open), paper_source, hand (a scene's [hand] params may set it), grasp_map "
+            "(the grasp map depends on it) and doc.");
         py::class_<PlanResult>(module, "PlanResult", "Result of plan_sliding().")
             .def_readonly("status", &PlanResult::status, "'solved' or 'timeout'.")
             .def_readonly("planner", &PlanResult::planner, "'slideplan', 'cbirrt' or 'cbirrt2'.")
