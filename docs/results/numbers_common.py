@@ -1,9 +1,10 @@
 """What the generated blocks share: loading the committed rows once, the build each file's rows record,
 and number formats.
 
-A Parquet file's build comes from its rows' ``build`` column where the file has one (with
-``build_recorded_at_run`` False for a backfilled row); for a file written before the rows recorded
-their build, from :data:`BUILDS_NAMED_BY_THE_PAGES` (what the pages said when the rows were committed).
+A Parquet file's build comes from its rows' ``build`` column for rows that recorded it at run time
+(``build_recorded_at_run`` True); for rows written before rows recorded their build (no column, or
+backfilled from the pages), from :data:`BUILDS_NAMED_BY_THE_PAGES`, what the pages said when the rows were
+committed.
 """
 
 from __future__ import annotations
@@ -60,24 +61,27 @@ def rows(name: str, loader: str = "planning") -> pd.DataFrame:
 
 
 def build_of(name: str) -> str:
-    """The build (or builds, with their row counts) that made ``docs/results/<name>``'s rows."""
+    """The build (or builds, with their row counts) that made ``docs/results/<name>``'s rows: the rows'
+    ``build`` where it was recorded at run time, the page's word (:data:`BUILDS_NAMED_BY_THE_PAGES`) for rows
+    without one or backfilled from the pages (``build_recorded_at_run`` False), so that a backfill changes
+    no text and a rerun does."""
     path = HERE / name
+    fallback = BUILDS_NAMED_BY_THE_PAGES[name]
     columns = pq.read_schema(path).names
     if "build" not in columns:
-        return BUILDS_NAMED_BY_THE_PAGES[name]
+        return fallback
     wanted = ["build"] + (["build_recorded_at_run"] if "build_recorded_at_run" in columns else [])
     table = pd.read_parquet(path, columns=wanted)
-    recorded = table["build_recorded_at_run"].fillna(False).astype(bool) if len(wanted) > 1 else pd.Series(True, index=table.index)
-    short = table["build"].fillna("unknown").astype(str).map(lambda build: "+".join([build.split("+")[0][:7], *build.split("+")[1:]]))
-    counts = Counter(zip(short, recorded))
-    parts = [f"{build}{'' if at_run else ' (backfilled)'}" + (f" ({count:,} rows)" if len(counts) > 1 else "")
-             for (build, at_run), count in sorted(counts.items(), key=lambda item: -item[1])]
-    return ", ".join(parts)
-
-
-def builds_recorded(name: str) -> str:
-    """Where :func:`build_of` took the build from."""
-    return "the rows' `build` column" if "build" in pq.read_schema(HERE / name).names else "the page (not in the rows)"
+    at_run = table["build_recorded_at_run"].fillna(False).astype(bool) if len(wanted) > 1 else table["build"].notna()
+    recorded = table.loc[at_run, "build"].astype(str)
+    if recorded.empty:
+        return fallback
+    short = recorded.map(lambda build: "+".join([build.split("+")[0][:7], *build.split("+")[1:]]))
+    counts = Counter(short)
+    text = ", ".join(f"{build}" + (f" ({number:,} rows)" if len(counts) > 1 or len(recorded) < len(table) else "")
+                     for build, number in sorted(counts.items(), key=lambda item: (-item[1], item[0])))
+    older = len(table) - len(recorded)
+    return text if not older else f"{text} and, for {older:,} older rows, {fallback}"
 
 
 def seconds(value: float, se: float | None = None) -> str:
