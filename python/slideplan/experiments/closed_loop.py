@@ -24,8 +24,9 @@ import pandas as pd
 import pyarrow as pa
 
 from ..closed_loop import SETTINGS, run
+from ..provenance import PROVENANCE_COLUMNS, run_provenance
 from .execution import TASK_COLUMNS
-from .results import load_results
+from .results import PROVENANCE_FIELDS, load_results
 from .stats import wilson_interval
 from .tasks import Task, cached_scene
 
@@ -42,10 +43,12 @@ CLOSED_LOOP_ROW_SCHEMA = pa.schema(
     + [("solved", pa.bool_())]
     + [(f"{setting}_{mode}_{name}", kind) for setting, mode in itertools.product(SETTINGS, MODES) for name, kind in _RUN_COLUMNS]
     + [("error", pa.string())]
+    + PROVENANCE_FIELDS
 )
 """Columns of a task's part file: the task, ``solved`` (every run of it finished), then each run's outcome
 (:class:`slideplan.closed_loop.ClosedLoopRun`; ``max_latency_s`` the slowest re-plan; ``draws`` the
-physics as JSON), then ``error`` (a run that raised)."""
+physics as JSON), then ``error`` (a run that raised), then the provenance columns of
+:data:`slideplan.experiments.results.ROW_SCHEMA`."""
 
 
 def run_closed_loop_task(task: Task) -> dict:
@@ -58,7 +61,7 @@ def run_closed_loop_task(task: Task) -> dict:
         A dict with the keys of :data:`CLOSED_LOOP_ROW_SCHEMA`; an exception becomes the ``error`` column.
     """
     row = {field.name: None for field in CLOSED_LOOP_ROW_SCHEMA}
-    row.update(task.fields(), solved=False)
+    row.update(task.fields(), solved=False, **run_provenance())
     try:
         scene, config = cached_scene(task.scene), task.planner_config()
         for setting, mode in itertools.product(SETTINGS, MODES):
@@ -85,7 +88,8 @@ def load_closed_loop(path: str | Path) -> pd.DataFrame:
 
 
 def closed_loop_runs(tasks: pd.DataFrame) -> pd.DataFrame:
-    """One row per run: the task's columns, ``setting``, ``mode`` and the run's outcome columns.
+    """One row per run: the task's columns, ``setting``, ``mode``, the run's outcome columns and the task's
+    provenance columns.
 
     Args:
         tasks: :func:`load_closed_loop` rows; tasks that raised are left out.
@@ -99,8 +103,10 @@ def closed_loop_runs(tasks: pd.DataFrame) -> pd.DataFrame:
         part.insert(len(task_columns) + 1, "mode", mode)
         for name, _ in _RUN_COLUMNS:
             part[name] = tasks[f"{setting}_{mode}_{name}"].to_numpy()
+        for name in PROVENANCE_COLUMNS:
+            part[name] = tasks[name].to_numpy()
         parts.append(part)
-    columns = task_columns + ["setting", "mode"] + [name for name, _ in _RUN_COLUMNS]
+    columns = task_columns + ["setting", "mode"] + [name for name, _ in _RUN_COLUMNS] + list(PROVENANCE_COLUMNS)
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=columns)
 
 

@@ -22,9 +22,10 @@ import pyarrow as pa
 
 from ..execute import ExecutionSettings, execute, path_features, stress_settings
 from ..planning import plan
+from ..provenance import run_provenance
 from ..transforms import row_to_pose
 from ..verify import verify
-from .results import ROW_SCHEMA, load_results
+from .results import PROVENANCE_FIELDS, ROW_SCHEMA, load_results
 from .tasks import Task, cached_scene
 
 SETTINGS = ("nominal", "stress")
@@ -46,11 +47,13 @@ EXECUTION_ROW_SCHEMA = pa.schema(
     + _PLAN_COLUMNS
     + [(f"{setting}_{name}", kind) for setting in SETTINGS for name, kind in _OUTCOME_COLUMNS]
     + [("error", pa.string())]
+    + PROVENANCE_FIELDS
 )
 """Columns of an execution row: the task, the plan (``tip_path_m`` and ``straight_m``: fingertip
 path length and the straight distance between its ends; ``yaw_travel_deg``: total turning of the
 fingertip), then ``nominal_*`` and ``stress_*`` outcomes (:class:`slideplan.execute.Execution`;
-``normal_force_n`` is the mean while sliding). Outcomes are null when the plan was not solved."""
+``normal_force_n`` is the mean while sliding), then the provenance columns of
+:data:`slideplan.experiments.results.ROW_SCHEMA`. Outcomes are null when the plan was not solved."""
 
 
 def run_execution_task(task: Task) -> dict:
@@ -64,7 +67,7 @@ def run_execution_task(task: Task) -> dict:
         column (the run goes on).
     """
     row = {field.name: None for field in EXECUTION_ROW_SCHEMA}
-    row.update(task.fields(), solved=False, status="error")
+    row.update(task.fields(), solved=False, status="error", **run_provenance())
     try:
         scene = cached_scene(task.scene)
         obj = task.placed_object()

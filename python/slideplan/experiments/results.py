@@ -16,12 +16,17 @@ import pyarrow as pa
 import pyarrow.dataset
 import pyarrow.parquet as pq
 
+from ..provenance import PROVENANCE_COLUMNS
 from .tasks import Task
 
 RESULTS_SUBDIR = "results"
 PART_PREFIX, PART_SUFFIX = "part-", ".parquet"
 STAT_COLUMNS = ("iterations", "start_roots", "goal_roots", "pairs_checked", "pairs_rejected", "nodes")
 _ARROW_TYPES = {"str": pa.string(), "int": pa.int64(), "float": pa.float64()}
+# Which build wrote a row, on which CPU and when (slideplan.provenance.run_provenance): the last columns of
+# every experiment's rows.
+PROVENANCE_FIELDS = [pa.field(name, pa.bool_() if name == "build_recorded_at_run" else pa.string())
+                     for name in PROVENANCE_COLUMNS]
 
 # One schema for every part file, so the dataset reads as one table even when a part
 # holds nulls only (an error row has no iterations, a timeout no verdict).
@@ -32,12 +37,16 @@ ROW_SCHEMA = pa.schema(
        ("planning_time_s", pa.float64())]
     + [(name, pa.int64()) for name in STAT_COLUMNS]
     + [("overhang_m", pa.float64()), ("verified", pa.bool_()), ("error", pa.string())]
+    + PROVENANCE_FIELDS
 )
-"""Columns of a results row: the task (:meth:`Task.fields`) then the outcome.
+"""Columns of a results row: the task (:meth:`Task.fields`), the outcome, then its provenance.
 
 ``status`` is ``"solved"``, ``"timeout"``, ``"invalid"`` (the planner returned a plan that
 :func:`slideplan.verify` rejects) or ``"error"`` (the task raised; ``error`` has the text).
-``solved`` is True only for verified plans; ``verified`` is null when there was no plan.
+``solved`` is True only for verified plans; ``verified`` is null when there was no plan. ``build``
+(the commit, ``+dirty`` when built from a changed tree), ``version``, ``cpu`` and ``date`` (UTC, ISO 8601,
+when the task started) are :func:`slideplan.provenance.run_provenance`'s; ``build_recorded_at_run`` is
+False for rows filled in after they were written (``docs/results/backfill_provenance.py``).
 """
 
 

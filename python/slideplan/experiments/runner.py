@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..planning import plan
+from ..provenance import run_provenance
 from ..verify import verify
 from .executors import LocalPoolExecutor, TaskExecutor
 from .results import ROW_SCHEMA, STAT_COLUMNS, finished_task_ids, results_dir, write_row
@@ -44,7 +45,8 @@ def run_task(task: Task) -> dict:
 
     Scenes, outlines and the robot model are cached per process. Solved plans are
     re-checked with :func:`slideplan.verify`. Any exception becomes an ``"error"`` row, so a
-    failing task never stops the run.
+    failing task never stops the run. Every row records the worker's build, CPU and start time
+    (:func:`slideplan.provenance.run_provenance`).
 
     Args:
         task: the task.
@@ -53,7 +55,7 @@ def run_task(task: Task) -> dict:
         A dict with the keys of :data:`ROW_SCHEMA`.
     """
     row = {**task.fields(), "solved": False, "status": "error", "planning_time_s": None,
-           **dict.fromkeys(STAT_COLUMNS), "overhang_m": None, "verified": None, "error": None}
+           **dict.fromkeys(STAT_COLUMNS), "overhang_m": None, "verified": None, "error": None, **run_provenance()}
     try:
         scene = cached_scene(task.scene)
         obj = task.placed_object()
