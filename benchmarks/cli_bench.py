@@ -6,7 +6,7 @@
 2. Per robot scene: 5 objects x 2 seeds (random poses), each run cold, 10 s planning budget: the wall
    time, how many solved, and how many timed out.
 
-Prints and writes (docs/benchmarks/cli.md) medians and percentiles with the CPU named. Not a test:
+Prints and writes (docs/benchmarks/cli.md) medians and percentiles, with the build, CPU and date named. Not a test:
 `make bench`.
 
     python benchmarks/cli_bench.py [--runs 5] [--scenes square panda_square ur5_square]
@@ -15,7 +15,6 @@ Prints and writes (docs/benchmarks/cli.md) medians and percentiles with the CPU 
 from __future__ import annotations
 
 import argparse
-import datetime
 import os
 import shutil
 import subprocess
@@ -25,7 +24,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from plan_bench import cpu_name, write_report  # same directory: python puts it on sys.path
+from plan_bench import write_report  # same directory: python puts it on sys.path
 
 SLIDEPLAN = str(Path(sys.executable).with_name("slideplan"))
 FIRST_PLAN = ["--scene", "square", "--object", "crescent", "--pose", "0.55", "-0.08", "0.4", "--seed", "1"]
@@ -95,9 +94,8 @@ def main() -> None:
         sys.exit("cli_bench needs taskset (util-linux) to pin runs to one core")
     lines = [
         "# `slideplan plan` wall time", "",
-        f"`benchmarks/cli_bench.py`, {datetime.date.today()}, {cpu_name()}, {os.cpu_count()} cores; every run a new "
-        f"process pinned to core {args.core} (`taskset`), wall time of the whole command (start, plan, verify, "
-        "write the JSON).", "",
+        f"`benchmarks/cli_bench.py`: every run a new process pinned to core {args.core} (`taskset`), wall time of "
+        "the whole command (start, plan, verify, write the JSON).", "",
         f"## The first plan: `slideplan plan {' '.join(FIRST_PLAN)} --json plan.json`, {args.runs} runs each", "",
         *first_plan(args.runs, args.core), "",
         f"## Robots, cold cache: {len(OBJECTS)} objects x {len(SEEDS)} seeds (random poses), "

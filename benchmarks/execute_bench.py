@@ -2,7 +2,7 @@
 
 Plans the demo once, then executes it ``--runs`` times in this process (one core) and prints and
 writes (docs/benchmarks/execution.md) the wall time per execution (median, min), the simulated
-time and the real-time factor, with the CPU named. Not a test: ``make bench``.
+time and the real-time factor, with the build, CPU and date named. Not a test: ``make bench``.
 
     python benchmarks/execute_bench.py [--runs 3] [--out docs/benchmarks/execution.md]
 """
@@ -10,7 +10,6 @@ time and the real-time factor, with the CPU named. Not a test: ``make bench``.
 from __future__ import annotations
 
 import argparse
-import datetime
 import statistics
 import sys
 import tempfile
@@ -24,7 +23,7 @@ from slideplan.execute import execute
 from slideplan.objects import load_object, load_outline, sample_pose_on_table
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from plan_bench import cpu_name  # noqa: E402 - the benchmarks share how they name the CPU
+from plan_bench import write_report  # noqa: E402 - the benchmarks' common ending
 
 
 def demo_plan():
@@ -54,8 +53,8 @@ def main() -> None:
     lines = [
         "# Execution benchmark",
         "",
-        f"`benchmarks/execute_bench.py --runs {args.runs}` on {cpu_name()}, one process (one core), "
-        f"{datetime.date.today().isoformat()}: the demo plan (crescent on the square table, seed 0, "
+        f"`benchmarks/execute_bench.py --runs {args.runs}`, one process (one core): the demo plan (crescent on the "
+        "square table, seed 0, "
         f"{len(result.trajectory)} sliding waypoints, {len(result.grasp['approach'])} approach waypoints) executed "
         "in MuJoCo: slide, approach, close, 5 cm lift, 1 s hold (docs/execution.md).",
         "",
@@ -67,11 +66,8 @@ def main() -> None:
         "",
         f"With `--video run.mp4` (640x480, 20 frames per simulated second, software EGL): {video_wall:.1f} s wall, "
         f"{video_wall / median:.2f}x the median without video.",
-        "",
     ]
-    text = "\n".join(lines)
-    print(text)
-    args.out.write_text(text)
+    write_report(lines, args.out)
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@
 For each scene, 5 objects x N seeded poses (the poses drawn on its table as ``slideplan demo`` draws
 one), plan (10 s limit, the pose's seed) and execute the plan with the default settings; report per
 scene how many slides ended within tolerance of Eq. 2, how many grasps lifted the object, how many
-runs succeeded (both), and the median position and yaw errors, with the CPU named. Writes a Markdown
+runs succeeded (both), and the median position and yaw errors, with the build, CPU and date named. Writes a Markdown
 table (docs/results/hands.md). Not a test: ``make bench``.
 
     python benchmarks/hands_sweep.py [--poses 2] [--scenes square panda_square ...] [--out docs/results/hands.md]
@@ -12,7 +12,6 @@ table (docs/results/hands.md). Not a test: ``make bench``.
 from __future__ import annotations
 
 import argparse
-import datetime
 import sys
 import warnings
 from pathlib import Path
@@ -25,7 +24,7 @@ from slideplan.execute import execute
 from slideplan.objects import load_object, load_outline, sample_pose_on_table
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from plan_bench import cpu_name  # noqa: E402 - the benchmarks share how they name the CPU
+from plan_bench import write_report  # noqa: E402 - the benchmarks' common ending
 
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")
 SCENES = ("square", "panda_square", "ur5_gripper_square", "z1_square", "so101_square")
@@ -77,17 +76,16 @@ def main() -> None:
     arguments = parser.parse_args()
     warnings.simplefilter("ignore", SlideplanWarning)  # the Z1's meshes checked as triangles: said in the docs
     results = {name: sweep(name, arguments.poses) for name in arguments.scenes}
-    text = [f"# Execution of every bundled hand ({datetime.date.today()})", "",
-            f"CPU: {cpu_name()}. Scenes {', '.join(arguments.scenes)}; objects {', '.join(OBJECTS)}, {arguments.poses} "
+    text = ["# Execution of every bundled hand", "",
+            f"Scenes {', '.join(arguments.scenes)}; objects {', '.join(OBJECTS)}, {arguments.poses} "
             "seeded poses each; planning limit 10 s; each solved plan executed in MuJoCo with the default settings "
             "(docs/execution.md) and the scene's own gripper ([hand] gripper_joints). Slide within tolerance: the "
-            "object ends within 5 mm and 3 deg of Eq. 2's pose; success: that and lifted.", "", *table(results), ""]
+            "object ends within 5 mm and 3 deg of Eq. 2's pose; success: that and lifted.", "", *table(results)]
     failures = [f"- {name} {row['object']} seed {row['seed']}: {row['failure']}" for name, rows in results.items()
                 for row in rows if row["solved"] and not row["success"]]
     if failures:
-        text += ["Runs that did not succeed, with what execution said:", "", *failures, ""]
-    arguments.out.write_text("\n".join(text))
-    print("\n".join(table(results)))
+        text += ["", "Runs that did not succeed, with what execution said:", "", *failures]
+    write_report(text, arguments.out)
 
 
 if __name__ == "__main__":

@@ -5,7 +5,8 @@ three objects without rotational symmetry at random non-touching poses, a box of
 320 x 240 depth images, 5 % dropouts), perceives them and measures against the ground truth:
 table height error, outline Hausdorff distance, and per object the centroid and yaw error
 of the known outline registered to the perceived points (slideplan.perception.register_outline)
-and the thickness error. Prints a Markdown table (median and worst case per level) and draws
+and the thickness error. Prints a Markdown table (median and worst case per level) under a line naming
+the build, the CPU and the date, and draws
 docs/figures/perception.png (scene cloud, what was found, a plan from it).
 
     python benchmarks/perceive_accuracy.py [--scenes 8] [--figure docs/figures/perception.png]
@@ -22,6 +23,7 @@ import shapely
 from matplotlib.figure import Figure
 from matplotlib.patches import Polygon as PolygonPatch
 
+from plan_bench import provenance_line  # benchmarks/ is the script's directory, hence on sys.path
 from slideplan import InputError, PlannerConfig, load_scene, plan
 from slideplan.objects import ThinObject, load_outline, place_outline, sample_pose_on_table
 from slideplan.perception import perceive, register_outline
@@ -161,7 +163,7 @@ def main() -> None:
     parser.add_argument("--figure", type=Path, default=Path(__file__).resolve().parents[1] / "docs" / "figures" / "perception.png")
     args = parser.parse_args()
     figure(args.figure)
-    print(study(args.scenes))
+    print(provenance_line() + "\n\n" + study(args.scenes))
 
 
 if __name__ == "__main__":

@@ -2,8 +2,8 @@
 
 Renders scenes with MuJoCo (640 x 512 depth images, 5 % dropouts: about 311k points each;
 the four bundled tables, three objects each, a box of clutter), perceives each several times
-and prints and writes (docs/benchmarks/perception.md) the median / p90 time with the CPU
-named. The first call of a process also pays for importing scikit-learn and SciPy; it is
+and prints and writes (docs/benchmarks/perception.md) the median / p90 time with the build, CPU
+and date named. The first call of a process also pays for importing scikit-learn and SciPy; it is
 reported separately. Not a test: ``make bench``.
 
     python benchmarks/perceive_bench.py [--repeats 5]
@@ -12,14 +12,12 @@ reported separately. Not a test: ``make bench``.
 from __future__ import annotations
 
 import argparse
-import datetime
-import os
 import time
 from pathlib import Path
 
 import numpy as np
 
-from plan_bench import cpu_name  # benchmarks/ is the script's directory, hence on sys.path
+from plan_bench import write_report  # benchmarks/ is the script's directory, hence on sys.path
 from slideplan import load_scene
 from slideplan.rendering import Box, Camera, place_objects, render_scene
 
@@ -64,10 +62,10 @@ def main() -> None:
             times.append(time.perf_counter() - start)
         rows.append(f"| {name} | {len(cloud)} | {len(perception.objects)} | {len(perception.obstacles)} |")
     median, p90 = np.percentile(times, [50, 90])
-    report = "\n".join([
-        f"# Perception benchmark ({datetime.date.today()})",
+    write_report([
+        "# Perception benchmark",
         "",
-        f"CPU: {cpu_name()}, {os.cpu_count()} cores. `python benchmarks/perceive_bench.py --repeats {args.repeats}`: "
+        f"`python benchmarks/perceive_bench.py --repeats {args.repeats}`: "
         f"{len(times)} calls of `slideplan.perceive` on MuJoCo-rendered scene clouds (640 x 512 depth images, "
         "depth noise 2 mm at 1 m, 5 % dropouts).",
         "",
@@ -77,10 +75,7 @@ def main() -> None:
         "| table | points | thin objects found | clutter boxes found |",
         "|---|---|---|---|",
         *rows,
-        "",
-    ])
-    print(report)
-    args.out.write_text(report)
+    ], args.out)
 
 
 if __name__ == "__main__":

@@ -3,8 +3,8 @@ reconfiguration range dz* in {2, 0.5, 0} cm for Algorithm 1 and both baselines a
 with the hand's own parameters ("slideplan hand").
 
 Prints and writes (docs/benchmarks/plan_bench.md) the success rate within 1, 5, 10 and 60 s and the
-median / p90 / p99 planning time, with the CPU named. Unsolved runs count as never finishing
-(infinite time), so a quantile reads "inf" when more runs than it failed. Not a test: `make bench`.
+median / p90 / p99 planning time, under a header naming the build, the CPU and the date. Unsolved runs
+count as never finishing (infinite time), so a quantile reads "inf" when more runs than it failed. Not a test: `make bench`.
 
     python benchmarks/plan_bench.py [--poses 20] [--time-limit 60] [--workers 1] [--scenes square ...]
                                     [--variants "slideplan dz*=2cm" ...] [--threads 1]
@@ -13,9 +13,7 @@ median / p90 / p99 planning time, with the CPU named. Unsolved runs count as nev
 from __future__ import annotations
 
 import argparse
-import datetime
 import os
-import platform
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -25,6 +23,7 @@ import numpy as np
 from slideplan import PlannerConfig, load_object, load_scene, plan
 from slideplan.objects import load_outline, sample_pose_on_table
 from slideplan.planning import clear_grasp_map_cache
+from slideplan.provenance import run_provenance
 
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")
 VARIANTS = (  # (label, planner, reconfiguration range dz* in metres, None: the hand's or the preset's)
@@ -44,15 +43,12 @@ VARIANTS = (  # (label, planner, reconfiguration range dz* in metres, None: the 
 THRESHOLDS_S = (1.0, 5.0, 10.0, 60.0)
 
 
-def cpu_name() -> str:
-    """The CPU model from /proc/cpuinfo, or the platform's processor string."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
+def provenance_line() -> str:
+    """Which build ran a benchmark, on which CPU (and how many cores) and when (UTC): the line under
+    every benchmark page's title (slideplan.provenance.run_provenance)."""
+    run = run_provenance()
+    return (f"Build {run['build']} (slideplan {run['version']}), CPU: {run['cpu']}, {os.cpu_count()} cores, "
+            f"{run['date']}.")
 
 
 def run_one(job: tuple[str, str, str, float | None, str, int, float]) -> tuple[str, str, bool, float]:
@@ -168,8 +164,13 @@ def dense_table(poses: int, time_limit: float, workers: int, issue_poses: int = 
 
 
 def write_report(lines: list[str], out: Path) -> None:
-    """Print a Markdown report and write it to `out` (the benchmarks' common ending)."""
-    report = "\n".join(lines) + "\n"
+    """Print a Markdown report and write it to `out` (the benchmarks' common ending).
+
+    Args:
+        lines: the report's lines, the first its title; :func:`provenance_line` goes under it.
+        out: the Markdown file (its folder is created if missing).
+    """
+    report = "\n".join([lines[0], "", provenance_line(), *lines[1:]]) + "\n"
     print(report)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(report)
@@ -212,9 +213,9 @@ def main() -> None:
 
     header = ["scene", "variant", *[f"<= {t:g} s" for t in THRESHOLDS_S], "median", "p90", "p99"]
     lines = [
-        f"# Planning benchmark ({datetime.date.today().isoformat()})",
+        "# Planning benchmark",
         "",
-        f"CPU: {cpu_name()}, {os.cpu_count()} cores; {args.workers} run(s) at a time. Scenes "
+        f"{args.workers} run(s) at a time. Scenes "
         f"{', '.join(args.scenes)}; objects {', '.join(OBJECTS)}, {args.poses} seeded poses each "
         f"({len(OBJECTS) * args.poses} runs per scene and variant), budget {args.time_limit:g} s per run. "
         "Unsolved runs count as infinite time. Every solved plan of these scenes passes `slideplan.verify` "

@@ -8,7 +8,7 @@ object where it was seen (timing included, the grasp map warm as in a running lo
 re-plan is verified.
 
 Prints and writes (docs/benchmarks/replan.md) the median / p95 of the tracking time, the re-planning
-time and their sum, with the CPU named. Not a test: ``make bench``.
+time and their sum, with the build, CPU and date named. Not a test: ``make bench``.
 
     python benchmarks/replan_bench.py [--poses 10]
 """
@@ -16,7 +16,6 @@ time and their sum, with the CPU named. Not a test: ``make bench``.
 from __future__ import annotations
 
 import argparse
-import datetime
 import math
 import os
 import time
@@ -24,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from plan_bench import cpu_name, write_report  # benchmarks/ is the script's directory, hence on sys.path
+from plan_bench import write_report  # benchmarks/ is the script's directory, hence on sys.path
 from slideplan import InputError, PlannerConfig, load_object, load_scene, plan, verify
 from slideplan.objects import load_outline, sample_pose_on_table
 from slideplan.rendering import Box, Camera, PlacedObject, depth_image, noisy_depth, scene_mjcf
@@ -100,8 +99,8 @@ def main() -> None:
     lines = [
         "# Re-planning during a slide: track, then plan from the arm's state",
         "",
-        f"`python benchmarks/replan_bench.py --poses {args.poses}` on {cpu_name()}, {datetime.date.today()}: "
-        f"square table, {len(OBJECTS)} objects x {args.poses} seeded poses, a third of the way along each plan, "
+        f"`python benchmarks/replan_bench.py --poses {args.poses}`: square table, {len(OBJECTS)} objects x "
+        f"{args.poses} seeded poses, a third of the way along each plan, "
         "the object drifted from Eq. 2's pose (turned up to 2 degrees about the fingertip, shifted up to 1 mm); "
         "one process, one thread. A start is refused when the fingertip is off the object as seen; an observed "
         "pose when the object would overhang the table there.",

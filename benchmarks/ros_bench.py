@@ -11,7 +11,8 @@ once, and publishes the reach): from the request to the first ``JointTrajectory`
 ``/joint_trajectory_controller/joint_trajectory``. The joint state here never moves, so each execution
 then stops, refused, once the reach's time is up; only the first message's latency is kept.
 
-Prints and writes (docs/benchmarks/ros.md) median / p95 with the CPU named. Not a test: ``make bench``.
+Prints and writes (docs/benchmarks/ros.md) median / p95 with the build, CPU and date named. Not a test:
+``make bench``.
 
     python benchmarks/ros_bench.py [--calls 30] [--executes 10]
 """
@@ -19,7 +20,6 @@ Prints and writes (docs/benchmarks/ros.md) median / p95 with the CPU named. Not 
 from __future__ import annotations
 
 import argparse
-import datetime
 import itertools
 import json
 import os
@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from plan_bench import cpu_name, write_report  # benchmarks/ is the script's directory, hence on sys.path
+from plan_bench import write_report  # benchmarks/ is the script's directory, hence on sys.path
 
 
 def main() -> None:
@@ -139,8 +139,8 @@ def main() -> None:
                "perceive (in the node)": [answer["perceive_s"] for _, answer in warm],
                "plan (in the node)": [answer["planning_time_s"] for _, answer in warm],
                "/slideplan/execute request to the first trajectory message (perceive, plan, open the hand, reach)": executes}
-    lines = [f"# Planning node latency ({datetime.date.today().isoformat()})", "",
-             f"CPU: {cpu_name()}, the node pinned to one core, the client on the other. "
+    lines = ["# Planning node latency", "",
+             "The node pinned to one core, the client on the other. "
              f"`python benchmarks/ros_bench.py --calls {args.calls}`: `/slideplan/plan` (std_srvs/Trigger over "
              "Fast DDS, localhost) on the demo scene's rendered 320 x 240 depth cloud; the warm node knows the "
              "table plane from its first cloud.", "",

@@ -4,8 +4,8 @@ On the closed-loop experiment's 200 tasks (4 tables x 5 objects x 10 poses, the 
 ``com_supported`` on and off in the same run, the order alternating per task so neither always pays for
 the grasp map's first probes: the first plan (10 s limit), and a re-plan from 3/4 along the slide with
 the object where Eq. 2 puts it (1 s limit, as in the closed loop). Reports solved, median / p90 / p99
-planning time and how many plans take the centre of mass off the table before the end, with the CPU
-named; writes docs/benchmarks/support.md. Not a test: ``make bench``.
+planning time and how many plans take the centre of mass off the table before the end, with the build,
+CPU and date named; writes docs/benchmarks/support.md. Not a test: ``make bench``.
 
     python benchmarks/support_bench.py [--poses 10]
 """
@@ -14,11 +14,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import datetime
 from pathlib import Path
 
 import numpy as np
-from plan_bench import cpu_name
+from plan_bench import write_report
 
 from slideplan import plan
 from slideplan.experiments.tasks import _placed_object, build_spec, cached_scene
@@ -59,8 +58,8 @@ def main() -> None:
             runs["re-plan", on].append((result.solved, result.planning_time_s,
                                         lowest_margin(scene.table, result) if result.solved else np.nan))
 
-    lines = [f"# Centre of mass on the table along the slide (`com_supported`)", "",
-             f"{datetime.date.today()}, {cpu_name()}, one process. `python benchmarks/support_bench.py "
+    lines = ["# Centre of mass on the table along the slide (`com_supported`)", "",
+             "One process. `python benchmarks/support_bench.py "
              f"--poses {args.poses}`: the closed-loop experiment's tasks, on and off in the same run.", "",
              "| plans | com_supported | solved | median | p90 | p99 | centre of mass off the table before the end | lowest margin |",
              "|---|---|---|---|---|---|---|---|"]
@@ -71,9 +70,7 @@ def main() -> None:
         lines.append(f"| {kind} | {'on' if on else 'off'} | {solved.sum()}/{len(data)} | {np.median(ms):.1f} ms | "
                      f"{np.percentile(ms, 90):.1f} ms | {np.percentile(ms, 99):.1f} ms | {int((data[solved, 2] < 0).sum())} | "
                      f"{1000 * np.nanmin(data[solved, 2]):.1f} mm |")
-    text = "\n".join(lines) + "\n"
-    print(text)
-    Path(args.out).write_text(text)
+    write_report(lines, Path(args.out))
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 process and with 2 processes, on the same problems (square table, 5 objects x N seeded poses).
 
 Plans release the GIL and share nothing mutable (docs/design.md 9), so threads should scale like
-processes. Prints and writes docs/benchmarks/threads.md with the CPU named. Not a test: `make bench`.
+processes. Prints and writes docs/benchmarks/threads.md with the build, CPU and date named. Not a test: `make bench`.
 
     python benchmarks/thread_bench.py [--poses 10] [--repeats 3]
 """
@@ -10,14 +10,12 @@ processes. Prints and writes docs/benchmarks/threads.md with the CPU named. Not 
 from __future__ import annotations
 
 import argparse
-import datetime
-import os
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
-from plan_bench import OBJECTS, cpu_name, write_report
+from plan_bench import OBJECTS, write_report
 
 from slideplan import PlannerConfig, load_object, load_scene, plan
 from slideplan.objects import load_outline, sample_pose_on_table
@@ -61,9 +59,9 @@ def main() -> None:
     jobs = [(name, pose) for name in OBJECTS for pose in range(args.poses)]
     build_problems(jobs)
     lines = [
-        f"# Planning throughput in threads and processes ({datetime.date.today().isoformat()})",
+        "# Planning throughput in threads and processes",
         "",
-        f"CPU: {cpu_name()}, {os.cpu_count()} cores. Square table, objects {', '.join(OBJECTS)}, {args.poses} seeded "
+        f"Square table, objects {', '.join(OBJECTS)}, {args.poses} seeded "
         f"poses each ({len(jobs)} plans per run, 10 s budget), {args.repeats} runs per setting; plans per second "
         "of the whole batch (median and range over the runs). The scene and the placed objects are built once "
         "before timing, as a planning server holds its scene; each `plan()` (with its time parameterization) is timed.",

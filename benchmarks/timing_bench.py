@@ -4,7 +4,7 @@ toppra it replaced (tests/python/toppra_reference.py), on the plans of Fig. 10.
 Plans the Fig. 10 tasks (4 tables x 5 objects x 2 scales x N poses, the hand's parameters), then times
 both parameterizations of every solved plan (slide and approach, URDF limits, fingertip cap), R
 repetitions each, and compares their durations. Prints and writes (docs/benchmarks/timing.md) the
-median / p90 / max per plan with the CPU named, the largest duration difference, the cost of the
+median / p90 / max per plan with the build, CPU and date named, the largest duration difference, the cost of the
 first call in a fresh process, and the wall time of a warm `plan()` (timing included) per table. Not a
 test: `make bench`.
 
@@ -14,7 +14,6 @@ test: `make bench`.
 from __future__ import annotations
 
 import argparse
-import datetime
 import os
 import subprocess
 import sys
@@ -23,7 +22,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from plan_bench import cpu_name, write_report  # same directory: python puts it on sys.path
+from plan_bench import write_report  # same directory: python puts it on sys.path
 
 from slideplan import InputError, load_scene, plan
 from slideplan.experiments.tasks import build_spec
@@ -118,10 +117,10 @@ def main() -> None:
 
     first_call = first_call_seconds(plans[0])
     lines = [
-        f"# Time-parameterization benchmark ({datetime.date.today().isoformat()})",
+        "# Time-parameterization benchmark",
         "",
-        f"CPU: {cpu_name()}, {os.cpu_count()} cores (1-minute load average {os.getloadavg()[0]:.1f} at the end: other "
-        f"work on the machine slows the numbers); one thread. The Fig. 10 tasks, {args.poses} poses per table, object "
+        f"1-minute load average {os.getloadavg()[0]:.1f} at the end (other work on the machine slows the numbers); "
+        "one thread. The Fig. 10 tasks, {args.poses} poses per table, object "
         f"and scale: {len(plans)} solved plans; each timed {args.repeat} times by each implementation (its median kept), "
         "slide and approach under the URDF velocity limits, the default accelerations and the 5 cm/s fingertip cap.",
         "",

@@ -14,7 +14,8 @@ finger (it hides about a third of the object). Two regimes, each object at seede
   count as lost: the closed loop then goes on with Eq. 2.
 
 Prints and writes (docs/benchmarks/tracking.md) the median and p95 of the centre-of-mass error, the
-turn error and the time of ``Tracker.track`` (one core; the rendering is not timed), CPU named.
+turn error and the time of ``Tracker.track`` (one core; the rendering is not timed), with the build, CPU
+and date named.
 Not a test: ``make bench``.
 
     python benchmarks/tracking_bench.py [--poses 20]
@@ -23,14 +24,13 @@ Not a test: ``make bench``.
 from __future__ import annotations
 
 import argparse
-import datetime
 import math
 import time
 from pathlib import Path
 
 import numpy as np
 
-from plan_bench import cpu_name, write_report  # benchmarks/ is the script's directory, hence on sys.path
+from plan_bench import write_report  # benchmarks/ is the script's directory, hence on sys.path
 from slideplan import load_object, load_scene
 from slideplan.rendering import Box, Camera, depth_image, noisy_depth, place_objects, scene_mjcf
 from slideplan.tracking import Tracker
@@ -134,8 +134,8 @@ def main() -> None:
     lines = [
         "# Tracking the object in depth frames",
         "",
-        f"`python benchmarks/tracking_bench.py --poses {args.poses} --arm-poses {args.arm_poses}` on {cpu_name()}, "
-        f"{datetime.date.today()}: {len(OBJECTS)} objects ({', '.join(OBJECTS)}), 320 x 240 frames. step and "
+        f"`python benchmarks/tracking_bench.py --poses {args.poses} --arm-poses {args.arm_poses}`: "
+        f"{len(OBJECTS)} objects ({', '.join(OBJECTS)}), 320 x 240 frames. step and "
         f"disturbed: {args.poses} seeded poses per object, a box 6 cm above each object hiding about a third of it; "
         f"arm: {args.arm_poses} seeded poses per object, 8 frames along its plan with the arm in view (the module "
         "docstring). Errors: the centre of mass (mm) and the turn (deg) against the truth, of the frames not lost; "
