@@ -133,6 +133,31 @@ def closed_loop_49efcf6(runs: pd.DataFrame) -> dict[str, str]:
     return values
 
 
+def closed_loop_partials(before: pd.DataFrame, after: pd.DataFrame) -> dict[str, str]:
+    """The e0328a8 partial run against the b74bcec one on the tasks both ran: failures and latency."""
+    common = sorted(set(before["task_id"]) & set(after["task_id"]))
+    before, after = before[before["task_id"].isin(common)], after[after["task_id"].isin(common)]
+
+    def failures(runs):
+        return set(runs.loc[~_ok(runs["success"]), ["task_id", "setting", "mode"]].itertuples(index=False, name=None))
+
+    def replans(runs):
+        return runs.set_index(["task_id", "setting", "mode"])["replans"].sort_index()
+
+    same = failures(before) == failures(after)
+    outcome = (f"every run ends as it did with build b74bcec: the same {len(failures(after))} failures" if same else
+               f"the failures differ from build b74bcec's ({len(failures(before))} there, {len(failures(after))} here)")
+    equal = int((replans(before) == replans(after)).sum())
+    outcome += (", and the same re-plan counts" if equal == len(after) else
+                f", and the same re-plan count in {equal} of the {len(after)} runs")
+
+    def latency(runs):
+        return span(1000 * runs[runs["mode"] == "closed"].groupby("setting")["replan_latency_s"].median(), lambda v: f"{v:.0f}")
+
+    return {"cl-partials-tasks": f"{len(common)}", "cl-partials-outcome": outcome,
+            "cl-partials-latency": f"from {latency(before)} ms to {latency(after)} ms"}
+
+
 def closed_loop_values() -> dict[str, str]:
     values = {}
     for prefix, name, loader in CLOSED_LOOP_FILES:
@@ -140,6 +165,8 @@ def closed_loop_values() -> dict[str, str]:
         values.update(closed_loop_file(prefix, runs))
         values[f"build-{name.removesuffix('.parquet')}"] = build_of(name)
     values.update(closed_loop_49efcf6(rows("closed_loop.parquet", "runs")))
+    values.update(closed_loop_partials(rows("partial/closed_loop.parquet", "closed_loop"),
+                                       rows("partial/closed_loop_e0328a8.parquet", "closed_loop")))
     values["build-closed_loop_tasks_e0328a8"] = build_of("closed_loop_tasks_e0328a8.parquet")
     return values
 
