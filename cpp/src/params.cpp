@@ -93,7 +93,7 @@ namespace slideplan
                 real("grasp_roll_tolerance", &P::graspRollTolerance, "rad", 0.0, 0.0, closed, M_PI, closed, 0.0,
                      beyond + ": H_g exactly", true, true,
                      "Beyond the paper: how far the hand may turn about H_g's z (the approach axis) at the grasp."),
-                count("transfer_iterations", &P::transferIterations, 2000, 0, leftOpen,
+                count("transfer_iterations", &P::transferIterations, 500, 0, leftOpen,
                       "open: the paper does not say how the hand moves from phi_g to H_g",
                       "RRTConnect iterations per transfer to the pre-grasp when the straight motion is blocked (a "
                       "count, so the plan does not depend on the machine's speed); 0: straight motions only."),
@@ -160,7 +160,15 @@ namespace slideplan
 
     const std::vector<ParameterSpec> &parameters()
     {
-        static const std::vector<ParameterSpec> all = declare();  // immutable once built (thread-safe static)
+        static const std::vector<ParameterSpec> all = [] {
+            std::vector<ParameterSpec> specs = declare();
+            // What slideplan.verify reads from a plan's params: every plan file since slideplan.plan/1 carries them.
+            for (ParameterSpec &spec : specs)
+                for (const char *name : {"beta0", "delta_beta", "dz_min", "dz_max", "u_star", "grasp_lift", "max_joint_step",
+                                         "max_tip_step"})
+                    spec.verify = spec.verify || spec.name == name;
+            return specs;
+        }();  // immutable once built (a thread-safe static)
         return all;
     }
 

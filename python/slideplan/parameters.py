@@ -27,6 +27,7 @@ class Parameter:
         paper_source: where the paper gives the value, or why it gives none.
         hand: whether a scene's ``[hand] params`` may set it.
         grasp_map: whether the grasp map's probes depend on it.
+        verify: whether a plan's verification reads it (every plan file carries it).
         doc: what it means.
     """
 
@@ -42,6 +43,7 @@ class Parameter:
     paper_source: str
     hand: bool
     grasp_map: bool
+    verify: bool
     doc: str
 
     @property
@@ -80,6 +82,8 @@ HAND_NAMES: tuple[str, ...] = tuple(parameter.name for parameter in REGISTRY if 
 """The parameters a scene's ``[hand] params`` may set."""
 GRASP_MAP_NAMES: tuple[str, ...] = tuple(parameter.name for parameter in REGISTRY if parameter.grasp_map)
 """The parameters a grasp map's answers depend on (``GraspMap::fits``): its key in memory and on disk."""
+VERIFY_NAMES: tuple[str, ...] = tuple(parameter.name for parameter in REGISTRY if parameter.verify)
+"""The parameters a plan's verification reads: every plan file must carry them."""
 PAPER_VALUES: dict[str, float | int | bool] = {p.name: p.paper for p in REGISTRY if p.paper is not None}
 """What the paper preset fixes: every parameter the paper gives a value for (every departure off)."""
 

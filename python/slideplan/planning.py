@@ -596,17 +596,13 @@ def _robot_block(robot: dict[str, Any]) -> dict[str, Any]:
     return block
 
 
-# What the readers of a plan take from its params block unguarded (the others have defaults).
-_REQUIRED_PARAMS = ("beta0", "delta_beta", "dz_min", "dz_max", "u_star", "grasp_lift", "max_joint_step", "max_tip_step")
-
-
 def _read_params(params: dict[str, Any]) -> dict[str, Any]:
     """A plan's params block, checked by the one validator of planner parameters.
 
     Raises:
         InputError: a parameter missing, of the wrong type or out of its bounds, naming ``params.<name>``.
     """
-    missing = [name for name in _REQUIRED_PARAMS if name not in params]
+    missing = [name for name in parameters.VERIFY_NAMES if name not in params]
     if missing:
         raise InputError(f"missing {missing}", field="params")
     fields = {item.name for item in dataclasses.fields(PlannerConfig)} - {"planner", "seed"}

@@ -70,6 +70,7 @@ namespace slideplan
         bool hand;              ///< a scene's [hand] params may set it (a property of the hand)
         bool graspMap;          ///< the grasp map's probes depend on it (GraspMap::fits)
         std::string doc;        ///< what it means (one paragraph)
+        bool verify{false};     ///< a plan's verification reads it, so every plan file must carry it
 
         const char *kind() const;  ///< "real", "int" or "bool"
         double get(const PlannerParams &params) const;

@@ -196,6 +196,7 @@ namespace slideplan::bindings
                     entry["paper_source"] = spec.paperSource;
                     entry["hand"] = spec.hand;
                     entry["grasp_map"] = spec.graspMap;
+                    entry["verify"] = spec.verify;
                     entry["doc"] = spec.doc;
                     all.append(entry);
                 }
@@ -204,7 +205,7 @@ namespace slideplan::bindings
             "The parameter registry (params.cpp), in order: one dict per parameter with name, kind ('real', 'int', "
             "'bool'), unit, default, lower, upper, lower_open, upper_open (the bounds), paper (the published value, "
             "None where the paper leaves it open), paper_source, hand (a scene's [hand] params may set it), grasp_map "
-            "(the grasp map depends on it) and doc.");
+            "(the grasp map depends on it), verify (a plan's verification reads it) and doc.");
         py::class_<PlanResult>(module, "PlanResult", "Result of plan_sliding().")
             .def_readonly("status", &PlanResult::status, "'solved' or 'timeout'.")
             .def_readonly("planner", &PlanResult::planner, "'slideplan', 'cbirrt' or 'cbirrt2'.")
