@@ -3,7 +3,7 @@ closed loop), ``experiment``, ``plot`` (docs/design.md 5) and ``ros serve`` / ``
 
 Exit codes of ``plan``: 0 solved (and verified), 1 not solved within the time limit,
 2 bad input (one line ``slideplan: error: ...`` on stderr), 3 solved but the plan fails
-the independent verification (a planner bug; the violations go to stderr and the JSON
+verification (``slideplan.verify``: a planner bug; the violations go to stderr and the JSON
 is written with status ``"invalid"``).
 
 ``experiment`` and ``plot`` need the ``experiments`` extra (pandas, pyarrow, dask); ``view`` the

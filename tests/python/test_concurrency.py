@@ -57,3 +57,40 @@ def test_four_threads_give_the_sequential_plans_and_every_plan_verifies(scene_na
         assert result.solved, key
         verification = verify(result)
         assert verification.ok, (key, verification.violations[:5])
+
+
+def _plan_json_without_clock(scene, obj, seed: int) -> dict:
+    import json
+
+    result = plan(scene, obj, PlannerConfig(seed=seed, time_limit_s=60.0))
+    data = json.loads(result.to_json())
+    del data["planning_time_s"], data["stats"]["precompute_time"]  # the clock's readings, not the plan
+    return data
+
+
+def test_twenty_plans_are_identical_with_both_cores_busy():
+    # Every budget inside a plan is a count: a loaded machine is slower, never different.
+    import multiprocessing
+
+    tasks = []
+    for table in ("square", "round", "triangle", "long"):
+        scene = load_scene(table)
+        for k, name in enumerate(["square", "circle", "triangle", "crescent", "irregular"]):
+            tasks.append((scene, _object(scene, name, pose_seed=100 + k), k))
+    alone = [_plan_json_without_clock(*task) for task in tasks]
+    assert sum(data["status"] == "solved" for data in alone) >= 18
+    busy = [multiprocessing.get_context("spawn").Process(target=_spin, daemon=True) for _ in range(2)]
+    for process in busy:
+        process.start()
+    try:
+        loaded = [_plan_json_without_clock(*task) for task in tasks]
+    finally:
+        for process in busy:
+            process.kill()
+    for (scene, obj, seed), first, second in zip(tasks, alone, loaded):
+        assert first == second, (scene.name if hasattr(scene, "name") else scene, seed)
+
+
+def _spin() -> None:
+    while True:
+        pass
