@@ -695,6 +695,10 @@ def experiment_command(
         "default", "--preset", help="default or paper (every departure from the paper off) for the slideplan tasks; "
         "the baselines always run as published."
     ),
+    planner: list[str] = typer.Option(
+        [], "--planner", help="Run only this planner's tasks of the figure (slideplan, cbirrt, cbirrt2); repeatable; "
+        "default: all. Fig. 11's baselines are the same tasks in both presets."
+    ),
 ) -> None:
     """Run the planning tasks of one figure, resuming: tasks with a result in OUT/results/ are skipped.
 
@@ -705,7 +709,7 @@ def experiment_command(
         from .experiments import build_spec, run_experiment
 
         spec = build_spec(figure, quick=quick, time_limit_s=time_limit, seed=seed, poses=poses, params=_parse_params(param),
-                          preset=preset)
+                          preset=preset, planners=tuple(planner) or None)
         executor = _experiment_executor(workers, scheduler, threads)
         typer.echo(f"{figure}: {len(spec.tasks)} tasks on {executor.description}, results in {out / 'results'}")
         summary = run_experiment(spec, out, executor)

@@ -160,6 +160,14 @@ def test_fig11_and_fig12_share_poses_and_the_paper_sizes():
     assert all(t.time_limit_s == 60 for t in fig11.tasks)
 
 
+def test_a_planner_filter_keeps_exactly_that_planners_tasks_with_their_ids():
+    whole = build_spec("fig11", poses=2)
+    ours = build_spec("fig11", poses=2, planners=("slideplan",))
+    assert {task.planner for task in ours.tasks} == {"slideplan"}
+    assert [task.task_id for task in ours.tasks] == [task.task_id for task in whole.tasks if task.planner == "slideplan"]
+    assert len(ours.tasks) < len(whole.tasks)
+
+
 def test_fewer_poses_are_a_prefix_of_the_full_figure():
     reduced, full = build_spec("fig11", poses=3), build_spec("fig11")
     assert len(reduced.tasks) == 5 * 3 * 5
@@ -240,6 +248,8 @@ def assert_bad_input(result, fragment):
     (["experiment", "fig11", "--time-limit", "0"], "--time-limit: must be > 0"),
     (["experiment", "fig11", "--time-limit", "-2"], "--time-limit: must be > 0"),
     (["experiment", "fig11", "--workers", "0"], "--workers: must be >= 1"),
+    (["experiment", "fig11", "--planner", "rrt"], "--planner: unknown planner(s) ['rrt']"),
+    (["experiment", "fig10", "--planner", "cbirrt"], "--planner: fig10 has no tasks of cbirrt"),
 ])
 def test_experiment_bad_input_exits_2(args, fragment, tmp_path):
     assert_bad_input(runner.invoke(app, [*args, "--out", str(tmp_path)]), fragment)

@@ -21,7 +21,7 @@ from shapely.geometry import Polygon
 
 from ..errors import InputError
 from ..objects import ThinObject, load_outline, sample_pose_on_table
-from ..planning import PlannerConfig
+from ..planning import PLANNERS, PlannerConfig
 from ..scenes import Scene, load_scene
 
 FIGURES = ("fig10", "fig11", "fig12")
@@ -344,7 +344,7 @@ _SPEC_BUILDERS = {"fig10": fig10_spec, "fig11": fig11_spec, "fig12": fig12_spec,
 
 def build_spec(
     figure: str, *, quick: bool = False, time_limit_s: float | None = None, seed: int = 0, poses: int | None = None,
-    params: dict | None = None, preset: str = "default",
+    params: dict | None = None, preset: str = "default", planners: tuple[str, ...] | None = None,
 ) -> ExperimentSpec:
     """Build the tasks of one figure.
 
@@ -362,13 +362,17 @@ def build_spec(
             from one without them.
         preset: ``"default"`` or ``"paper"`` for every slideplan task (the baselines always run
             ``"paper"``); it enters the task ids and the result rows.
+        planners: only the tasks of these planners (``"slideplan"``, ``"cbirrt"``, ``"cbirrt2"``;
+            None: all): Fig. 11's baselines run the same tasks in both presets, so a rerun of one
+            preset need not repeat them. The task ids are those of the whole figure's.
 
     Returns:
         The spec.
 
     Raises:
         InputError: unknown figure (field ``figure``), a time limit that is not a positive
-            finite number (``time_limit_s``), a bad seed (``seed``) or pose count (``poses``).
+            finite number (``time_limit_s``), a bad seed (``seed``) or pose count (``poses``), an
+            unknown planner (``planner``).
     """
     if figure not in _SPEC_BUILDERS:
         raise InputError(f"unknown figure {figure!r} (expected one of: {', '.join(EXPERIMENTS)})", field="figure")
@@ -378,6 +382,13 @@ def build_spec(
     if poses is not None and (isinstance(poses, bool) or not isinstance(poses, int) or poses < 1):
         raise InputError(f"must be a whole number >= 1, got {poses!r}", field="poses")
     tasks = _SPEC_BUILDERS[figure](base, quick, poses)
+    if planners is not None:
+        unknown = sorted(set(planners) - set(PLANNERS))
+        if unknown or not planners:
+            raise InputError(f"unknown planner(s) {unknown} (expected some of: {', '.join(PLANNERS)})", field="planner")
+        tasks = tuple(task for task in tasks if task.planner in planners)
+        if not tasks:
+            raise InputError(f"{figure} has no tasks of {', '.join(planners)}", field="planner")
     if params:
         text = json.dumps(params, sort_keys=True)
         tasks = tuple(dataclasses.replace(task, params=text) for task in tasks)
