@@ -4,7 +4,7 @@ closed loop), ``experiment``, ``plot`` (docs/design.md 5) and ``ros serve`` / ``
 Exit codes of ``plan``: 0 solved (and verified), 1 not solved within the time limit,
 2 bad input (one line ``slideplan: error: ...`` on stderr), 3 solved but the plan fails
 verification (``slideplan.verify``: a planner bug; the violations go to stderr and the JSON
-is written with status ``"invalid"``).
+is written with status ``"invalid"``); every command exits 130 when stopped by Ctrl-C.
 
 ``experiment`` and ``plot`` need the ``experiments`` extra (pandas, pyarrow, dask); ``view`` the
 ``view`` extra (viser, yourdfpy); ``perceive`` the ``perception`` extra (scikit-learn, SciPy). Warnings (e.g. a URDF velocity limit replaced by a default) go to
@@ -42,6 +42,7 @@ from .planning import PLANNERS, PlannerConfig, PlanResult, table_reach
 from .scenes import Scene, load_scene
 
 EXIT_SOLVED, EXIT_NOT_SOLVED, EXIT_BAD_INPUT, EXIT_INVALID_PLAN = 0, 1, 2, 3
+EXIT_INTERRUPTED = 130  # Ctrl-C
 PICTURE_SUFFIXES = (".png", ".svg")
 MIN_TABLE_REACH = 0.5  # perceive warns when the fingertip reaches less of the table than this (planning.table_reach)
 VIDEO_SUFFIXES = (".mp4", ".gif", ".png")
@@ -85,9 +86,9 @@ class _OneLineErrors(TyperGroup):
             message = " ".join(error.format_message().split())
             typer.echo(f"slideplan: error: {command}{message}", err=True)
             sys.exit(EXIT_BAD_INPUT if isinstance(error, click_errors.UsageError) else error.exit_code)
-        except typer.Abort:
+        except typer.Abort:  # click's word for Ctrl-C: the shell's convention is 128 + SIGINT
             typer.echo("slideplan: aborted", err=True)
-            sys.exit(1)
+            sys.exit(EXIT_INTERRUPTED)
         sys.exit(code if isinstance(code, int) else 0)
 
 
@@ -232,7 +233,8 @@ def _plan_verify_write(scene: Scene, obj: ThinObject, config: PlannerConfig, jso
         result = plan(scene, obj, config)
     if result.solved:
         result = _verify_and_mark(result)
-    _write_outputs(result, json_path, png_path)
+    scene_name = Path(scene.source).stem if scene.source else "scene"
+    _write_outputs(result, json_path, png_path, f"{obj.name or 'object'} on {scene_name}")
     return result
 
 
@@ -275,13 +277,13 @@ def _write_text(path: Path, text: str, option: str) -> None:
         raise InputError(f"cannot write {path} ({error.strerror or error})", field=option) from None
 
 
-def _write_outputs(result: PlanResult, json_path: Path | None, png_path: Path | None) -> None:
+def _write_outputs(result: PlanResult, json_path: Path | None, png_path: Path | None, label: str = "") -> None:
     if json_path is not None:
         _write_text(json_path, result.to_json(indent=1), "--json")
     if png_path is not None:
         from .viz import draw_plan
 
-        draw_plan(result, png_path)
+        draw_plan(result, png_path, label)
 
 
 @app.command("plan")
@@ -290,7 +292,7 @@ def plan_command(
         ..., "--scene", help="Built-in scene (square, round, triangle, long, panda_square, ...) or a scene TOML file."
     ),
     object_spec: str = typer.Option(
-        ..., "--object", help="Built-in object name, outline TOML, or point-cloud file (.ply/.npy/.csv, used where it lies)."
+        ..., "--object", help="Built-in object name, outline TOML, or point-cloud file (.ply/.npy/.csv/.pcd, used where it lies)."
     ),
     pose: Optional[Tuple[float, float, float]] = typer.Option(
         None, "--pose", help="X Y YAW of an outline object (m, m, rad); default: a seeded random pose on the table."
@@ -353,10 +355,11 @@ def demo_command(
         typer.echo(f"solved in {result.planning_time_s:.2f} s, overhang {100 * result.overhang_m:.1f} cm, verified")
     elif result.status == "invalid":
         typer.echo(f"solved in {result.planning_time_s:.2f} s, but the plan fails verification (see above)")
-        raise typer.Exit(EXIT_INVALID_PLAN)
     else:
         typer.echo(_summary(result))
-        raise typer.Exit(EXIT_NOT_SOLVED)
+    typer.echo(f"wrote {out / 'demo-plan.json'} (the plan) and {out / 'demo-plan.png'} (its picture)")
+    if not result.solved:
+        raise typer.Exit(EXIT_INVALID_PLAN if result.status == "invalid" else EXIT_NOT_SOLVED)
 
 
 @app.command("perceive")
@@ -757,7 +760,8 @@ def plot_command(
     except (ImportError, OSError, ValueError) as error:  # pyarrow's unreadable-file errors are ValueErrors
         raise _fail(error) from None
     if not paths:
-        raise _fail(InputError("no planning results of fig10, fig11 or fig12", source=str(results)))
+        raise _fail(InputError("no planning results of fig10, fig11 or fig12 (`plot` draws those; "
+                               "`slideplan experiment execution|closed-loop --out DIR` draws its own figures in DIR)", source=str(results)))
     for path in paths:
         typer.echo(str(path))
 

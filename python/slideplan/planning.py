@@ -774,11 +774,12 @@ def build_robot(description: dict[str, Any]):
         for name in description.get("gripper_joints", {}):  # held at its open value, but written in [hand]
             message = message.replace(f"[robot] fixed_joints.{name}:", f"[hand] gripper_joints.{name} (open):")
         raise ValueError(_blame_fragment(message, urdf, attach)) from None
-    for link, mesh, hull_ratio, exact in robot.collision_meshes:
-        if exact:
-            warnings.warn(f"link '{link}' mesh {Path(mesh).name}: its convex hull is {hull_ratio:.2f} x its volume and "
-                          "would fill a concavity of the hand, so it is checked as its triangles (exact, slower than "
-                          "a hull; convex or primitive collision shapes plan faster)", MeshWarning, stacklevel=2)
+    exact = [f"'{link}' ({Path(mesh).name}: hull {hull_ratio:.2f} x its volume)"
+             for link, mesh, hull_ratio, is_exact in robot.collision_meshes if is_exact]
+    if exact:  # one warning per robot model, however many meshes
+        warnings.warn(f"{len(exact)} hand mesh(es) checked as their triangles, since a convex hull would fill a concavity "
+                      f"of the hand: {', '.join(exact)}; exact, but slower than a hull (convex or primitive collision "
+                      "shapes plan faster)", MeshWarning, stacklevel=2)
     return robot
 
 

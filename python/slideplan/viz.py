@@ -72,7 +72,7 @@ def slide_motions(result: PlanResult, spacing_m: float = SLIDE_SPACING_M) -> lis
     return [(index, planar_motion(first, row_to_pose(tips[index]))) for index in waypoints]
 
 
-def draw_plan(result: PlanResult, path: str | Path) -> Path:
+def draw_plan(result: PlanResult, path: str | Path, label: str = "") -> Path:
     """Draw a plan from above: table, obstacles, object at start, along the slide (faded, every
     :data:`SLIDE_SPACING_M` of fingertip travel) and at its final pose, fingertip path, grasp.
 
@@ -84,6 +84,7 @@ def draw_plan(result: PlanResult, path: str | Path) -> Path:
     Args:
         result: the plan.
         path: output file, ``.png`` or ``.svg``.
+        label: a first title line naming what was planned (e.g. ``"crescent on square"``); none if empty.
 
     Returns:
         The path written.
@@ -133,7 +134,7 @@ def draw_plan(result: PlanResult, path: str | Path) -> Path:
                 axes.update_datalim([tail])  # annotations do not widen the view: the arrow ran into the title
             axes.plot(*grasp[:2, 3], marker="s", color="tab:orange", linestyle="none", label="grasp (approach arrow)")
         title += f", overhang {100 * result.overhang_m:.1f} cm"
-    axes.set_title(title)
+    axes.set_title(f"{label}\n{title}" if label else title)
     axes.autoscale_view()
     axes.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="small")
     return save_figure(figure, path)

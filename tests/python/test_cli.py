@@ -115,11 +115,17 @@ def test_an_output_that_cannot_be_written_is_refused_before_planning(tmp_path, o
     assert not (tmp_path / "plan.bmpx.png").exists()
 
 
-def test_demo_writes_into_a_folder_it_makes(tmp_path):
+def test_demo_writes_into_a_folder_it_makes_and_its_picture_names_the_object_and_scene(tmp_path, monkeypatch):
+    import matplotlib.axes
+
+    titles = []
+    set_title = matplotlib.axes.Axes.set_title
+    monkeypatch.setattr(matplotlib.axes.Axes, "set_title", lambda axes, text, *a, **k: titles.append(text) or set_title(axes, text, *a, **k))
     out = tmp_path / "new" / "out"
     result = run("demo", "--out", str(out))
     assert result.exit_code == 0, result.output + result.stderr
     assert (out / "demo-plan.json").stat().st_size > 0 and (out / "demo-plan.png").stat().st_size > 0
+    assert titles and titles[-1].startswith("crescent on square\n"), titles
 
 
 def test_a_plan_not_found_says_what_was_rejected_most(planned):
@@ -134,3 +140,15 @@ def test_a_plan_not_found_says_what_was_rejected_most(planned):
     assert line.endswith("; most rejected: 1204 x grasp configuration in collision (wam_link6-table), "
                          "40 x grasp pose unreachable, 40 x pre-grasp configuration unreachable)"), line
     assert "most rejected" not in _summary(planned)
+
+
+def test_ctrl_c_exits_130_with_one_line(monkeypatch):
+    import slideplan.planning
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(slideplan.planning, "plan", interrupted)
+    result = run("plan", "--scene", "square", "--object", "crescent")
+    assert result.exit_code == 130, (result.exit_code, result.output, result.stderr)  # documented in README and cli.py
+    assert "Traceback" not in result.output + result.stderr

@@ -121,7 +121,9 @@ def test_cli_plan_writes_a_verified_plan_and_picture(tmp_path):
 def test_cli_demo(tmp_path):
     result = CliRunner().invoke(app, ["demo", "--out", str(tmp_path), "--seed", "0"])
     assert result.exit_code == 0, result.output + result.stderr
-    assert result.output.startswith("solved in") and result.output.strip().endswith("verified")
+    first, second = result.output.strip().splitlines()
+    assert first.startswith("solved in") and first.endswith("verified")
+    assert str(tmp_path / "demo-plan.json") in second and str(tmp_path / "demo-plan.png") in second  # where it wrote
     assert (tmp_path / "demo-plan.json").is_file() and (tmp_path / "demo-plan.png").is_file()
 
 

@@ -367,3 +367,19 @@ def test_without_its_tolerance_the_five_joint_arm_reaches_no_side_grasp():
         cells = mapped.stretch_count(near_edge)
         counts[tolerance] = sum(mapped.grasp_on(near_edge, cell) is not None for cell in range(cells))
     assert counts[0.0] <= 2 < counts[scene.hand.params["grasp_yaw_tolerance"]] == cells
+
+
+def test_a_hand_with_several_concave_meshes_gives_one_warning_naming_them_all():
+    import warnings
+
+    from slideplan.errors import MeshWarning
+    from slideplan.planning import build_robot, robot_description
+
+    exact = {link for link, _, _, is_exact in robot_model(load_scene("so101_square")).collision_meshes if is_exact}
+    assert len(exact) >= 2
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        build_robot(robot_description(load_scene("so101_square")))
+    meshes = [warning for warning in caught if issubclass(warning.category, MeshWarning)]
+    assert len(meshes) == 1, [str(warning.message) for warning in meshes]
+    assert all(f"'{link}'" in str(meshes[0].message) for link in exact)
