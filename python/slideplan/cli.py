@@ -191,6 +191,23 @@ def _load_object(scene: Scene, object_spec: str, pose, seed: int) -> tuple[ThinO
     return obj, sampled_pose
 
 
+def _write_scene_cloud(scene: Scene, object_name: str, pose, path: Path, seed: int) -> Path | None:
+    """Render the table and the object at ``pose`` with the default depth camera into a PLY cloud; None
+    (nothing written) without the execution and perception extras."""
+    try:
+        import plyfile
+
+        from .rendering import place_objects, render_scene
+
+        points = render_scene(scene.table, place_objects([(object_name, pose)]), seed=seed).points
+    except ImportError:  # mujoco is imported when rendering
+        return None
+    vertices = np.array([tuple(point) for point in points], dtype=[("x", "f4"), ("y", "f4"), ("z", "f4")])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    plyfile.PlyData([plyfile.PlyElement.describe(vertices, "vertex")]).write(str(path))
+    return path
+
+
 def _summary(result: PlanResult) -> str:
     """One line: status, time, overhang, roots and pairs; for a plan not found, why pairs were rejected
     most (a collision names its pair: what to move or retune)."""
@@ -340,15 +357,17 @@ def plan_command(
 
 @app.command("demo")
 def demo_command(
-    out: Path = typer.Option(Path("out"), "--out", help="Directory for demo-plan.json and demo-plan.png."),
+    out: Path = typer.Option(Path("out"), "--out", help="Directory for demo-plan.json, demo-plan.png and demo-scene.ply."),
     seed: int = typer.Option(0, "--seed", help="Random seed (object pose and planner)."),
 ) -> None:
-    """Slide the crescent on the square table from a seeded random pose; write the plan and a picture."""
+    """Slide the crescent on the square table from a seeded random pose; write the plan, a picture, and the
+    scene as a depth camera sees it (demo-scene.ply, for ``slideplan perceive``)."""
     try:
         scene = load_scene("square")
         config = PlannerConfig.for_scene(scene, seed=seed)
-        obj, _ = _load_object(scene, "crescent", None, seed)
+        obj, pose = _load_object(scene, "crescent", None, seed)
         result = _plan_verify_write(scene, obj, config, out / "demo-plan.json", out / "demo-plan.png")
+        cloud = _write_scene_cloud(scene, "crescent", pose, out / "demo-scene.ply", seed)
     except (InputError, ValueError, OSError) as error:
         raise _fail(error) from None
     if result.solved:
@@ -358,6 +377,8 @@ def demo_command(
     else:
         typer.echo(_summary(result))
     typer.echo(f"wrote {out / 'demo-plan.json'} (the plan) and {out / 'demo-plan.png'} (its picture)")
+    typer.echo(f"wrote {cloud} (the scene as a depth camera sees it: try slideplan perceive {cloud})" if cloud else
+               "no demo-scene.ply: rendering it needs the execution and perception extras (MuJoCo, plyfile)")
     if not result.solved:
         raise typer.Exit(EXIT_INVALID_PLAN if result.status == "invalid" else EXIT_NOT_SOLVED)
 

@@ -126,6 +126,10 @@ def test_demo_writes_into_a_folder_it_makes_and_its_picture_names_the_object_and
     assert result.exit_code == 0, result.output + result.stderr
     assert (out / "demo-plan.json").stat().st_size > 0 and (out / "demo-plan.png").stat().st_size > 0
     assert titles and titles[-1].startswith("crescent on square\n"), titles
+    # The scene as a camera sees it, which perceive takes as written in the README: one object, the crescent.
+    perceived = run("perceive", str(out / "demo-scene.ply"), "--out", str(tmp_path / "perceived"))
+    assert perceived.exit_code == 0, perceived.output + perceived.stderr
+    assert sorted(path.name for path in (tmp_path / "perceived").glob("object_*.ply")) == ["object_0.ply"]
 
 
 def test_a_plan_not_found_says_what_was_rejected_most(planned):
