@@ -609,18 +609,22 @@ namespace slideplan
 
     namespace
     {
-        /// Fails loudly when no fingertip pose on the object has an IK solution at all.
-        void requireReachableObject(const SlidingTask &task, const PlannerParams &params, std::uint64_t seed)
+        /// Fails loudly when no fingertip pose on the object has an IK solution at all. It counts against the
+        /// time limit: cut by `ptc`, it says nothing, and the search that follows times out at once.
+        void requireReachableObject(const SlidingTask &task, const PlannerParams &params, std::uint64_t seed,
+                                    const ob::PlannerTerminationCondition &ptc)
         {
             std::mt19937_64 rng(seed);
             const Eigen::Vector2d centre = task.objectCom;
+            IkOptions options = contactIkOptions(*task.robot);
+            options.stop = [&ptc] { return ptc(); };
             for (int k = 0; k < 8; ++k)
             {
                 Eigen::Isometry3d target = Eigen::Isometry3d::Identity();
                 target.linear() = contactRotation(k * M_PI / 4, params.beta0);
                 target.translation() << centre, task.surfaceZ - 0.5 * (params.dzMin + params.dzMax);
                 Eigen::VectorXd q;
-                if (task.robot->ik(target, Eigen::VectorXd(), rng, q, contactIkOptions(*task.robot)))
+                if (task.robot->ik(target, Eigen::VectorXd(), rng, q, options) || ptc)
                     return;
             }
             std::ostringstream message;
@@ -656,7 +660,7 @@ namespace slideplan
                     << " m): no overhang can reach it";
             throw std::invalid_argument(message.str());
         }
-        requireReachableObject(*task, params, seed);
+        requireReachableObject(*task, params, seed, ptc);
 
         const RobotModel &robot = *task->robot;
         auto space = jointSpace(robot);
@@ -676,9 +680,11 @@ namespace slideplan
         }
         planner->setProblemDefinition(pdef);
         planner->setup();
+        const double setupTime = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
         if (planner->solve(ptc) == ob::PlannerStatus::INVALID_START)
             throw InvalidStartConfig("start configuration " + planner->givenRootProblem());
         PlanResult result = planner->result();
+        result.stats.setupTime = setupTime;
         result.planningTime = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
         return result;
     }

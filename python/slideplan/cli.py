@@ -219,7 +219,10 @@ def _summary(result: PlanResult) -> str:
     if not result.solved:
         ranked = sorted(stats.get("rejections", {}).items(), key=lambda item: (-item[1], item[0]))[:3]
         why = "; most rejected: " + ", ".join(f"{count} x {reason}" for reason, count in ranked) if ranked else ""
-        return f"{result.status} after {result.planning_time_s:.2f} s ({result.planner}; {counts}{why})"
+        # The limit bounds the search; setting up (the input's checks, the collision worlds) comes before it.
+        setup = stats.get("setup_time", 0.0)
+        split = f" ({setup:.2f} s of it setting up before the search)" if setup >= 0.1 * result.planning_time_s else ""
+        return f"{result.status} after {result.planning_time_s:.2f} s{split} ({result.planner}; {counts}{why})"
     return (
         f"solved in {result.planning_time_s:.2f} s ({result.planner}): overhang {100 * result.overhang_m:.1f} cm, "
         f"{len(result.trajectory)} waypoints, {counts}"

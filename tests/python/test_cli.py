@@ -146,6 +146,19 @@ def test_a_plan_not_found_says_what_was_rejected_most(planned):
     assert "most rejected" not in _summary(planned)
 
 
+def test_a_time_limit_spent_setting_up_says_so(planned):
+    # A 0.01 s limit on the SO-101 reported "timeout after 0.66 s": the time went before the search began.
+    import dataclasses
+
+    from slideplan.cli import _summary
+
+    assert 0.0 < planned.stats["setup_time"] <= planned.planning_time_s  # recorded, and part of the planning time
+    slow = dataclasses.replace(planned, status="timeout", planning_time_s=0.66, stats={**planned.stats, "setup_time": 0.65})
+    assert "timeout after 0.66 s (0.65 s of it setting up before the search)" in _summary(slow)
+    quick = dataclasses.replace(slow, stats={**planned.stats, "setup_time": 0.01})
+    assert "setting up" not in _summary(quick)
+
+
 def test_ctrl_c_exits_130_with_one_line(monkeypatch):
     import slideplan.planning
 

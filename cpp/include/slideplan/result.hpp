@@ -27,6 +27,7 @@ namespace slideplan
         long nodes{0};          ///< tree nodes over both forests
         long rootSamples{0};    ///< root sampling attempts (successful or not)
         double precomputeTime{0.0};  ///< baselines: time to find their fixed roots (s), included in planningTime
+        double setupTime{0.0};  ///< before the search: checks of the input, the collision worlds (s), included in planningTime
         double fingertipPath{0.0};   ///< length of the fingertip's path over the table (m) of a solved plan
         double comMargin{0.0};       ///< distance of the final centre of mass inside the table (m)
         double yawTravel{0.0};       ///< total |change| of the contact frame's yaw along it (rad): the object's turning

@@ -237,6 +237,7 @@ namespace slideplan::bindings
                     stats["nodes"] = r.stats.nodes;
                     stats["root_samples"] = r.stats.rootSamples;
                     stats["precompute_time"] = r.stats.precomputeTime;
+                    stats["setup_time"] = r.stats.setupTime;
                     stats["fingertip_path_m"] = r.stats.fingertipPath;
                     stats["yaw_travel_rad"] = r.stats.yawTravel;
                     stats["com_margin_m"] = r.stats.comMargin;
