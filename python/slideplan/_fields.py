@@ -50,8 +50,25 @@ def is_number(value: Any) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
 
 
-def as_number(value: Any, *, source: str, field: str, positive: bool = False) -> float:
-    """Check that ``value`` is a finite number (and > 0 if ``positive``) and return it as float.
+def require_within(values: Any, bound: float, *, source: str = "", field: str = "") -> None:
+    """Refuse a NaN, an infinite number or one beyond ``bound`` in magnitude among ``values`` (a number,
+    or an array of any shape), naming the first by its index.
+
+    Raises:
+        InputError: naming ``source`` and ``field`` with the index, e.g. ``trajectory[3][2]``.
+    """
+    numbers = np.asarray(values, dtype=float)
+    outside = ~(np.abs(numbers) <= bound)
+    if outside.any():
+        first = tuple(np.argwhere(outside)[0])
+        value = float(numbers[first])
+        problem = f"{value} is not a finite number" if not math.isfinite(value) else f"{value:g} is beyond {bound:g} in magnitude"
+        raise InputError(problem, source=source, field=field + "".join(f"[{index}]" for index in first))
+
+
+def as_number(value: Any, *, source: str, field: str, positive: bool = False, bound: float = math.inf) -> float:
+    """Check that ``value`` is a finite number within ``bound`` in magnitude (and > 0 if ``positive``)
+    and return it as float.
 
     Raises:
         InputError: naming ``source`` and ``field``.
@@ -60,24 +77,26 @@ def as_number(value: Any, *, source: str, field: str, positive: bool = False) ->
         raise InputError(f"expected a number, got {value!r}", source=source, field=field)
     if not math.isfinite(value):
         raise InputError(f"must be finite, got {value!r}", source=source, field=field)
+    require_within(value, bound, source=source, field=field)
     if positive and value <= 0:
         raise InputError(f"must be > 0, got {value!r}", source=source, field=field)
     return float(value)
 
 
-def as_numbers(value: Any, length: int, *, source: str, field: str) -> np.ndarray:
-    """Check that ``value`` is a list of ``length`` finite numbers and return it as a float array.
+def as_numbers(value: Any, length: int, *, source: str, field: str, bound: float = math.inf) -> np.ndarray:
+    """Check that ``value`` is a list of ``length`` finite numbers within ``bound`` in magnitude and
+    return it as a float array.
 
     Raises:
         InputError: naming ``source`` and ``field``.
     """
     if not isinstance(value, (list, tuple, np.ndarray)) or len(value) != length:
         raise InputError(f"expected a list of {length} numbers, got {value!r}", source=source, field=field)
-    return np.array([as_number(item, source=source, field=field) for item in value])
+    return np.array([as_number(item, source=source, field=field, bound=bound) for item in value])
 
 
-def as_xy_points(value: Any, *, source: str, field: str) -> np.ndarray:
-    """Check that ``value`` is a list of ``[x, y]`` pairs of finite numbers.
+def as_xy_points(value: Any, *, source: str, field: str, bound: float = math.inf) -> np.ndarray:
+    """Check that ``value`` is a list of ``[x, y]`` pairs of finite numbers within ``bound`` in magnitude.
 
     Returns:
         An (n, 2) float array (n may be anything; polygon checks come later).
@@ -87,7 +106,7 @@ def as_xy_points(value: Any, *, source: str, field: str) -> np.ndarray:
     """
     if not isinstance(value, (list, tuple)):
         raise InputError(f"expected a list of [x, y] points, got {value!r}", source=source, field=field)
-    points = [as_numbers(point, 2, source=source, field=f"{field}[{index}]") for index, point in enumerate(value)]
+    points = [as_numbers(point, 2, source=source, field=f"{field}[{index}]", bound=bound) for index, point in enumerate(value)]
     return np.array(points).reshape(-1, 2)
 
 
@@ -100,16 +119,18 @@ class Fields:
         prefix: the dotted name of this table in the file ("" at top level).
         allowed: the keys this table may have; any other key is reported (it is most
             likely a typo that would otherwise be silently ignored).
+        bound: the largest magnitude of a number read from it and its sub-tables.
 
     Raises:
         InputError: ``table`` is not a table or has an unknown key.
     """
 
-    def __init__(self, table: Any, *, source: str, prefix: str = "", allowed: set[str]) -> None:
+    def __init__(self, table: Any, *, source: str, prefix: str = "", allowed: set[str], bound: float = math.inf) -> None:
         if not isinstance(table, dict):
             raise InputError(f"expected a table, got {table!r}", source=source, field=prefix)
         self.source = source
         self.prefix = prefix
+        self.bound = bound
         self._table = table
         for key in table:
             if key not in allowed:
@@ -155,15 +176,15 @@ class Fields:
 
     def number(self, key: str, default: Any = _REQUIRED, *, positive: bool = False) -> float:
         """Return ``key`` as a finite float (> 0 if ``positive``); see :func:`as_number`."""
-        return as_number(self.raw(key, default), source=self.source, field=self.field(key), positive=positive)
+        return as_number(self.raw(key, default), source=self.source, field=self.field(key), positive=positive, bound=self.bound)
 
     def numbers(self, key: str, length: int, default: Any = _REQUIRED) -> np.ndarray:
         """Return ``key`` as an array of ``length`` finite floats; see :func:`as_numbers`."""
-        return as_numbers(self.raw(key, default), length, source=self.source, field=self.field(key))
+        return as_numbers(self.raw(key, default), length, source=self.source, field=self.field(key), bound=self.bound)
 
     def xy_points(self, key: str) -> np.ndarray:
         """Return the required ``key`` as an (n, 2) array; see :func:`as_xy_points`."""
-        return as_xy_points(self.raw(key), source=self.source, field=self.field(key))
+        return as_xy_points(self.raw(key), source=self.source, field=self.field(key), bound=self.bound)
 
     def string(self, key: str, default: Any = _REQUIRED) -> str:
         """Return ``key`` as a non-empty string.
@@ -204,7 +225,7 @@ class Fields:
         value = self.raw(key) if required else self.raw(key, None)
         if value is None:
             return None
-        return Fields(value, source=self.source, prefix=self.field(key), allowed=allowed)
+        return Fields(value, source=self.source, prefix=self.field(key), allowed=allowed, bound=self.bound)
 
     def array_of_tables(self, key: str, *, allowed: set[str]) -> list[Fields]:
         """Return the entries of the optional array of tables ``key`` (``[[key]]`` in TOML).
@@ -216,6 +237,6 @@ class Fields:
         if not isinstance(value, list):
             raise InputError(f"expected an array of tables, got {value!r}", source=self.source, field=self.field(key))
         return [
-            Fields(entry, source=self.source, prefix=f"{self.field(key)}[{index}]", allowed=allowed)
+            Fields(entry, source=self.source, prefix=f"{self.field(key)}[{index}]", allowed=allowed, bound=self.bound)
             for index, entry in enumerate(value)
         ]

@@ -24,7 +24,8 @@ import numpy as np
 import shapely
 
 from . import _core, grasp_cache, jsontext, parameters
-from ._fields import as_number, as_numbers, is_number
+from ._fields import as_number, as_numbers, is_number, require_within
+from ._limits import MAX_MAGNITUDE, MAX_PLAN_BYTES, MAX_ROBOT_FILE_BYTES, parse_int, read_regular_file, require_waypoints
 from .errors import InputError, MeshWarning, require_type
 from .objects import ThinObject
 from .scenes import Scene, package_search_dirs
@@ -359,6 +360,8 @@ class PlanResult:
         unknown = sorted(data.keys() - names - {"schema"})
         if missing or unknown:
             raise InputError(f"missing fields {missing}, unknown fields {unknown}", field="plan")
+        require_waypoints(data)
+        _require_finite(data)  # before the types: an integer of over 20 digits is read as a float (parse_int)
         for name, kind in _BLOCK_TYPES.items():
             if not isinstance(data[name], kind) or isinstance(data[name], bool):
                 raise InputError(f"expected {_KIND_WORDS[kind]}, got {type(data[name]).__name__}", field=name)
@@ -368,7 +371,6 @@ class PlanResult:
             raise InputError("expected a list of joint names", field="joint_names")
         dof = len(data["joint_names"])
         try:
-            _require_finite(data)
             result = cls(
                 status=data["status"],
                 planner=data["planner"],
@@ -416,10 +418,11 @@ class PlanResult:
                 malformed plan, or a number that is NaN or infinite.
         """
         require_type(path, (str, os.PathLike), "path", "a plan file's path")
+        data = read_regular_file(path, MAX_PLAN_BYTES, "the plan")
         try:
-            text = Path(path).read_text()
-        except (OSError, UnicodeDecodeError) as error:
-            raise InputError(f"cannot read the plan ({error})", source=str(path)) from None
+            text = data.decode()
+        except UnicodeDecodeError as error:
+            raise InputError(f"not UTF-8 text ({error})", source=str(path)) from None
         try:
             result = cls.from_json(text)
         except InputError as error:
@@ -440,7 +443,7 @@ class PlanResult:
         """
         require_type(text, (str, bytes, bytearray), "text", "plan JSON text")
         try:
-            data = json.loads(text)
+            data = json.loads(text, parse_int=parse_int)
         except json.JSONDecodeError as error:
             raise InputError(f"invalid JSON ({error})") from None
         except RecursionError:
@@ -486,11 +489,6 @@ def _beside(directory: Path, name: str) -> str:
     return name if "://" in name or Path(name).is_absolute() else os.path.normpath(directory / name)
 
 
-# No number in a plan is larger (metres, radians, seconds, counts): beyond it geometry loses its precision
-# (an object moved 1e300 m has no outline left) and it is a corrupted file, not a plan.
-MAX_MAGNITUDE = 1e9
-
-
 def _require_finite(data: dict[str, Any]) -> None:
     """Refuse a plan dict holding a NaN, an infinite or an implausibly large number (beyond
     :data:`MAX_MAGNITUDE`) anywhere (JSON parsers accept ``NaN`` and ``1e999``; a trajectory with one
@@ -509,15 +507,10 @@ def _require_finite(data: dict[str, Any]) -> None:
             numbers = _numbers_or_none(value)
             if numbers is None:
                 stack.extend((f"{name}[{index}]", item) for index, item in enumerate(value))
-            elif not (np.abs(numbers) <= MAX_MAGNITUDE).all():
-                first = np.argwhere(~(np.abs(numbers) <= MAX_MAGNITUDE))[0]
-                raise InputError(_implausible(numbers[tuple(first)]), field=name + "".join(f"[{index}]" for index in first))
-        elif isinstance(value, float) and not abs(value) <= MAX_MAGNITUDE:  # integers (seeds, counts) may be larger
-            raise InputError(_implausible(value), field=name)
-
-
-def _implausible(value: float) -> str:
-    return f"{value} is not a finite number" if not math.isfinite(value) else f"{value:g} is beyond {MAX_MAGNITUDE:g} in magnitude"
+            else:
+                require_within(numbers, MAX_MAGNITUDE, field=name)
+        elif isinstance(value, float):  # integers (seeds, counts) may be larger
+            require_within(value, MAX_MAGNITUDE, field=name)
 
 
 def _numbers_or_none(value: list) -> np.ndarray | None:
@@ -707,29 +700,30 @@ def merge_urdf(urdf: Path, attach: list[Path]) -> str:
         attach: URDF files whose links and joints join the robot (e.g. a finger on the flange).
 
     Raises:
-        ValueError: a file cannot be read or is not a ``<robot>`` document, naming it.
+        InputError: a file cannot be read, is not a regular file, is larger than
+            :data:`~slideplan._limits.MAX_ROBOT_FILE_BYTES` or is not a ``<robot>`` document, naming it
+            (and an attached one's field, ``robot.attach[i]``).
     """
-
-    def root(path: Path) -> ElementTree.Element:
-        try:
-            element = ElementTree.parse(path).getroot()
-        except (OSError, ElementTree.ParseError, UnicodeDecodeError) as error:
-            raise ValueError(f"{path}: cannot read URDF ({error})") from None
-        if element.tag != "robot":
-            raise ValueError(f"{path}: not a URDF (root element <{element.tag}>, expected <robot>)")
-        return element
-
     if not attach:
         try:
-            return urdf.read_text()
-        except OSError as error:
-            raise ValueError(f"{urdf}: cannot open URDF file ({error.strerror})") from None
+            return read_regular_file(urdf, MAX_ROBOT_FILE_BYTES, "the URDF").decode()
         except UnicodeDecodeError as error:
-            raise ValueError(f"{urdf}: not UTF-8 text ({error})") from None
-    robot = root(urdf)
-    for path in attach:
-        robot.extend(list(root(path)))
+            raise InputError(f"not UTF-8 text ({error})", source=str(urdf)) from None
+    robot = _urdf_root(urdf)
+    for index, path in enumerate(attach):
+        robot.extend(list(_urdf_root(path, f"robot.attach[{index}]")))
     return ElementTree.tostring(robot, encoding="unicode")
+
+
+def _urdf_root(path: Path, field: str = "") -> ElementTree.Element:
+    """The ``<robot>`` element of a URDF file (see :func:`merge_urdf`)."""
+    try:
+        element = ElementTree.fromstring(read_regular_file(path, MAX_ROBOT_FILE_BYTES, "the URDF", field))
+    except ElementTree.ParseError as error:
+        raise InputError(f"not a URDF ({error})", source=str(path), field=field) from None
+    if element.tag != "robot":
+        raise InputError(f"not a URDF (root element <{element.tag}>, expected <robot>)", source=str(path), field=field)
+    return element
 
 
 def search_dirs(description: dict[str, Any]) -> list[str]:
@@ -757,9 +751,10 @@ def build_robot(description: dict[str, Any]):
 
     urdf = Path(description["urdf"])
     attach = [Path(path) for path in description["attach"]]
+    text = merge_urdf(urdf, attach)
     try:
         robot = _core.RobotModel.from_string(
-            merge_urdf(urdf, attach),
+            text,
             source=str(urdf),
             directory=str(urdf.parent),
             tip_link=description["tip_link"],
@@ -789,7 +784,7 @@ def _blame_fragment(message: str, urdf: Path, attach: list[Path]) -> str:
     named = set(re.findall(r"\[([^\]]+)\]|'([^']+)'", message))
     named = {name for pair in named for name in pair if name}
     for path in attach:
-        elements = ElementTree.parse(path).getroot()
+        elements = _urdf_root(path)  # read by merge_urdf already
         if named & {element.get("name") for element in elements if element.tag in ("link", "joint")}:
             return message.replace(f"{urdf}:", f"{path} (attached to {urdf.name}):", 1)
     return message

@@ -283,8 +283,8 @@ class PlanView:
             # The planner's resolver: package:// through the plan's package_dirs, else next to the URDF.
             return _core.resolve_uri(fname, str(path.parent), package_dirs)
 
+        xml = merge_urdf(path, [Path(fragment) for fragment in result.robot["attach"]])  # names the file that fails
         try:
-            xml = merge_urdf(path, [Path(fragment) for fragment in result.robot["attach"]])
             urdf = yourdfpy.URDF.load(
                 io.StringIO(xml), build_scene_graph=True, build_collision_scene_graph=True, load_meshes=True,
                 load_collision_meshes=True, filename_handler=mesh_file,

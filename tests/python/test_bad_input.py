@@ -1,0 +1,124 @@
+"""Bad plan and scene files met with one clear line naming the file and field: never a traceback, a hang
+or unbounded memory (issue 56)."""
+
+import json
+import os
+import re
+import resource
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from slideplan._limits import MAX_MAGNITUDE, MAX_PLAN_BYTES, MAX_ROBOT_FILE_BYTES, MAX_SCENE_MAGNITUDE, MAX_WAYPOINTS
+from slideplan.cli import app
+from slideplan.errors import InputError
+from slideplan.planning import PlanResult
+
+def assert_one_line(exit_code, stderr, *fragments):
+    lines = stderr.strip().splitlines()
+    assert exit_code == 2 and len(lines) == 1 and lines[0].startswith("slideplan: error: "), (exit_code, stderr)
+    for fragment in fragments:
+        assert fragment in lines[0], (fragment, lines[0])
+
+
+def cli(*args):
+    result = CliRunner().invoke(app, [str(arg) for arg in args])
+    assert "Traceback" not in result.output + result.stderr, result.output + result.stderr
+    return result
+
+
+def plan_file(planned, tmp_path, **changes):
+    data = planned.to_dict()
+    data["robot"].update(changes.pop("robot", {}))
+    data.update(changes)
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def export_in_a_process(plan, tmp_path):
+    """``slideplan export`` in a process of its own, bounded in time and memory: a reader that regresses
+    fails this test instead of hanging it or filling the machine's memory."""
+    def limit_memory():
+        resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+
+    command = [sys.executable, "-c", "from slideplan.cli import app; app(prog_name='slideplan')",
+               "export", str(plan), "--format", "csv", "--out", str(tmp_path / "out.csv")]
+    try:
+        return subprocess.run(command, capture_output=True, text=True, timeout=60, preexec_fn=limit_memory)
+    except subprocess.TimeoutExpired:
+        pytest.fail("the plan reader hung")
+
+
+@pytest.mark.parametrize("key", ["urdf", "attach", "device"])
+def test_a_robot_file_that_is_a_fifo_or_a_device_is_refused_not_read(planned, tmp_path, key):
+    # Once: a FIFO hung every reader forever, /dev/zero read until memory ran out.
+    if key == "device":
+        named, robot = "/dev/zero", {"urdf": "/dev/zero"}
+    else:
+        named = str(tmp_path / "robot.urdf")
+        os.mkfifo(named)
+        robot = {"urdf": named} if key == "urdf" else {"attach": [named]}
+    done = export_in_a_process(plan_file(planned, tmp_path, robot=robot), tmp_path)
+    assert_one_line(done.returncode, done.stderr, named, "not a regular file")
+
+
+def test_an_unparsable_attached_file_names_the_field_and_the_file(planned, tmp_path):
+    # Once: a ParseError traceback.
+    fragment = tmp_path / "finger.urdf"
+    fragment.write_text('<robot name="finger"><link name=')
+    plan = plan_file(planned, tmp_path, robot={"attach": [str(fragment)]})
+    with pytest.raises(InputError, match=re.escape(f"{fragment}: robot.attach[0]: not a URDF")):
+        PlanResult.load(plan).robot_model()
+    done = cli("export", plan, "--format", "csv", "--out", tmp_path / "out.csv")
+    assert_one_line(done.exit_code, done.stderr, str(fragment), "robot.attach[0]", "not a URDF")
+
+
+def test_an_integer_too_long_to_convert_names_its_field(planned, tmp_path):
+    # Once: Python's ValueError "Exceeds the limit (4300 digits) for integer string conversion".
+    plan = plan_file(planned, tmp_path, seed=123454321)
+    plan.write_text(plan.read_text().replace('"seed": 123454321', '"seed": ' + "9" * 5000))
+    with pytest.raises(InputError, match="not a finite number") as error:
+        PlanResult.load(plan)
+    assert (error.value.source, error.value.field) == (str(plan), "seed")
+    done = cli("export", plan, "--format", "csv", "--out", tmp_path / "out.csv")
+    assert_one_line(done.exit_code, done.stderr, str(plan), "seed")
+
+
+@pytest.mark.parametrize("path", [("trajectory", "fingertip_poses"), ("grasp.approach",)])
+def test_a_path_beyond_the_waypoint_limit_is_refused_naming_the_limit(planned, path):
+    # Once: 10^6 waypoints took 55 s and 1.5 GB, 10^7 exhausted memory.
+    data = planned.to_dict()
+    data["schema"] = "slideplan.plan/1"  # untimed: only the paths need the rows
+    del data["timing"]
+    for name in path:
+        block, key = (data["grasp"], "approach") if name == "grasp.approach" else (data, name)
+        block[key] = block[key][:1] * (MAX_WAYPOINTS + 1)
+    with pytest.raises(InputError, match=f"more than the limit of {MAX_WAYPOINTS:,}") as error:
+        PlanResult.from_dict(data)
+    assert error.value.field == path[0]
+    for name in path:  # at the limit, it is a plan
+        block, key = (data["grasp"], "approach") if name == "grasp.approach" else (data, name)
+        del block[key][MAX_WAYPOINTS:]
+    assert len(PlanResult.from_dict(data).trajectory) in (MAX_WAYPOINTS, len(planned.trajectory))
+
+
+def test_a_plan_file_beyond_the_size_limit_is_refused_before_it_is_parsed(tmp_path):
+    path = tmp_path / "huge.json"
+    with open(path, "wb") as stream:
+        stream.truncate(MAX_PLAN_BYTES + 1)  # sparse: takes no disk and no time
+    with pytest.raises(InputError, match=f"more than the limit of {MAX_PLAN_BYTES >> 20} MB") as error:
+        PlanResult.load(path)
+    assert error.value.source == str(path)
+
+
+def test_the_readme_states_the_limits_the_readers_apply():
+    readme = " ".join((Path(__file__).resolve().parents[2] / "README.md").read_text().split())
+    power = lambda value: f"{value:.0e}".replace("e+0", "e")  # 1e9
+    for stated in (f"plan file over {MAX_PLAN_BYTES >> 20} MB", f"of over {MAX_WAYPOINTS:,} waypoints",
+                   f"beyond {power(MAX_MAGNITUDE)} in magnitude", f"is over {MAX_ROBOT_FILE_BYTES >> 20} MB",
+                   f"no length or angle beyond {power(MAX_SCENE_MAGNITUDE)}"):
+        assert stated in readme, stated
