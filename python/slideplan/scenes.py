@@ -14,6 +14,7 @@ import shapely
 import shapely.geometry
 
 from ._fields import Fields, read_toml
+from ._limits import MAX_SCENE_MAGNITUDE
 from .errors import InputError, require_type
 from .geometry import SupportSurface
 from .parameters import BY_NAME as PARAMETERS_BY_NAME
@@ -245,7 +246,7 @@ def _resolve_robot_file(text: str, *, source: str, field: str, scene_dir: Path, 
         try:
             return Path(_core.resolve_uri(text, str(scene_dir), [str(path) for path in package_dirs])).absolute()
         except ValueError as error:
-            raise InputError(str(error), source=source, field=field) from None
+            raise InputError(_missing_in_package(text, package_dirs) or str(error), source=source, field=field) from None
     urdf = Path(text)
     candidates = [urdf] if urdf.is_absolute() else [scene_dir / urdf, data_dir() / "robots" / urdf]
     for candidate in candidates:
@@ -254,6 +255,17 @@ def _resolve_robot_file(text: str, *, source: str, field: str, scene_dir: Path, 
     raise InputError(
         f"file not found (looked for {', '.join(str(candidate) for candidate in candidates)})", source=source, field=field
     )
+
+
+def _missing_in_package(uri: str, package_dirs: tuple[Path, ...]) -> str | None:
+    """For a ``package://NAME/REL`` that does not resolve, where NAME is though REL is not in it (a mistyped
+    file, not a missing package), or None if no search directory has NAME."""
+    name, _, inside = uri.removeprefix("package://").partition("/")
+    for directory in package_dirs:
+        for package in (directory / name, directory):  # as the resolver looks: share/NAME, or NAME itself
+            if package.name == name and package.is_dir():
+                return f"{uri}: package '{name}' is at {package}, but it has no file {inside}"
+    return None
 
 
 def _read_obstacle(obstacle: Fields, table: SupportSurface, scene_dir: Path) -> Obstacle:
@@ -301,7 +313,7 @@ def _read_fixed_joints(robot: Fields) -> dict[str, float]:
     joints = robot.raw("fixed_joints", {})
     if not isinstance(joints, dict):
         raise InputError(f"expected a table of joint = value, got {joints!r}", source=robot.source, field=robot.field("fixed_joints"))
-    values = Fields(joints, source=robot.source, prefix=robot.field("fixed_joints"), allowed=set(joints))
+    values = Fields(joints, source=robot.source, prefix=robot.field("fixed_joints"), allowed=set(joints), bound=robot.bound)
     return {name: values.number(name) for name in joints}
 
 
@@ -320,7 +332,7 @@ def _read_gripper_joints(hand: Fields, robot: Fields) -> dict[str, tuple[float, 
     if not isinstance(joints, dict):
         raise InputError(f"expected a table of joint = [open, closed], got {joints!r}", source=hand.source,
                          field=hand.field("gripper_joints"))
-    values = Fields(joints, source=hand.source, prefix=hand.field("gripper_joints"), allowed=set(joints))
+    values = Fields(joints, source=hand.source, prefix=hand.field("gripper_joints"), allowed=set(joints), bound=hand.bound)
     read = {}
     for name in joints:
         opened, closed = values.numbers(name, 2)
@@ -381,15 +393,16 @@ def _robot_and_hand(fields: Fields) -> tuple[Fields, Fields]:
         robot = {**defaults["robot"], **robot}
         hand = {**defaults["hand"], **hand}
     return (
-        Fields(robot, source=fields.source, prefix="robot", allowed=ROBOT_KEYS),
-        Fields(hand, source=fields.source, prefix="hand", allowed=HAND_KEYS),
+        Fields(robot, source=fields.source, prefix="robot", allowed=ROBOT_KEYS, bound=fields.bound),
+        Fields(hand, source=fields.source, prefix="hand", allowed=HAND_KEYS, bound=fields.bound),
     )
 
 
 def load_scene(name_or_path: str | Path) -> Scene:
     """Read a scene file.
 
-    Format (TOML, metres and radians)::
+    Format (TOML, metres and radians, none beyond :data:`~slideplan._limits.MAX_SCENE_MAGNITUDE` in
+    magnitude)::
 
         [table]
         polygon = [[x, y], ...]          # or: circle = { center = [x, y], radius = r, points = 100 }
@@ -428,7 +441,8 @@ def load_scene(name_or_path: str | Path) -> Scene:
     """
     require_type(name_or_path, (str, os.PathLike), "name_or_path", "a scene name or a file path")
     path = find_data_file(name_or_path, "scenes")
-    fields = Fields(read_toml(path), source=str(path), allowed={"table", "robot", "hand", "obstacles"})
+    # Every length and angle within MAX_SCENE_MAGNITUDE: a robot's workspace, not 1e308.
+    fields = Fields(read_toml(path), source=str(path), allowed={"table", "robot", "hand", "obstacles"}, bound=MAX_SCENE_MAGNITUDE)
     table = _read_table(fields)
     robot, hand = _robot_and_hand(fields)
     obstacles = fields.array_of_tables(

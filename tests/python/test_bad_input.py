@@ -16,6 +16,11 @@ from slideplan._limits import MAX_MAGNITUDE, MAX_PLAN_BYTES, MAX_ROBOT_FILE_BYTE
 from slideplan.cli import app
 from slideplan.errors import InputError
 from slideplan.planning import PlanResult
+from slideplan.scenes import load_scene
+
+TABLE = "[table]\npolygon = [[0.4, -0.3], [0.8, -0.3], [0.8, 0.3], [0.4, 0.3]]\n"
+HAND = '[hand]\ntip_link = "tip"\ngrasp_link = "tip"\ncontact_links = ["tip"]\n'
+
 
 def assert_one_line(exit_code, stderr, *fragments):
     lines = stderr.strip().splitlines()
@@ -113,6 +118,43 @@ def test_a_plan_file_beyond_the_size_limit_is_refused_before_it_is_parsed(tmp_pa
     with pytest.raises(InputError, match=f"more than the limit of {MAX_PLAN_BYTES >> 20} MB") as error:
         PlanResult.load(path)
     assert error.value.source == str(path)
+
+
+def test_a_missing_file_in_a_found_package_is_not_called_a_missing_package(tmp_path):
+    # Once: "cannot resolve package 'example-robot-data' (add its parent directory ...)" for a mistyped file.
+    package = tmp_path / "share" / "my_robot"
+    (package / "urdf").mkdir(parents=True)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(TABLE + '[robot]\nurdf = "package://my_robot/urdf/ur11.urdf"\npackage_dirs = ["share"]\n' + HAND)
+    with pytest.raises(InputError) as error:
+        load_scene(scene)
+    assert (error.value.source, error.value.field) == (str(scene), "robot.urdf")
+    assert f"package 'my_robot' is at {package}, but it has no file urdf/ur11.urdf" in error.value.problem
+    assert "package_dirs" not in error.value.problem
+    scene.write_text(TABLE + '[robot]\nurdf = "package://no_such_robot/urdf/ur11.urdf"\npackage_dirs = ["share"]\n' + HAND)
+    with pytest.raises(InputError, match="cannot resolve package 'no_such_robot' .*package_dirs"):
+        load_scene(scene)
+
+
+HUGE = "1e308"
+
+
+@pytest.mark.parametrize("text, field", [
+    (TABLE.replace("[0.4, -0.3]", f"[{HUGE}, -0.3]"), "table.polygon[0]"),
+    ("[table]\ncircle = { center = [0.6, 0.0], radius = 2e3 }\n", "table.circle.radius"),
+    (TABLE + f"[[obstacles]]\ncenter = [0.6, 0.0, 0.05]\nsize = [0.1, 0.1, {HUGE}]\n", "obstacles[0].size"),
+    (TABLE + "[[obstacles]]\ncenter = [0.6, -1e4, 0.05]\nsize = [0.1, 0.1, 0.1]\n", "obstacles[0].center"),
+    (TABLE + "[robot]\nbase_pose = [0.0, 0.0, 1e4, 0.0, 0.0, 0.0]\n", "robot.base_pose"),
+])
+def test_a_scene_number_beyond_the_bound_names_the_file_and_field(tmp_path, text, field):
+    # Once: MuJoCo's "XML Error: number is too large in attribute 'vertex'" from run, a time-out from plan.
+    scene = tmp_path / "scene.toml"
+    scene.write_text(text)
+    with pytest.raises(InputError, match=f"beyond {MAX_SCENE_MAGNITUDE:g} in magnitude") as error:
+        load_scene(scene)
+    assert (error.value.source, error.value.field) == (str(scene), field)
+    done = cli("plan", "--scene", scene, "--object", "crescent", "--time-limit", "2")
+    assert_one_line(done.exit_code, done.stderr, str(scene), field)
 
 
 def test_the_readme_states_the_limits_the_readers_apply():
