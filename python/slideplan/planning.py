@@ -348,7 +348,9 @@ class PlanResult:
             The plan, with numpy arrays where :meth:`to_dict` had lists.
 
         Raises:
-            InputError: wrong schema, unknown status, or missing, unknown or misshapen fields.
+            InputError: wrong schema, unknown status, missing, unknown or misshapen fields, a path of
+                over :data:`~slideplan._limits.MAX_WAYPOINTS` waypoints, or a number that is NaN,
+                infinite or beyond :data:`~slideplan._limits.MAX_MAGNITUDE`.
         """
         if not isinstance(data, dict) or data.get("schema") not in READABLE_SCHEMAS:
             found = data.get("schema") if isinstance(data, dict) else type(data).__name__
@@ -414,8 +416,8 @@ class PlanResult:
         the one reader of saved plans; what it returns goes wherever :func:`plan`'s result goes.
 
         Raises:
-            InputError: naming the file (and the field): unreadable, not JSON, another schema, a
-                malformed plan, or a number that is NaN or infinite.
+            InputError: naming the file (and the field): unreadable, not a regular file, over
+                :data:`~slideplan._limits.MAX_PLAN_BYTES`, not JSON, or not a plan (:meth:`from_dict`).
         """
         require_type(path, (str, os.PathLike), "path", "a plan file's path")
         data = read_regular_file(path, MAX_PLAN_BYTES, "the plan")
