@@ -90,39 +90,20 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
     offset = base_pose_matrix(hand.grasp_offset)
     mapped = grasp_map(scene, obj, config)
     params = config.to_params()
-    graspable_edges, edges, stretches = 0, [], []  # one line per edge, in order
+    graspable_edges, verdicts_by_edge, stretches = 0, [], []
     for edge in range(len(scene.table.vertices)):
-        start, end = scene.table.vertices[edge], scene.table.vertices[(edge + 1) % len(scene.table.vertices)]
         cells = mapped.stretch_count(edge)
         grasps = [mapped.grasp_on(edge, cell) for cell in range(cells)]
-        reached = [grasp for grasp in grasps if grasp is not None]
         verdicts = [None if grasp is None else
                     _approach_problem(robot, world, grasp, config.grasp_backoff, hand.grasp_link, offset, params)
                     for grasp in grasps]
         stretches += [(*np.asarray(mapped.stretch_grasp(edge, cell))[:2, 3],
                        "none" if verdict is None else "clear" if verdict == "" else "blocked")
                       for cell, verdict in enumerate(verdicts)]
-        name = f"edge {edge} ({start[0]:.2f}, {start[1]:.2f})-({end[0]:.2f}, {end[1]:.2f})"
-        if not reached:
-            edges.append(f"{name}: no side grasp on any of its {cells} stretches; at its middle: "
-                            + _why_no_grasp(robot, world, mapped, edge, cells // 2, hand.grasp_link, offset, params))
-            continue
-        problems = Counter(verdict for verdict in verdicts if verdict is not None)
-        clear = problems.pop("", 0)
-        line = f"{name}: side grasps on {len(reached)} of {cells} stretches, grasp and pre-grasp clear at {clear} of them"
-        if clear:
-            graspable_edges += 1
-            edges.append(line)
-            continue
-        problem, count = problems.most_common(1)[0]
-        if problem.startswith("grasp"):
-            edges.append(f"{line}: the {problem} at {count}: a larger grasp_standoff moves the hand out past the "
-                         "edge (or grasp_offset puts the grasp frame inside the hand)")
-            continue
-        shorter = next((backoff for backoff in BACKOFFS if backoff < config.grasp_backoff and any(
-            _approach_problem(robot, world, grasp, backoff, hand.grasp_link, offset, params) == "" for grasp in reached)), None)
-        hint = f"; at {shorter:g} some are clear: try grasp_backoff <= {shorter:g}" if shorter else ""
-        edges.append(f"{line}: grasp_backoff {config.grasp_backoff:g} leaves the {problem} at {count}{hint}")
+        verdict = _edge_verdict(robot, world, mapped, edge, grasps, verdicts, config, hand.grasp_link, offset, params)
+        graspable_edges += verdict.key == ("clear",)
+        verdicts_by_edge.append(verdict)
+    edges = [_run_line(scene.table.vertices, run) for run in _runs(verdicts_by_edge)]  # a round table has 100 edges
     maps = {"reach_points": points, "reached": reached_points, "stretches": stretches}
     if graspable_edges:
         return SceneCheck(findings + notes + edges, reach >= MIN_REACH, **maps)
@@ -191,3 +172,79 @@ def _approach_problem(robot, world, grasp: np.ndarray, backoff: float, grasp_lin
         return "pre-grasp unreachable"
     pairs = world.collisions(joints, _core.ContactMode.FREE)
     return f"pre-grasp in collision ({pairs[0][0]}-{pairs[0][1]})" if pairs else ""
+
+
+@dataclasses.dataclass(frozen=True)
+class _EdgeVerdict:
+    """What one table edge admits. ``key`` is what consecutive edges must share to be reported as one range:
+    the kind of verdict and, where there is one, the problem and the advice."""
+
+    edge: int
+    key: tuple
+    cells: int
+    reached: int
+    clear: int
+    blocked: int
+    why: str = ""  # for an edge with no grasp: why, at its middle
+
+
+def _edge_verdict(robot, world, mapped, edge: int, grasps, verdicts, config, grasp_link: str, offset, params) -> _EdgeVerdict:
+    """One edge's verdict: no side grasp (and why, at its middle), some clear, or all blocked (by what)."""
+    cells, reached = len(grasps), [grasp for grasp in grasps if grasp is not None]
+    if not reached:
+        why = _why_no_grasp(robot, world, mapped, edge, cells // 2, grasp_link, offset, params)
+        return _EdgeVerdict(edge, ("none", why), cells, 0, 0, 0, why)
+    problems = Counter(verdict for verdict in verdicts if verdict is not None)
+    clear = problems.pop("", 0)
+    if clear:
+        return _EdgeVerdict(edge, ("clear",), cells, len(reached), clear, 0)
+    problem, count = problems.most_common(1)[0]
+    if problem.startswith("grasp"):
+        return _EdgeVerdict(edge, ("grasp", problem, _grasp_advice(robot, problem)), cells, len(reached), 0, count)
+    shorter = next((backoff for backoff in BACKOFFS if backoff < config.grasp_backoff and any(
+        _approach_problem(robot, world, grasp, backoff, grasp_link, offset, params) == "" for grasp in reached)), None)
+    hint = f"; at {shorter:g} some are clear: try grasp_backoff <= {shorter:g}" if shorter else ""
+    return _EdgeVerdict(edge, ("backoff", problem, f"grasp_backoff {config.grasp_backoff:g} leaves the {problem}", hint),
+                        cells, len(reached), 0, count)
+
+
+def _grasp_advice(robot, problem: str) -> str:
+    """Advice that fits the colliding pair of a grasp: the hand against the table or an obstacle moves out with
+    grasp_standoff; the arm against itself cannot, its mount or the table must move."""
+    pair = problem[problem.find("(") + 1:problem.rfind(")")].split("-")
+    links = set(robot.link_names)
+    if len(pair) == 2 and all(name in links for name in pair):
+        return ("the arm meets itself there: the grasp lies at the edge of its workspace from this mount; move the mount "
+                "([robot] base_pose) or the table")
+    return "a larger grasp_standoff moves the hand out past the edge (or grasp_offset puts the grasp frame inside the hand)"
+
+
+def _runs(verdicts: list[_EdgeVerdict]) -> list[list[_EdgeVerdict]]:
+    """Consecutive edges with the same verdict key, in order."""
+    runs: list[list[_EdgeVerdict]] = []
+    for verdict in verdicts:
+        if runs and runs[-1][-1].key == verdict.key:
+            runs[-1].append(verdict)
+        else:
+            runs.append([verdict])
+    return runs
+
+
+def _run_line(vertices, run: list[_EdgeVerdict]) -> str:
+    """One line for a range of edges with one verdict, their counts summed."""
+    first, last = run[0].edge, run[-1].edge
+    start, end = vertices[first], vertices[(last + 1) % len(vertices)]
+    where = f"({start[0]:.2f}, {start[1]:.2f})-({end[0]:.2f}, {end[1]:.2f})"
+    name = f"edge {first} {where}" if first == last else f"edges {first}-{last} {where}"
+    cells, reached = sum(v.cells for v in run), sum(v.reached for v in run)
+    kind = run[0].key[0]
+    if kind == "none":
+        middle = "at its middle" if first == last else "at the middle of each"
+        return f"{name}: no side grasp on any of {'its' if first == last else 'their'} {cells} stretches; {middle}: {run[0].why}"
+    line = f"{name}: side grasps on {reached} of {cells} stretches, grasp and pre-grasp clear at {sum(v.clear for v in run)} of them"
+    if kind == "clear":
+        return line
+    blocked = sum(v.blocked for v in run)
+    if kind == "grasp":
+        return f"{line}: the {run[0].key[1]} at {blocked}: {run[0].key[2]}"
+    return f"{line}: {run[0].key[2]} at {blocked}{run[0].key[3]}"

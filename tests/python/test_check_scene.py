@@ -104,3 +104,25 @@ def test_the_map_matches_the_report_and_is_drawn(tmp_path):
     assert code == 0 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     code, lines = check("square", "--png", tmp_path / "map.bmp")
     assert code == 2 and "--png" in lines[0]
+
+
+def test_a_round_table_is_summarised_by_ranges_of_edges_covering_each_edge_once():
+    import re
+
+    _, lines = check("round")
+    edges = [line for line in lines if line.startswith("edge")]
+    assert 0 < len(edges) < 30, len(edges)  # the round table has 100 edges: once 100 lines
+    covered = []
+    for line in edges:
+        first, last = re.match(r"edges? (\d+)(?:-(\d+))?", line).groups()
+        covered += list(range(int(first), int(last or first) + 1))
+    assert covered == list(range(100))
+
+
+def test_a_grasp_blocked_by_the_arm_itself_is_not_told_to_change_the_standoff():
+    from slideplan.check_scene import _grasp_advice
+    from slideplan.planning import robot_model
+    robot = robot_model(load_scene("square"))
+    assert "grasp_standoff" not in _grasp_advice(robot, "grasp in collision (wam_link1-wam_link3)")
+    assert "base_pose" in _grasp_advice(robot, "grasp in collision (wam_link1-wam_link3)")
+    assert "grasp_standoff" in _grasp_advice(robot, "grasp in collision (t42_finger2_distal-table)")
