@@ -17,6 +17,7 @@ import contextlib
 import dataclasses
 import difflib
 import ipaddress
+import math
 import os
 import socket
 import sys
@@ -833,6 +834,31 @@ def ros_serve_command(
     if camera_pose is not None:
         parameters["camera_pose"] = [float(value) for value in camera_pose]
     serve.serve(scene, parameters, ros_args=ros_args, log=typer.echo)
+
+
+@ros_app.command("call", context_settings=_ROS_ARGS)
+def ros_call_command(
+    context: typer.Context,
+    service: str = typer.Argument(..., help="plan, execute, or a Trigger service's full name (/slideplan/plan)."),
+    timeout: float = typer.Option(600.0, "--timeout", help="Seconds to wait for the answer once called (execute runs a whole task)."),
+    wait: float = typer.Option(30.0, "--wait", help="Seconds to wait for the service to appear."),
+) -> None:
+    """Call the planning node's /slideplan/plan or /slideplan/execute (std_srvs/Trigger) and print its answer:
+    what ROS 2's `ros2 service call` would do, without ROS 2's command line tools. Exit codes: 0 the service
+    answered success, 1 it answered failure, 2 bad input or no answer."""
+    ros_args = _ros_args(context)
+    call = _ros_import("call")
+    name = f"/slideplan/{service}" if service in ("plan", "execute") else service
+    try:
+        for value, option in ((timeout, "--timeout"), (wait, "--wait")):
+            if not (math.isfinite(value) and value > 0):
+                raise InputError(f"must be a finite number > 0, got {value}", field=option)
+        success, message = call.call_trigger(name, wait_s=wait, answer_s=timeout, ros_args=ros_args[1:])
+    except InputError as error:
+        raise _fail(InputError(error.problem, field={"timeout": "--timeout", "service": "SERVICE"}.get(error.field, error.field))) from None
+    typer.echo(f"{name}: {'success' if success else 'failure'}: {message}")
+    if not success:
+        raise typer.Exit(EXIT_NOT_SOLVED)
 
 
 @ros_app.command("sim", context_settings=_ROS_ARGS)

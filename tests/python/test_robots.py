@@ -129,8 +129,8 @@ def test_a_hand_mesh_checked_as_its_triangles_is_named_in_a_warning(tmp_path):
                                       "--time-limit", "0.2"])
     warning = [line for line in result.stderr.splitlines() if line.startswith("slideplan: warning:")]
     assert len(warning) == 1, result.stderr
-    assert "link 'block' mesh jaws.obj" in warning[0] and "2.00 x its volume" in warning[0]
-    assert "checked as its triangles" in warning[0]
+    assert "'block' (jaws.obj: hull 2.00 x its volume)" in warning[0]
+    assert "1 hand mesh(es) checked as their triangles" in warning[0]
 
 
 def test_package_uris_resolve_in_a_parent_or_the_package_directory(tmp_path):

@@ -345,3 +345,37 @@ def test_the_lift_check_finds_the_object_left_on_the_table_away_from_where_it_wa
     held = Execution(_StillNode(sim.optical_points(sim.depth()), camera_pose_of(sim.camera)), task)
     sim.close()
     assert held.check_lifted(grasped_at) is True
+
+
+def test_ros_call_prints_a_trigger_services_answer_and_exits_by_it():
+    # The ros extra has no `ros2` command: `slideplan ros call` is the documented way to call the node.
+    domain = next(_DOMAINS)
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain)
+    node = rclpy.create_node("slideplan_test_trigger", context=context)
+
+    def answer(success: bool):
+        def callback(request, response):
+            response.success, response.message = success, "planned" if success else "no object seen"
+            return response
+        return callback
+
+    node.create_service(Trigger, "/test/ok", answer(True))
+    node.create_service(Trigger, "/test/refused", answer(False))
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    thread.start()
+    try:
+        command = [sys.executable, "-m", "slideplan.cli", "ros", "call"]
+        ok = subprocess.run([*command, "/test/ok"], env=_environment(domain), capture_output=True, text=True, timeout=120)
+        assert (ok.returncode, ok.stdout.strip()) == (0, "/test/ok: success: planned"), ok.stderr
+        refused = subprocess.run([*command, "/test/refused"], env=_environment(domain), capture_output=True, text=True, timeout=120)
+        assert (refused.returncode, refused.stdout.strip()) == (1, "/test/refused: failure: no object seen"), refused.stderr
+        missing = subprocess.run([*command, "/test/none", "--wait", "1"], env=_environment(domain), capture_output=True,
+                                 text=True, timeout=120)
+        assert missing.returncode == 2 and "did not appear within 1 s" in missing.stderr, missing.stderr
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.shutdown(context=context)
