@@ -6,6 +6,8 @@ LocalCluster and must give the same rows (planning is seeded and deterministic).
 """
 
 import subprocess
+import time
+from pathlib import Path
 import sys
 
 import numpy as np
@@ -284,3 +286,62 @@ def test_a_small_experiments_intervals_are_dotted_lines_not_shades(runs, fills, 
     axes = Figure().add_subplot()
     draw_interval(axes, curve, "tab:blue", runs)
     assert (len(axes.collections), len([line for line in axes.lines if line.get_linestyle() == ":"])) == (fills, dotted)
+
+
+DRIVER = """
+import sys, time
+from slideplan.experiments import LocalPoolExecutor
+for _ in LocalPoolExecutor(workers=2).imap_unordered(time.sleep, [600, 600]):
+    pass
+"""
+
+
+def _children(pid: int) -> set[int]:
+    children = set()
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            children.add(int(stat.parent.name))
+    return children
+
+
+def test_workers_exit_when_the_driver_is_killed():
+    import contextlib
+    import os
+    import signal
+
+    driver = subprocess.Popen([sys.executable, "-c", DRIVER])
+    try:
+        workers = set()
+        for _ in range(300):  # the pool's processes appear (spawned: they import slideplan first)
+            workers = _children(driver.pid)
+            if len(workers) >= 2:
+                break
+            time.sleep(0.2)
+        assert len(workers) >= 2, workers
+        time.sleep(2.0)  # the workers are inside their 600 s tasks
+        driver.send_signal(signal.SIGKILL)
+        driver.wait(timeout=10)
+        alive = workers
+        for _ in range(150):  # bounded by polls: a worker looks for its parent every second
+            alive = {pid for pid in alive if _running(pid)}
+            if not alive:
+                break
+            time.sleep(0.2)
+        assert not alive, f"orphaned workers still running: {alive}"
+    finally:
+        driver.kill()
+        for pid in workers:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False

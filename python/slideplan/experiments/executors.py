@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import threading
+import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from typing import Any, Protocol
@@ -67,7 +69,8 @@ class LocalPoolExecutor:
         pool = (
             ThreadPoolExecutor(max_workers=self.workers)
             if self.threads
-            else ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
+            else ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+                                     initializer=exit_with_parent, initargs=(os.getpid(),))
         )
         try:
             futures = {pool.submit(function, task): task for task in tasks}
@@ -114,6 +117,22 @@ class DaskExecutor:
                 yield futures[future], _outcome(future)
         finally:
             client.close()
+
+
+def exit_with_parent(parent: int, period_s: float = 1.0) -> None:
+    """In a worker process: exit as soon as ``parent`` is no longer this process's parent (it died, even by
+    ``kill -9``, and the worker was handed to init). A killed driver must not leave its workers planning on.
+
+    Args:
+        parent: the process id of the driver that started the pool.
+        period_s: how often to look (s).
+    """
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(period_s)
+        os._exit(1)  # no clean-up: the driver that would collect the results is gone
+
+    threading.Thread(target=watch, name="slideplan-exit-with-parent", daemon=True).start()
 
 
 def _outcome(future) -> Any:
