@@ -651,6 +651,10 @@ def run_command(
     ),
     video: Optional[Path] = typer.Option(None, "--video", help="Render the run to this .mp4 or .gif (or .png: a strip of 6 frames)."),
     json_out: Optional[Path] = typer.Option(None, "--json", help="Write the run's report JSON here."),
+    camera: Optional[Tuple[float, float, float, float, float, float]] = typer.Option(
+        None, "--camera", help="X Y Z TX TY TZ: the depth camera at (X, Y, Z) looking at (TX, TY, TZ) (m); default: "
+        "0.6 m above the table, 0.45 m from its centroid towards (-x, -y), looking at the centroid."
+    ),
 ) -> None:
     """The whole task in MuJoCo from a depth camera's view: perceive, plan, slide (re-planning when the
     object drifts off the plan, with --closed-loop), grasp where the object is seen, lift and hold.
@@ -668,9 +672,10 @@ def run_command(
             outline, _, _ = load_outline(object_name)
             pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(seed))
         disturbance = None if disturb is None else Disturbance(*disturb)
+        view = _run_camera(scene, camera)
         with _progress_line(f"running ({'closed' if closed else 'open'} loop)") as progress:
             report = run(scene, object_name, pose, seed=seed, closed=closed, setting=setting, disturbance=disturbance,
-                         video=video, progress=progress)
+                         video=video, progress=progress, camera=view)
         if json_out is not None:
             _write_text(json_out, report.to_json(indent=1), "--json")
     except InputError as error:
@@ -678,7 +683,28 @@ def run_command(
     except (ImportError, OSError, ValueError) as error:
         raise _fail(error) from None
     typer.echo(report.summary())
+    if report.looks and report.lost_looks > LOST_LOOKS_SHARE * report.looks:
+        where = " ".join(f"{value:.2f}" for value in (*view.position, *view.target))
+        typer.echo(f"slideplan: the camera did not see the object in {report.lost_looks} of {report.looks} looks: the "
+                   "arm or hand hides it from there, so the loop slid blind and stopped to look from clear, which "
+                   f"is slow; try a camera that sees past the arm (now --camera {where})", err=True)
     raise typer.Exit(EXIT_SOLVED if report.success else EXIT_NOT_SOLVED)
+
+
+LOST_LOOKS_SHARE = 0.5  # beyond this share of looks without the object, the camera is the problem
+
+
+def _run_camera(scene, camera: tuple | None):
+    """``run``'s depth camera: the closed loop's default for the scene, or (X, Y, Z, TX, TY, TZ) as given."""
+    from .closed_loop import default_camera
+    from .rendering import Camera
+
+    if camera is None:
+        return default_camera(scene)
+    position, target = np.asarray(camera[:3], dtype=float), np.asarray(camera[3:], dtype=float)
+    if not (np.all(np.isfinite(camera)) and np.all(np.abs(camera) <= 1e3)) or np.linalg.norm(position - target) < 0.05:
+        raise InputError(f"expected a position and a distinct target (m, within 1e3), got {camera}", field="--camera")
+    return Camera(tuple(position), tuple(target))
 
 
 def _experiment_executor(workers: int | None, scheduler: str | None, threads: bool = False):

@@ -169,3 +169,24 @@ def test_ctrl_c_exits_130_with_one_line(monkeypatch):
     result = run("plan", "--scene", "square", "--object", "crescent")
     assert result.exit_code == 130, (result.exit_code, result.output, result.stderr)  # documented in README and cli.py
     assert "Traceback" not in result.output + result.stderr
+
+
+def test_a_run_whose_camera_lost_the_object_says_so_and_how_to_move_it(monkeypatch):
+    # On a new arm 58 of 70 looks lost the object and the console said only "ok ... 1 re-plans".
+    from types import SimpleNamespace
+
+    import slideplan.closed_loop
+
+    cameras = []
+
+    def fake_run(*args, camera=None, **kwargs):
+        cameras.append(camera)
+        return SimpleNamespace(summary=lambda: "ok (closed loop, nominal)", success=True, looks=70, lost_looks=58)
+
+    monkeypatch.setattr(slideplan.closed_loop, "run", fake_run)
+    result = run("run", "--pose", "0.55", "-0.08", "0.4", "--camera", "0.5", "0.3", "0.8", "0.6", "0", "0")
+    assert result.exit_code == 0, result.output + result.stderr
+    assert "did not see the object in 58 of 70 looks" in result.stderr
+    assert "--camera 0.50 0.30 0.80 0.60 0.00 0.00" in result.stderr
+    assert cameras[0].position == (0.5, 0.3, 0.8) and cameras[0].target == (0.6, 0.0, 0.0)
+    assert_bad_input(run("run", "--camera", "0.5", "0.3", "0.8", "0.5", "0.3", "0.8"), "--camera", "distinct target")
