@@ -340,4 +340,13 @@ def values() -> dict[str, str]:
     runs = rows("closed_loop.parquet", "runs")
     out["readme-closed-loop"] = closed_loop_file("cl-49efcf6", runs)["cl-49efcf6-rates"]
     out["readme-closed-loop-task-wall"] = closed_loop_file("cl-49efcf6", runs)["cl-49efcf6-task-wall"]
+    out["readme-closed-loop-lifted"] = closed_loop_lifted(runs)
     return out
+
+
+def closed_loop_lifted(runs: pd.DataFrame) -> str:
+    """Per setting, the share of runs whose object the simulator shows lifted, closed loop against open."""
+    lifted = runs.groupby(["setting", "mode"], sort=False)["lifted"].mean()
+    settings = list(dict.fromkeys(runs["setting"]))
+    return ("the closed loop lifted the object in " + ", ".join(f"{100 * lifted[(s, 'closed')]:.1f}% ({s})" for s in settings)
+            + " of runs, the open loop in " + ", ".join(f"{100 * lifted[(s, 'open')]:.1f}%" for s in settings))
