@@ -859,7 +859,10 @@ def ros_serve_command(
     parameters = {"target": target, "closed_loop": closed, "use_sim_time": sim_time}
     if camera_pose is not None:
         parameters["camera_pose"] = [float(value) for value in camera_pose]
-    serve.serve(scene, parameters, ros_args=ros_args, log=typer.echo)
+    try:
+        serve.serve(scene, parameters, ros_args=ros_args, log=typer.echo)
+    except InputError as error:
+        raise _fail(error) from None
 
 
 @ros_app.command("call", context_settings=_ROS_ARGS)
@@ -885,6 +888,35 @@ def ros_call_command(
     typer.echo(f"{name}: {'success' if success else 'failure'}: {message}")
     if not success:
         raise typer.Exit(EXIT_NOT_SOLVED)
+
+
+def _numbers(text: str, option: str, unit: str) -> list[float]:
+    """The comma-separated numbers of ``option`` (in ``unit``, for the message).
+
+    Raises:
+        InputError: one is not a number (field ``option``).
+    """
+    try:
+        return [float(value) for value in text.split(",")]
+    except ValueError:
+        raise InputError(f"expected comma-separated numbers ({unit}), got {text!r}", field=option) from None
+
+
+def _disturb_values(disturb: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+    """``--disturb DX DY DYAW T`` checked: a push within a metre and a turn, T in [0, 600] s (MuJoCo resets
+    an object moved beyond any table, and a NaN poisons the simulation).
+
+    Raises:
+        InputError: (``--disturb``) naming the value.
+    """
+    for name, value, bound, unit in zip(("DX", "DY", "DYAW"), disturb, (1.0, 1.0, 2 * math.pi), ("m", "m", "rad")):
+        if not math.isfinite(value):
+            raise InputError(f"{name} {value} is not a finite number", field="--disturb")
+        if abs(value) > bound:
+            raise InputError(f"{name} {value:g} is beyond {bound:g} {unit} in magnitude", field="--disturb")
+    if not 0.0 <= disturb[3] <= 600.0:
+        raise InputError(f"T must be in [0, 600] s, got {disturb[3]:g}", field="--disturb")
+    return disturb
 
 
 @ros_app.command("sim", context_settings=_ROS_ARGS)
@@ -915,8 +947,8 @@ def ros_sim_command(
             pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(seed))
         if not (np.isfinite(cloud_hz) and 0 < cloud_hz <= 60):
             raise InputError(f"expected a rate in (0, 60] Hz, got {cloud_hz}", field="--cloud-rate")
-        configuration = None if home is None else [float(value) for value in home.split(",")]
-        disturbance = None if disturb is None else Disturbance(*disturb)
+        configuration = None if home is None else _numbers(home, "--home", "rad")
+        disturbance = None if disturb is None else Disturbance(*_disturb_values(disturb))
         robot = sim.Sim(scene, object_name, pose, setting=setting, seed=seed, home=configuration, disturbance=disturbance)
     except InputError as error:
         raise _fail(InputError(error.problem, source=error.source, field=_OPTION_OF_FIELD.get(error.field, error.field))) from None

@@ -33,16 +33,23 @@ def cloud_points(message: PointCloud2) -> np.ndarray:
     """The xyz of a cloud as (height, width, 3) float64, NaN kept (an unorganized cloud is height 1).
 
     Raises:
-        InputError: no float32 x, y and z fields, or a data length that does not match the layout
-            (field ``/camera/points``).
+        InputError: no float32 x, y and z fields, a field beyond the point, rows shorter than their
+            points, or a data length that does not match the layout (field ``/camera/points``).
     """
     offsets = {field.name: field for field in message.fields}
     missing = [name for name in "xyz" if name not in offsets or offsets[name].datatype != _FLOAT32]
     if missing:
         raise InputError(f"expected float32 fields x, y, z; missing or not float32: {', '.join(missing)}",
                          field="/camera/points")
+    for name in "xyz":
+        if offsets[name].offset + 4 > message.point_step:
+            raise InputError(f"field {name} at offset {offsets[name].offset} does not fit in the point_step of "
+                             f"{message.point_step} bytes", field="/camera/points")
     count = message.height * message.width
-    if message.point_step < 12 or len(message.data) < (message.height - 1) * message.row_step + message.width * message.point_step:
+    if message.row_step < message.width * message.point_step:
+        raise InputError(f"row_step {message.row_step} is less than width {message.width} x point_step "
+                         f"{message.point_step}", field="/camera/points")
+    if len(message.data) < (message.height - 1) * message.row_step + message.width * message.point_step:
         raise InputError(f"{len(message.data)} bytes do not hold {message.height} x {message.width} points of "
                          f"{message.point_step} bytes", field="/camera/points")
     order = ">" if message.is_bigendian else "<"

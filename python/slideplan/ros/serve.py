@@ -15,6 +15,7 @@ the numbers, or the ``reason`` it failed.
 from __future__ import annotations
 
 import math
+import os
 import threading
 import time
 from dataclasses import dataclass, field
@@ -32,6 +33,7 @@ from ..planning import PlannerConfig, PlanResult, base_pose_matrix, plan, robot_
 from ..rendering import Camera
 from ..scenes import Scene
 from ..timing import time_path
+from .guards import Arrivals, Ignored, declare_checked, discovery_notice, joint_state
 
 # A trajectory has arrived when the arm is still (every joint slower than STILL_RAD_S) after its duration,
 # every joint within GOAL_TOLERANCE_RAD of its last point: a servo pressing the finger on the object holds
@@ -47,8 +49,11 @@ CLOCK_STALL_S = 5.0
 CLOUD_WAIT_S = 10.0  # wall time: a simulator may run well below real time while the finger slides
 MIN_CHECK_POINTS = 30  # cloud points over the object's footprint that can tell whether it is there
 LOOKAHEAD_S = 0.15  # a re-plan starts where the arm will be this much later (grown to 1.5 x the slowest re-plan)
+# The node's ROS parameters (docs/ros2.md). max_sensor_age: ten frames of the simulator's 5 Hz camera, so
+# a few lost clouds do not refuse a plan, while a camera or arm driver that died is noticed within 2 s.
 DEFAULTS = {"camera_pose": [0.0] * 6, "target": 0, "controller": "joint_trajectory_controller", "closed_loop": True,
-            "time_limit": 5.0, "seed": 0}  # the node's ROS parameters (docs/ros2.md)
+            "time_limit": 5.0, "seed": 0, "max_sensor_age": 2.0}
+SENSORS = {"/camera/points": "cloud", "/joint_states": "message"}  # what max_sensor_age applies to
 
 
 class Refused(Exception):
@@ -174,11 +179,15 @@ class PlanningNode:
 
     Args:
         scene: the robot's scene (URDF, mount, hand); the table and objects come from the clouds.
-        parameters: initial values of the ROS parameters (``camera_pose``, ``target``, ``controller``,
-            ``closed_loop``, ``time_limit``, ``seed``).
+        parameters: initial values of the ROS parameters (``DEFAULTS``'s names and ``use_sim_time``).
+        context: the rclpy context to make the node in (default: the global one).
+
+    Raises:
+        InputError: (``parameter NAME``) a parameter of the wrong type or a bad value
+            (:func:`slideplan.ros.guards.parameter_problem`).
     """
 
-    def __init__(self, scene: Scene, parameters: dict | None = None) -> None:
+    def __init__(self, scene: Scene, parameters: dict | None = None, context=None) -> None:
         from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
         from rclpy.node import Node
         from rclpy.parameter import Parameter
@@ -196,9 +205,14 @@ class PlanningNode:
         self.scene = scene
         self.robot_joints = list(robot_model(scene).joint_names)
         overrides = [Parameter(name, value=value) for name, value in (parameters or {}).items()]
-        self.node = node = Node("slideplan", parameter_overrides=overrides)
-        for name, value in DEFAULTS.items():
-            node.declare_parameter(name, value)
+        self.node = node = Node("slideplan", context=context, parameter_overrides=overrides)
+        try:
+            declare_checked(node, DEFAULTS)
+        except InputError:
+            node.destroy_node()
+            raise
+        self.ignored = Ignored(self.publish_status)
+        self.arrivals = Arrivals(self.now)
         self._lock = threading.Lock()
         self._cloud = None  # (stamp s, (h, w, 3) camera-frame points)
         self._joints = None  # (positions in robot_joints order, velocities)
@@ -228,25 +242,21 @@ class PlanningNode:
     def _on_cloud(self, message) -> None:
         from .messages import cloud_points
 
-        try:
+        with self.ignored.guarding("/camera/points"):
             points = cloud_points(message)
-        except InputError as error:
-            self.node.get_logger().error(f"cloud ignored: {error.problem}")
-            return
-        stamp = message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
-        with self._cloud_arrived:
-            self._cloud = (stamp if stamp > 0 else self.now(), points)
-            self._cloud_arrived.notify_all()
+            stamp = message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
+            with self._cloud_arrived:
+                self._cloud = (stamp if stamp > 0 else self.now(), points)
+                self.arrivals.mark("/camera/points")
+                self._cloud_arrived.notify_all()
 
     def _on_joints(self, message) -> None:
-        names = list(message.name)
-        if not all(name in names for name in self.robot_joints):
-            return  # another part of the robot (e.g. the gripper's own driver)
-        order = [names.index(name) for name in self.robot_joints]
-        positions = np.asarray(message.position, dtype=float)[order]
-        velocities = np.asarray(message.velocity, dtype=float)[order] if len(message.velocity) == len(names) else np.zeros(len(order))
-        with self._lock:
-            self._joints = (positions, velocities)
+        with self.ignored.guarding("/joint_states"):
+            state = joint_state(message, self.robot_joints)
+            if state is not None:
+                with self._lock:
+                    self._joints = state
+                    self.arrivals.mark("/joint_states")
 
     def joints(self) -> tuple[np.ndarray, np.ndarray] | None:
         with self._lock:
@@ -282,10 +292,10 @@ class PlanningNode:
             raise Refused("no_cloud", "no cloud received on /camera/points yet")
         joints = self.joints()
         self.publish_status("plan")
+        stale = self.arrivals.too_old(float(self.parameter("max_sensor_age")), SENSORS)
+        if stale is not None:
+            raise Refused("stale", stale)
         camera_pose = list(self.parameter("camera_pose"))
-        if len(camera_pose) != 6 or not np.all(np.isfinite(np.asarray(camera_pose, dtype=float))):
-            raise Refused("camera_pose", f"parameter camera_pose must be 6 finite numbers (x y z roll pitch yaw), "
-                                         f"got {camera_pose}")
         known = self._plane[1] if self._plane is not None and self._plane[0] == camera_pose else None
         task = plan_task(self.scene, cloud[1], None if joints is None else joints[0], camera_pose=camera_pose,
                          target=int(self.parameter("target")), seed=int(self.parameter("seed")),
@@ -652,14 +662,31 @@ def tracking_camera(points: np.ndarray, camera_pose) -> Camera:
 
 def serve(scene: Scene, parameters: dict | None = None, *, ros_args: list[str] = (), log=print) -> None:
     """Run the node ``slideplan`` until interrupted (``ros_args``: ``--ros-args ...`` remappings and
-    parameters, as any ROS 2 node takes)."""
+    parameters, as any ROS 2 node takes); say its discovery range first (a warning where other hosts can
+    reach it unsecured: :func:`slideplan.ros.guards.discovery_notice`).
+
+    Args:
+        scene: the robot's scene (:class:`PlanningNode`).
+        parameters: initial values of the ROS parameters (:class:`PlanningNode`).
+        ros_args: ``--ros-args ...`` as the command line gave them.
+        log: prints a line.
+
+    Raises:
+        InputError: a bad parameter (:class:`PlanningNode`).
+    """
     import rclpy
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 
     rclpy.init(args=["slideplan", *ros_args])
-    planning = PlanningNode(scene, parameters)
+    try:
+        planning = PlanningNode(scene, parameters)
+    except InputError:
+        rclpy.shutdown()
+        raise
     executor = MultiThreadedExecutor(num_threads=4)
     executor.add_node(planning.node)
+    for line in discovery_notice(os.environ, list(ros_args)):
+        log(f"slideplan: {line}")
     log(f"slideplan: serving /slideplan/plan and /slideplan/execute for {scene.name} "
         f"({len(planning.robot_joints)} joints)")
     try:

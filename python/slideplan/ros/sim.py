@@ -222,8 +222,15 @@ class Sim:
 
 
 def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=print) -> None:
-    """Run ``sim`` as the node ``slideplan_sim`` until interrupted (``ros_args``: ``--ros-args ...``
-    remappings)."""
+    """Run ``sim`` as the node ``slideplan_sim`` until interrupted; say its discovery range first (a
+    warning where other hosts can reach it unsecured: :func:`slideplan.ros.guards.discovery_notice`).
+
+    Args:
+        sim: the simulated robot.
+        cloud_hz: clouds per second of simulated time on /camera/points.
+        ros_args: ``--ros-args ...`` remappings, as the command line gave them.
+        log: prints a line.
+    """
     import rclpy
     from rclpy.callback_groups import ReentrantCallbackGroup
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
@@ -237,6 +244,7 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
     from std_srvs.srv import SetBool
     from trajectory_msgs.msg import JointTrajectory
 
+    from .guards import discovery_notice
     from .messages import WORLD_FRAME, cloud_message, pose_message, trajectory_arrays
 
     if not any(name in os.environ for name in ("FASTDDS_DEFAULT_PROFILES_FILE", "FASTRTPS_DEFAULT_PROFILES_FILE")):
@@ -302,6 +310,8 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
 
     thread = threading.Thread(target=physics, name="slideplan_sim physics", daemon=True)
     thread.start()
+    for line in discovery_notice(os.environ, list(ros_args)):
+        log(f"slideplan_sim: {line}")
     log(f"slideplan_sim: {len(sim.joint_names)} joints ({', '.join(sim.joint_names)}); camera_pose "
         + " ".join(f"{value:.6g}" for value in camera_pose_of(sim.camera)))
     executor = MultiThreadedExecutor(num_threads=2)

@@ -1,0 +1,212 @@
+"""What the planning node and the simulator take from outside: every bad message is ignored with a reason
+on /slideplan/status and the node goes on, bad parameters and options are refused where they arrive,
+old clouds and joint states are not planned on, and the discovery range is said at start (issue 56's
+adversarial battery). The node's callbacks are called in this process, without DDS round trips."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip("rclpy", reason="the ros extra is not installed (pip install 'slideplan[ros]')")
+
+from builtin_interfaces.msg import Time  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from rclpy.time import Time as RosTime  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_msgs.msg import Header  # noqa: E402
+from slideplan.ros.guards import discovery_notice  # noqa: E402
+from slideplan.ros.messages import cloud_message  # noqa: E402
+from slideplan.ros.serve import PlanningNode, Refused  # noqa: E402
+from slideplan.scenes import load_scene  # noqa: E402
+from test_ros import _DOMAINS, _environment  # noqa: E402
+
+
+class _Statuses:
+    """Stands in for the node's /slideplan/status publisher: keeps each line, parsed."""
+
+    def __init__(self) -> None:
+        self.lines: list[dict] = []
+
+    def publish(self, message) -> None:
+        assert "\n" not in message.data
+        self.lines.append(json.loads(message.data))
+
+
+@pytest.fixture(scope="module")
+def planning():
+    """A planning node of the square scene on the simulator's clock (set by the tests), in a context and
+    ROS domain of its own, never spun: the tests call its callbacks."""
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=next(_DOMAINS))
+    node = PlanningNode(load_scene("square"), {"use_sim_time": True}, context=context)
+    node.status = _Statuses()
+    yield node
+    node.node.destroy_node()
+    rclpy.shutdown(context=context)
+
+
+def _at(planning: PlanningNode, seconds: float) -> None:
+    """Set the node's (simulated) clock, as a /clock message would."""
+    planning.node.get_clock().set_ros_time_override(RosTime(seconds=seconds, clock_type=planning.node.get_clock().clock_type))
+
+
+def _joints(planning: PlanningNode, positions=None, **fields) -> JointState:
+    positions = [0.0] * len(planning.robot_joints) if positions is None else positions
+    return JointState(name=planning.robot_joints, position=positions, **fields)
+
+
+def _cloud(**layout):
+    message = cloud_message(np.ones((2, 3, 3)), Header(frame_id="slideplan_camera"))
+    for name, value in layout.items():
+        setattr(message, name, value)
+    return message
+
+
+def _last_ignored(planning: PlanningNode) -> dict:
+    line = planning.status.lines[-1]
+    assert line["phase"] == "ignored", line
+    return line
+
+
+def test_a_malformed_message_is_ignored_with_a_reason_and_the_node_goes_on(planning):
+    _at(planning, 1.0)
+    planning._on_joints(_joints(planning))
+    planning._on_cloud(_cloud())
+    kept_joints, kept_cloud = planning.joints(), planning.latest_points()
+
+    planning._on_joints(_joints(planning, [0.0]))  # every joint named, one position
+    assert _last_ignored(planning)["topic"] == "/joint_states"
+    assert "1 positions for 7 names" in _last_ignored(planning)["reason"]
+    planning._on_joints(_joints(planning, velocity=[0.0, 1.0]))
+    assert "2 velocities for 7 names" in _last_ignored(planning)["reason"]
+    for layout, problem in (({"row_step": 12}, "row_step 12 is less than width 3 x point_step 12"),
+                            ({"row_step": 0}, "row_step 0 is less than"),
+                            ({"point_step": 0}, "does not fit in the point_step of 0 bytes"),
+                            ({"height": 70000, "width": 70000, "row_step": 840000}, "bytes do not hold")):
+        planning._on_cloud(_cloud(**layout))
+        assert _last_ignored(planning)["topic"] == "/camera/points" and problem in _last_ignored(planning)["reason"], layout
+    beyond = _cloud()
+    beyond.fields[2].offset = 40  # z beyond the 12-byte point
+    planning._on_cloud(beyond)
+    assert "field z at offset 40 does not fit in the point_step of 12 bytes" in _last_ignored(planning)["reason"]
+    assert planning.joints() is kept_joints and planning.latest_points() is kept_cloud
+
+    planning._on_joints(_joints(planning, [0.1] * 7))  # and the next good messages are taken
+    planning._on_cloud(_cloud())
+    assert planning.joints()[0][0] == 0.1 and planning.latest_points() is not kept_cloud
+
+
+def test_nan_or_huge_joint_values_are_refused_on_arrival_naming_the_joint(planning):
+    _at(planning, 1.0)
+    planning._on_joints(_joints(planning))
+    kept = planning.joints()
+    for value in (math.nan, 1e308, -math.inf):
+        positions = [0.0] * 7
+        positions[2] = value
+        planning._on_joints(_joints(planning, positions))
+        reason = _last_ignored(planning)["reason"]
+        assert f"position[2] ({planning.robot_joints[2]})" in reason, reason
+    planning._on_joints(_joints(planning, velocity=[0.0, 0.0, 0.0, 0.0, math.nan, 0.0, 0.0]))
+    assert f"velocity[4] ({planning.robot_joints[4]})" in _last_ignored(planning)["reason"]
+    assert planning.joints() is kept
+
+
+def test_a_burst_of_one_bad_message_is_reported_once_a_second_with_a_count(planning):
+    count, started = len(planning.status.lines), time.monotonic()
+    for _ in range(100):  # a bad 100 Hz joint state publisher
+        planning._on_joints(_joints(planning, [math.nan] * 7))
+    reports = planning.status.lines[count:]
+    assert 1 <= len(reports) <= 1 + time.monotonic() - started, reports  # the first, then at most one a second
+    assert sum(report["count"] for report in reports) <= 100
+
+
+@pytest.mark.parametrize("name, value, problem", [
+    ("time_limit", -1.0, "time_limit must be a number of seconds in (0, 600]"),
+    ("time_limit", math.nan, "time_limit must be"),
+    ("time_limit", 1e308, "time_limit must be"),
+    ("seed", -1, "seed must be"),
+    ("target", -1, "target must be"),
+    ("camera_pose", [0.0, 1.0], "camera_pose must be 6 numbers"),
+    ("camera_pose", [0.0, 0.0, math.nan, 0.0, 0.0, 0.0], "camera_pose must be 6 numbers"),
+    ("max_sensor_age", 0.0, "max_sensor_age must be"),
+    ("controller", "other_controller", "controller is read at start"),
+])
+def test_bad_parameters_are_refused_by_the_parameter_service(planning, name, value, problem):
+    before = planning.parameter(name)
+    result, = planning.node.set_parameters([Parameter(name, value=value)])
+    assert not result.successful and problem in result.reason, result.reason
+    assert planning.parameter(name) == before
+
+
+def test_good_parameters_are_still_taken(planning):
+    results = planning.node.set_parameters([Parameter("time_limit", value=2.5), Parameter("seed", value=7),
+                                            Parameter("camera_pose", value=[0.1, 0.0, 0.6, 3.0, 0.0, 0.0])])
+    assert all(result.successful for result in results), results
+    assert planning.parameter("seed") == 7
+
+
+def test_a_plan_on_an_old_cloud_or_joint_state_is_refused_with_its_age(planning):
+    planning.node.set_parameters([Parameter("max_sensor_age", value=1.0)])
+    _at(planning, 100.0)
+    planning._on_cloud(cloud_message(np.full((2, 3, 3), np.nan), Header(stamp=Time(sec=100))))
+    planning._on_joints(_joints(planning))
+    _at(planning, 100.5)  # both fresh: on to perception, which finds no point in this cloud
+    with pytest.raises(Refused, match="no finite points") as refused:
+        planning._plan()
+    _at(planning, 103.0)  # the camera died
+    with pytest.raises(Refused, match=r"the latest cloud on /camera/points came 3.0 s ago \(max_sensor_age 1 s\)") as refused:
+        planning._plan()
+    assert refused.value.status == "stale"
+    planning._on_cloud(cloud_message(np.full((2, 3, 3), np.nan), Header(stamp=Time(sec=103))))
+    with pytest.raises(Refused, match=r"the latest message on /joint_states came 3.0 s ago") as refused:
+        planning._plan()
+    assert refused.value.status == "stale"
+
+
+def _refused(*arguments: str) -> str:
+    """stderr of a `slideplan ros` command that must refuse its input: one line, exit 2 (a subprocess with a
+    time-out: a command that accepted it would serve until stopped)."""
+    done = subprocess.run([sys.executable, "-m", "slideplan.cli", "ros", *arguments], env=_environment(next(_DOMAINS)),
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    return done.stderr
+
+
+@pytest.mark.parametrize("parameter, problem", [
+    ("controller:=a b", "parameter controller: 'a b' does not name a topic"),
+    ("camera_pose:=foo", "parameter camera_pose: Trying to set parameter 'camera_pose' to 'foo' of type 'STRING'"),
+    ("time_limit:=-1.0", "parameter time_limit: must be a number of seconds in (0, 600], got -1.0"),
+])
+def test_a_bad_parameter_at_start_is_one_line_naming_it(parameter, problem):
+    assert problem in _refused("serve", "--ros-args", "-p", parameter)
+
+
+@pytest.mark.parametrize("options, problem", [
+    (["--disturb", "nan", "0", "0", "1"], "--disturb: DX nan is not a finite number"),
+    (["--disturb", "0", "0", "0", "-5"], "--disturb: T must be in [0, 600] s, got -5"),
+    (["--disturb", "1e300", "0", "0", "0.1"], "--disturb: DX 1e+300 is beyond 1 m"),
+    (["--disturb", "0", "0", "7", "0.1"], "--disturb: DYAW 7 is beyond"),
+    (["--home", "a,b"], "--home: expected comma-separated numbers (rad), got 'a,b'"),
+])
+def test_bad_simulator_options_are_one_line_naming_the_option(options, problem):
+    assert problem in _refused("sim", "--pose", "0.55", "-0.08", "0.4", *options)
+
+
+def test_the_discovery_range_is_said_and_an_open_unsecured_one_warned_of():
+    open_lines = discovery_notice({}, [])
+    assert open_lines[0] == "discovery range SUBNET (ROS_AUTOMATIC_DISCOVERY_RANGE unset: ROS 2's default)"
+    assert open_lines[1].startswith("warning: other hosts on the network can find this node") and "docs/ros2.md" in open_lines[1]
+    assert discovery_notice({"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}, []) == ["discovery range LOCALHOST"]
+    assert discovery_notice({"ROS_AUTOMATIC_DISCOVERY_RANGE": "OFF"}, []) == ["discovery range OFF"]
+    secured = discovery_notice({"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET", "ROS_SECURITY_ENABLE": "true"},
+                               ["--ros-args", "--enclave", "/slideplan/serve"])
+    assert secured == ["discovery range SUBNET", "security enabled, enclave /slideplan/serve"]
+    enclave_only = discovery_notice({"ROS_SECURITY_ENCLAVE_OVERRIDE": "/slideplan"}, [])
+    assert "ROS_SECURITY_ENABLE is not true" in enclave_only[1]
