@@ -954,7 +954,10 @@ def ros_sim_command(
         raise _fail(InputError(error.problem, source=error.source, field=_OPTION_OF_FIELD.get(error.field, error.field))) from None
     except (OSError, ValueError) as error:
         raise _fail(error) from None
-    sim.serve(robot, cloud_hz=cloud_hz, ros_args=ros_args, log=typer.echo)
+    try:
+        sim.serve(robot, cloud_hz=cloud_hz, ros_args=ros_args, log=typer.echo)
+    except InputError as error:
+        raise _fail(error) from None
 
 
 if __name__ == "__main__":

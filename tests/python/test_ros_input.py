@@ -170,13 +170,14 @@ def test_a_plan_on_an_old_cloud_or_joint_state_is_refused_with_its_age(planning)
     assert refused.value.status == "stale"
 
 
-def _refused(*arguments: str) -> str:
-    """stderr of a `slideplan ros` command that must refuse its input: one line, exit 2 (a subprocess with a
-    time-out: a command that accepted it would serve until stopped)."""
+def _refused(*arguments: str, lines: int = 1) -> str:
+    """The last line on stderr of a `slideplan ros` command that must refuse its input, exit 2, with
+    ``lines`` lines in all (a subprocess with a time-out: a command that accepted it would serve until
+    stopped)."""
     done = subprocess.run([sys.executable, "-m", "slideplan.cli", "ros", *arguments], env=_environment(next(_DOMAINS)),
                           capture_output=True, text=True, timeout=120)
-    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
-    return done.stderr
+    assert done.returncode == 2 and done.stderr.count("\n") == lines, done.stderr
+    return done.stderr.splitlines()[-1]
 
 
 @pytest.mark.parametrize("parameter, problem", [
@@ -186,6 +187,12 @@ def _refused(*arguments: str) -> str:
 ])
 def test_a_bad_parameter_at_start_is_one_line_naming_it(parameter, problem):
     assert problem in _refused("serve", "--ros-args", "-p", parameter)
+
+
+def test_ros_arguments_rcl_cannot_parse_are_named_without_a_traceback():
+    # rcl logs its own line before ours: it writes to stderr from C, during rclpy.init.
+    assert _refused("serve", "--ros-args", "-p", "foo", lines=2) == (
+        "slideplan: error: --ros-args: failed to initialize rcl: Couldn't parse parameter override rule: '-p foo'")
 
 
 @pytest.mark.parametrize("options, problem", [

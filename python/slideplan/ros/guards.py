@@ -90,6 +90,26 @@ def parameter_problem(name: str, value, running: bool) -> str | None:
     return None
 
 
+def init_ros(node_name: str, ros_args: list[str]) -> None:
+    """``rclpy.init`` with a node's command line.
+
+    Args:
+        node_name: the program name rcl is given.
+        ros_args: ``--ros-args ...`` as the command line gave them.
+
+    Raises:
+        InputError: (``--ros-args``) arguments rcl cannot parse, in its first sentence (the rest is
+            where in rcl's C sources it failed).
+    """
+    import rclpy
+    from rclpy._rclpy_pybind11 import RCLError
+
+    try:
+        rclpy.init(args=[node_name, *ros_args])
+    except RCLError as error:
+        raise InputError(str(error).split(". Error:")[0], field="--ros-args") from None
+
+
 def declare_checked(node, defaults: dict) -> None:
     """Declare a node's parameters (values given at start override ``defaults``) and have each value set
     later checked (:func:`parameter_problem`): the parameter service answers a bad one with

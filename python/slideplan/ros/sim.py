@@ -230,6 +230,9 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
         cloud_hz: clouds per second of simulated time on /camera/points.
         ros_args: ``--ros-args ...`` remappings, as the command line gave them.
         log: prints a line.
+
+    Raises:
+        InputError: ROS arguments rcl cannot parse.
     """
     import rclpy
     from rclpy.callback_groups import ReentrantCallbackGroup
@@ -244,12 +247,12 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
     from std_srvs.srv import SetBool
     from trajectory_msgs.msg import JointTrajectory
 
-    from .guards import discovery_notice
+    from .guards import discovery_notice, init_ros
     from .messages import WORLD_FRAME, cloud_message, pose_message, trajectory_arrays
 
     if not any(name in os.environ for name in ("FASTDDS_DEFAULT_PROFILES_FILE", "FASTRTPS_DEFAULT_PROFILES_FILE")):
         os.environ["FASTDDS_DEFAULT_PROFILES_FILE"] = str(LARGE_SAMPLES_PROFILE)  # read at the first participant
-    rclpy.init(args=["slideplan_sim", *ros_args])
+    init_ros("slideplan_sim", list(ros_args))
     node = Node("slideplan_sim")
     group = ReentrantCallbackGroup()
     joint_pub = node.create_publisher(JointState, "/joint_states", 10)
