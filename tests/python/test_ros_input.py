@@ -192,7 +192,7 @@ def test_a_bad_parameter_at_start_is_one_line_naming_it(parameter, problem):
 def test_ros_arguments_rcl_cannot_parse_are_named_without_a_traceback():
     # rcl logs its own line before ours: it writes to stderr from C, during rclpy.init.
     assert _refused("serve", "--ros-args", "-p", "foo", lines=2) == (
-        "slideplan: error: --ros-args: failed to initialize rcl: Couldn't parse parameter override rule: '-p foo'")
+        "slideplan: error: failed to initialize rcl: Couldn't parse parameter override rule: '-p foo'")
 
 
 @pytest.mark.parametrize("options, problem", [
@@ -212,8 +212,10 @@ def test_the_discovery_range_is_said_and_an_open_unsecured_one_warned_of():
     assert open_lines[1].startswith("warning: other hosts on the network can find this node") and "docs/ros2.md" in open_lines[1]
     assert discovery_notice({"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}, []) == ["discovery range LOCALHOST"]
     assert discovery_notice({"ROS_AUTOMATIC_DISCOVERY_RANGE": "OFF"}, []) == ["discovery range OFF"]
-    secured = discovery_notice({"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET", "ROS_SECURITY_ENABLE": "true"},
-                               ["--ros-args", "--enclave", "/slideplan/serve"])
-    assert secured == ["discovery range SUBNET", "security enabled, enclave /slideplan/serve"]
+    secured = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET", "ROS_SECURITY_ENABLE": "true", "ROS_SECURITY_STRATEGY": "Enforce"}
+    assert discovery_notice(secured, ["--ros-args", "--enclave", "/slideplan/serve"]) == [
+        "discovery range SUBNET", "SROS2 security enforced, enclave /slideplan/serve"]
+    permissive = discovery_notice({**secured, "ROS_SECURITY_STRATEGY": "Permissive"}, [])
+    assert "ROS_SECURITY_STRATEGY is not Enforce" in permissive[1]
     enclave_only = discovery_notice({"ROS_SECURITY_ENCLAVE_OVERRIDE": "/slideplan"}, [])
     assert "ROS_SECURITY_ENABLE is not true" in enclave_only[1]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import re
 import threading
 import time
 from typing import Callable, Iterator
@@ -90,24 +91,16 @@ def parameter_problem(name: str, value, running: bool) -> str | None:
     return None
 
 
-def init_ros(node_name: str, ros_args: list[str]) -> None:
-    """``rclpy.init`` with a node's command line.
-
-    Args:
-        node_name: the program name rcl is given.
-        ros_args: ``--ros-args ...`` as the command line gave them.
-
-    Raises:
-        InputError: (``--ros-args``) arguments rcl cannot parse, in its first sentence (the rest is
-            where in rcl's C sources it failed).
-    """
-    import rclpy
+@contextlib.contextmanager
+def rcl_errors() -> Iterator[None]:
+    """rcl's errors inside (``rclpy.init`` and making a node: ROS arguments it cannot parse, a security
+    set-up it cannot meet) as an InputError: their words without where in rcl's C sources they arose."""
     from rclpy._rclpy_pybind11 import RCLError
 
     try:
-        rclpy.init(args=[node_name, *ros_args])
+        yield
     except RCLError as error:
-        raise InputError(str(error).split(". Error:")[0], field="--ros-args") from None
+        raise InputError(re.split(r"\. Error:|, at /", str(error))[0]) from None
 
 
 def declare_checked(node, defaults: dict) -> None:
@@ -215,7 +208,7 @@ def discovery_notice(environ, ros_args: list[str]) -> list[str]:
 
     Args:
         environ: the environment (``ROS_AUTOMATIC_DISCOVERY_RANGE``, ``ROS_SECURITY_ENABLE``,
-            ``ROS_SECURITY_ENCLAVE_OVERRIDE``).
+            ``ROS_SECURITY_STRATEGY``, ``ROS_SECURITY_ENCLAVE_OVERRIDE``).
         ros_args: the node's ``--ros-args ...`` (an ``--enclave``/``-e`` there).
     """
     value = environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "")
@@ -231,9 +224,13 @@ def discovery_notice(environ, ros_args: list[str]) -> list[str]:
     for flag, following in zip(ros_args, ros_args[1:]):
         if flag in ("--enclave", "-e"):
             enclave = following
-    if environ.get("ROS_SECURITY_ENABLE", "") == "true":
-        return [*lines, f"security enabled, enclave {enclave or '/'}"]
-    unsecured = "an enclave is set, but ROS_SECURITY_ENABLE is not true" if enclave else "no SROS2 security"
+    enabled = environ.get("ROS_SECURITY_ENABLE", "") == "true"
+    if enabled and environ.get("ROS_SECURITY_STRATEGY", "") == "Enforce":
+        return [*lines, f"SROS2 security enforced, enclave {enclave or '/'}"]
+    if enabled:  # Permissive: a node without keys for its enclave runs unsecured
+        unsecured = "ROS_SECURITY_STRATEGY is not Enforce"
+    else:
+        unsecured = "an enclave is set, but ROS_SECURITY_ENABLE is not true" if enclave else "no SROS2 security"
     return [*lines, f"warning: other hosts on the network can find this node and call its services ({unsecured}): "
                     "on one machine set ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, across machines enable SROS2 "
                     "(docs/ros2.md, 'Who can reach the nodes')"]

@@ -33,7 +33,7 @@ from ..planning import PlannerConfig, PlanResult, base_pose_matrix, plan, robot_
 from ..rendering import Camera
 from ..scenes import Scene
 from ..timing import time_path
-from .guards import Arrivals, Ignored, declare_checked, discovery_notice, init_ros, joint_state
+from .guards import Arrivals, Ignored, declare_checked, discovery_notice, joint_state, rcl_errors
 
 # A trajectory has arrived when the arm is still (every joint slower than STILL_RAD_S) after its duration,
 # every joint within GOAL_TOLERANCE_RAD of its last point: a servo pressing the finger on the object holds
@@ -672,14 +672,17 @@ def serve(scene: Scene, parameters: dict | None = None, *, ros_args: list[str] =
         log: prints a line.
 
     Raises:
-        InputError: a bad parameter (:class:`PlanningNode`), or ROS arguments rcl cannot parse.
+        InputError: a bad parameter (:class:`PlanningNode`), ROS arguments rcl cannot parse, or a
+            security set-up it cannot meet.
     """
     import rclpy
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 
-    init_ros("slideplan", list(ros_args))
+    with rcl_errors():
+        rclpy.init(args=["slideplan", *ros_args])
     try:
-        planning = PlanningNode(scene, parameters)
+        with rcl_errors():
+            planning = PlanningNode(scene, parameters)
     except InputError:
         rclpy.shutdown()
         raise

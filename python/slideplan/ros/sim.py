@@ -232,7 +232,7 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
         log: prints a line.
 
     Raises:
-        InputError: ROS arguments rcl cannot parse.
+        InputError: ROS arguments rcl cannot parse, or a security set-up it cannot meet.
     """
     import rclpy
     from rclpy.callback_groups import ReentrantCallbackGroup
@@ -247,13 +247,14 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
     from std_srvs.srv import SetBool
     from trajectory_msgs.msg import JointTrajectory
 
-    from .guards import discovery_notice, init_ros
+    from .guards import discovery_notice, rcl_errors
     from .messages import WORLD_FRAME, cloud_message, pose_message, trajectory_arrays
 
     if not any(name in os.environ for name in ("FASTDDS_DEFAULT_PROFILES_FILE", "FASTRTPS_DEFAULT_PROFILES_FILE")):
         os.environ["FASTDDS_DEFAULT_PROFILES_FILE"] = str(LARGE_SAMPLES_PROFILE)  # read at the first participant
-    init_ros("slideplan_sim", list(ros_args))
-    node = Node("slideplan_sim")
+    with rcl_errors():
+        rclpy.init(args=["slideplan_sim", *ros_args])
+        node = Node("slideplan_sim")
     group = ReentrantCallbackGroup()
     joint_pub = node.create_publisher(JointState, "/joint_states", 10)
     cloud_pub = node.create_publisher(PointCloud2, "/camera/points", qos_profile_sensor_data)
