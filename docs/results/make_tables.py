@@ -27,6 +27,7 @@ To commit the results of a run::
 
     PYTHONPATH=python python -c "from slideplan.experiments import load_results; \\
         load_results('out/fig11').to_parquet('docs/results/fig11.parquet')"
+    .venv/bin/python docs/results/backfill_provenance.py fig11.parquet  # the committed column types; keeps the builds
     .venv/bin/python docs/results/make_tables.py
 
 Other options: ``--root DIR`` (the repository whose README.md and docs/results/*.md are rewritten;
