@@ -1,72 +1,116 @@
-"""Execution benchmark: the demo plan (crescent on the square table, seed 0) executed in MuJoCo.
+"""Execution benchmark (issue 52's figure of merit): simulated seconds per wall second of MuJoCo episodes,
+the model before issue 52 and today's, from one run in one process (one core).
 
-Plans the demo once, then executes it ``--runs`` times in this process (one core) and prints and
-writes (docs/benchmarks/execution.md) the wall time per execution (median, min), the simulated
-time and the real-time factor, with the build, CPU and date named. Not a test: ``make bench``.
+1. Open loop: the plans of a fixed subset of the Fig. 10 set (the execution experiment's tasks,
+   ``tasks[start::stride][:count]``, nominal setting), each executed with ``contacts.LEGACY`` and
+   ``contacts.CURRENT`` (benchmarks/execute_fidelity.py ``run``: its rows are the fidelity check's
+   too); sim/wall median, p10 and p90 per model.
+2. Closed loop: one ``run`` (square table, crescent, the demo's pose, seed 0, its depth frames) per model.
+3. The profile (benchmarks/execute_profile.py) of the demo plan's ``execute`` and of that closed-loop
+   run, per model: MuJoCo's timers, contacts and solver iterations per phase.
 
-    python benchmarks/execute_bench.py [--runs 3] [--out docs/benchmarks/execution.md]
+    python benchmarks/execute_bench.py [--start 0] [--stride 5] [--count 40] [--out docs/benchmarks/execution.md]
+
+Not a test (``make bench``). Writes the page (``--out``) and the rows (``--rows``).
 """
 
 from __future__ import annotations
 
 import argparse
-import statistics
+import io
 import sys
-import tempfile
 import time
+from contextlib import redirect_stdout
 from pathlib import Path
 
 import numpy as np
-
-from slideplan import PlannerConfig, load_scene, plan
-from slideplan.execute import execute
-from slideplan.objects import load_object, load_outline, sample_pose_on_table
+import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from plan_bench import write_report  # noqa: E402 - the benchmarks' common ending
+import execute_fidelity  # noqa: E402
+import execute_profile  # noqa: E402
+from plan_bench import write_report  # noqa: E402
+
+from execute_profile import demo_plan, demo_pose  # noqa: E402
 
 
-def demo_plan():
-    """The plan ``slideplan demo`` makes (crescent, square table, seed 0)."""
-    scene = load_scene("square")
-    outline, _, _ = load_outline("crescent")
-    pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(0))
-    obj = load_object("crescent", table_height=scene.table.height, pose=pose)
-    return plan(scene, obj, PlannerConfig.for_scene(scene, seed=0))
+def quantiles(values) -> str:
+    values = np.asarray(values, dtype=float)
+    return f"{np.median(values):.2f}x | {np.percentile(values, 10):.2f}x | {np.percentile(values, 90):.2f}x"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", type=int, default=3, help="executions to time")
+    parser.add_argument("--start", type=int, default=0)
+    parser.add_argument("--stride", type=int, default=5)
+    parser.add_argument("--count", type=int, default=40)
+    parser.add_argument("--closed-loop", action=argparse.BooleanOptionalAction, default=True)
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs/benchmarks/execution.md")
+    parser.add_argument("--rows", type=Path, default=execute_fidelity.DEFAULT_OUT)
     args = parser.parse_args()
-    result = demo_plan()
-    assert result.solved, "the demo plan did not solve"
-    executions = [execute(result) for _ in range(args.runs)]
-    walls = [execution.wall_time_s for execution in executions]
-    with tempfile.TemporaryDirectory() as folder:  # the same run rendered, as `execute --video` does
-        started = time.perf_counter()
-        execute(result, video=Path(folder) / "run.mp4")
-        video_wall = time.perf_counter() - started
-    simulated = executions[0].sim_time_s
-    median = statistics.median(walls)
+    from slideplan.closed_loop import run
+    from slideplan.execute import contacts, execute
+
+    started = time.perf_counter()
+    execute_fidelity.run(argparse.Namespace(start=args.start, stride=args.stride, count=args.count, out=args.rows,
+                                            models="legacy;current"))
+    rows = pd.read_parquet(args.rows)
+    executed = rows[rows["model"].notna()]
+    checks = io.StringIO()
+    with redirect_stdout(checks):
+        held = execute_fidelity.compare_rows(rows)
     lines = [
-        "# Execution benchmark",
+        "# Execution benchmark: simulated seconds per wall second (issue 52)",
         "",
-        f"`benchmarks/execute_bench.py --runs {args.runs}`, one process (one core): the demo plan (crescent on the "
-        "square table, seed 0, "
-        f"{len(result.trajectory)} sliding waypoints, {len(result.grasp['approach'])} approach waypoints) executed "
-        "in MuJoCo: slide, approach, close, 5 cm lift, 1 s hold (docs/execution.md).",
+        f"`benchmarks/execute_bench.py --start {args.start} --stride {args.stride} --count {args.count}`, one process "
+        f"(one core; the machine's other core was busy with another engineer's single-threaded experiment the whole "
+        f"time), {time.perf_counter() - started:.0f} s for the open-loop part. The model before issue 52 "
+        f"(`contacts.LEGACY`: the object's boxes on the table, noslip throughout, no sleeping) and today's "
+        f"(`contacts.CURRENT`: {contacts.CURRENT}) in the same run.",
         "",
-        "| executions | simulated time | wall time, median | wall time, min | real-time factor (median) |",
-        "|---|---|---|---|---|",
-        f"| {args.runs} | {simulated:.1f} s | {median:.1f} s | {min(walls):.1f} s | {simulated / median:.1f}x |",
+        "## Open loop: plans of the Fig. 10 set, nominal",
         "",
-        f"Outcome (the same every run): {executions[0].summary()}",
+        f"A fixed subset, not all 200: `build_spec(\"execution\").tasks[{args.start}::{args.stride}][:{args.count}]` "
+        f"({len(rows['task_index'].unique())} tasks: every scene and object, poses "
+        f"{sorted(rows['pose_index'].unique().tolist())}); each plan planned once and executed with both models.",
         "",
-        f"With `--video run.mp4` (640x480, 20 frames per simulated second, software EGL): {video_wall:.1f} s wall, "
-        f"{video_wall / median:.2f}x the median without video.",
+        "| model | executions | sim/wall median | p10 | p90 | wall per episode, median | simulated per episode, median |",
+        "|---|---|---|---|---|---|---|",
     ]
+    for name in ("legacy", "current"):
+        frame = executed[executed["model"] == name]
+        lines.append(f"| {name} | {len(frame)} | {quantiles(frame['sim_time_s'] / frame['wall_time_s'])} | "
+                     f"{frame['wall_time_s'].median():.1f} s | {frame['sim_time_s'].median():.1f} s |")
+    lines += ["", "Fidelity (benchmarks/execute_fidelity.py compare, the same rows, "
+              f"{args.rows.name}): {'both checks hold' if held else 'a check FAILS'}.", "", "```",
+              *checks.getvalue().rstrip().splitlines(), "```", ""]
+
+    if args.closed_loop:
+        scene, pose = demo_pose()
+        lines += ["## Closed loop: one `run` with its depth frames (square, crescent, the demo's pose, seed 0)", "",
+                  "Each run profiled (the profiler's bookkeeping costs a few microseconds a step).", "",
+                  "| model | simulated | wall | sim/wall | outcome |", "|---|---|---|---|---|"]
+        profiles = []
+        execute_profile.install()
+        for name, model in (("legacy", contacts.LEGACY), ("current", contacts.CURRENT)):
+            contacts.ACTIVE[0] = model
+            profile = execute_profile.ACTIVE[0] = execute_profile.Profile()
+            began = time.perf_counter()
+            outcome = run(scene, "crescent", pose, seed=0)
+            wall = time.perf_counter() - began
+            lines.append(f"| {name} | {outcome.sim_time_s:.1f} s | {wall:.1f} s | {outcome.sim_time_s / wall:.2f}x | "
+                         f"{outcome.summary()} |")
+            profiles += execute_profile.report(f"Closed-loop `run`, model {name}", profile, wall, outcome.sim_time_s)
+            # the demo plan's execute, profiled, with the same model
+            result = demo_plan()
+            profile = execute_profile.ACTIVE[0] = execute_profile.Profile()
+            began = time.perf_counter()
+            execution = execute(result)
+            wall = time.perf_counter() - began
+            profiles += execute_profile.report(f"`execute` of the demo plan, model {name}: {execution.summary()}",
+                                               profile, wall, execution.sim_time_s)
+        contacts.ACTIVE[0] = contacts.CURRENT
+        lines += ["", "## Profiles (benchmarks/execute_profile.py's instrumentation)", "", *profiles]
     write_report(lines, args.out)
 
 

@@ -22,7 +22,8 @@ The model (docs/execution.md gives the numbers and why):
   T42's band [1, 3] cm at 200 N/m, 1.1-6.9 N for a rigid finger's [2, 12] mm at 571 N/m.
 - **Object**: boxes on a square grid (:attr:`ExecutionSettings.cell_size`), each the bounding box of
   its cell's part of the point cloud's footprint (:func:`object_boxes`), one rigid body of uniform
-  density, so table friction is spread over the footprint.
+  density, resting on one small sphere under each box's centre (the only part of it that touches the
+  table: :mod:`.contacts`), so table friction is spread over the footprint.
 - **Table**: the polygon as a 5 cm thick prism, one convex mesh per triangle of a constrained
   Delaunay triangulation when it is not convex.
 - **Grasp**: the hand's own closing joints (``[hand] gripper_joints``, revolute or prismatic; their mimic
@@ -32,7 +33,8 @@ The model (docs/execution.md gives the numbers and why):
 Phases: slide along ``trajectory``; settle; follow ``grasp.approach`` (lift, transfer, approach);
 close the hand; lift 5 cm; hold 1 s.
 
-The modules: :mod:`.model` builds the MuJoCo model, :mod:`.runner` steps it (servoing, the slide,
+The modules: :mod:`.model` builds the MuJoCo model (the robot; :mod:`.world` the table and the object;
+:mod:`.contacts` who touches whom and the solver's options), :mod:`.runner` steps it (servoing, the slide,
 the grasp), :mod:`.replay` is :func:`execute` (open loop), :mod:`.report` and :mod:`.video` say what
 happened; :mod:`slideplan.closed_loop` runs the same model and runner with a camera in the loop.
 """

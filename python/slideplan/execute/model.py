@@ -10,22 +10,19 @@ from typing import Any
 from xml.etree import ElementTree
 
 import numpy as np
-import shapely
-from shapely.geometry import Polygon
 
 from ..errors import InputError
-from ..geometry import SupportSurface
 from ..planning import PlanResult, merge_urdf, plan_robot, robot_description, search_dirs
 from ..transforms import quaternion_from_matrix
+from . import contacts as contact_models
+from .contacts import ContactModel
 from .convex import convex_parts
 from .settings import ExecutionSettings
+from .world import TABLE_THICKNESS, add_world, cloud_footprint, object_boxes, table_pieces  # noqa: F401 - re-exported
 
 MESH_SUFFIXES = (".stl", ".obj")  # what MuJoCo reads from a URDF
 DEPTH_CAMERA = "slideplan_depth"
 
-_ROBOT_CONTYPE, _ROBOT_CONAFFINITY = 2, 1  # robot geoms touch the world, not each other
-_WORLD_CONTYPE, _WORLD_CONAFFINITY = 1, 3  # table and object touch everything
-_TABLE_THICKNESS = 0.05
 _PAD_RADIUS = 0.006
 _ARENA_BYTES = 128 << 20  # a 20 cm plate has ~500 contacts with the table; MuJoCo's default arena drops them
 
@@ -66,68 +63,6 @@ def _urdf_for_mujoco(robot: dict[str, Any]) -> str:
     extension = ElementTree.SubElement(root, "mujoco")
     ElementTree.SubElement(extension, "compiler", fusestatic="false", strippath="false", discardvisual="true")
     return ElementTree.tostring(root, encoding="unicode")
-
-
-def table_pieces(polygon: Polygon) -> list[np.ndarray]:
-    """Convex pieces of the table polygon: itself if convex, else its constrained Delaunay triangles."""
-    if polygon.convex_hull.area - polygon.area <= 1e-9 * polygon.area:
-        return [np.asarray(polygon.exterior.coords)[:-1]]
-    triangles = shapely.constrained_delaunay_triangles(polygon)
-    return [np.asarray(piece.exterior.coords)[:-1] for piece in triangles.geoms]
-
-
-def cloud_footprint(points: np.ndarray) -> Polygon | shapely.MultiPolygon:
-    """The outline of a top-surface point cloud: a morphological closing of its points.
-
-    Each point is widened by the cloud's spacing (90th percentile of the nearest-neighbour
-    distances of up to 500 of its points; boundary samples are denser than the grid inside), which
-    joins neighbours on a grid, and the union is shrunk back by the same amount, so concavities and
-    holes wider than 2 spacings stay open.
-
-    Args:
-        points: (N, 3) cloud.
-
-    Returns:
-        The footprint polygon(s), world frame.
-    """
-    xy = np.asarray(points, dtype=float)[:, :2]
-    sample = xy[:: max(1, len(xy) // 500)]
-    distances = np.linalg.norm(sample[:, None, :] - xy[None, :, :], axis=2)
-    distances[distances == 0] = np.inf
-    radius = max(float(np.percentile(distances.min(axis=1), 90)), 1e-4)
-    return shapely.unary_union(shapely.buffer(shapely.points(xy), radius, quad_segs=4)).buffer(-radius, quad_segs=4)
-
-
-def object_boxes(points: np.ndarray, cell_size: float) -> np.ndarray:
-    """Boxes tiling the footprint of a top-surface point cloud on a square grid.
-
-    Each grid cell that meets the footprint (:func:`cloud_footprint`) becomes the bounding box of
-    its part of the footprint, so the boxes cover the whole outline (the fingertip finds the object
-    wherever the plan touches it) and overfill only where an edge crosses a cell diagonally.
-
-    Args:
-        points: (N, 3) cloud.
-        cell_size: grid spacing (m).
-
-    Returns:
-        (K, 4) boxes ``[centre x, centre y, half width x, half width y]``, K >= 1.
-    """
-    xy = np.asarray(points, dtype=float)[:, :2]
-    footprint = cloud_footprint(points)
-    low, high = xy.min(axis=0), xy.max(axis=0)
-    counts = np.maximum(np.ceil((high - low) / cell_size).astype(int), 1)
-    corner = (low + high) / 2 - counts * cell_size / 2
-    cells = shapely.box(*np.stack(np.meshgrid(
-        *(corner[axis] + cell_size * np.arange(counts[axis]) for axis in (0, 1))), axis=-1).reshape(-1, 2).T,
-        *(np.stack(np.meshgrid(*(corner[axis] + cell_size * np.arange(1, counts[axis] + 1) for axis in (0, 1))),
-                   axis=-1).reshape(-1, 2).T))
-    parts = shapely.intersection(cells, footprint)
-    parts = parts[shapely.area(parts) > 1e-3 * cell_size**2]
-    bounds = shapely.bounds(parts)  # (K, 4): xmin, ymin, xmax, ymax
-    boxes = np.column_stack([(bounds[:, :2] + bounds[:, 2:]) / 2, (bounds[:, 2:] - bounds[:, :2]) / 2])
-    if len(boxes):
-        return boxes
-    return np.array([[*((low + high) / 2), *np.maximum((high - low) / 2, 1e-3)]])
 
 
 @dataclass(frozen=True)
@@ -216,13 +151,16 @@ class Model:
     spring_joint: int
     gripper: Gripper
     hand_geoms: np.ndarray  # contact-link geoms that only touch things once the finger is lifted
+    robot_groups: tuple[int, int]  # (contype, conaffinity) of a robot geom that touches things
+    contacts: ContactModel
     pad_geom: int
     object_body: int
     object_geoms: set
     table_geoms: set
 
 
-def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_object=None, camera=None) -> Model:
+def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_object=None, camera=None,
+                contacts: ContactModel | None = None) -> Model:
     """Build the MuJoCo model of a plan (the package docstring).
 
     Args:
@@ -233,12 +171,15 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
             plan's is a perception of it; None: the plan's.
         camera: a :class:`~slideplan.rendering.Camera` to add as the fixed camera ``slideplan_depth``
             (the closed loop's depth camera), or None.
+        contacts: the contact geometry and solver options (:mod:`.contacts`); None: ``contacts.ACTIVE``.
 
     Raises:
         InputError: the URDF cannot be imported, naming what MuJoCo complained about.
     """
     import mujoco
 
+    contacts = contacts or contact_models.ACTIVE[0]
+    groups = contacts.groups
     robot = result.robot
     urdf_source = str(robot["urdf"])
     try:
@@ -293,7 +234,7 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
     for body in robot_bodies:
         body.gravcomp = 1.0  # the arm controller's gravity compensation
         for geom in body.geoms:
-            geom.contype, geom.conaffinity = _ROBOT_CONTYPE, _ROBOT_CONAFFINITY
+            geom.contype, geom.conaffinity = groups.robot
             # Soft finger pads: a contact patch resists twisting and tilting (torsional and rolling friction).
             geom.friction = [settings.pad_friction, settings.torsional_friction, settings.torsional_friction]
             geom.condim = 6
@@ -327,8 +268,8 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         type=mujoco.mjtGeom.mjGEOM_SPHERE,
         size=[_PAD_RADIUS, 0, 0],
         pos=tip_body_pose[:3, :3].T @ (pad_world - tip_body_pose[:3, 3]),
-        contype=_ROBOT_CONTYPE,
-        conaffinity=_ROBOT_CONAFFINITY,
+        contype=groups.robot[0],
+        conaffinity=groups.robot[1],
         condim=6,
         priority=1,
         friction=[settings.pad_friction, settings.torsional_friction, 0.0001],
@@ -378,7 +319,7 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         points, com = np.asarray(result.object["points"]), np.asarray(result.object["com_xy"], dtype=float)
     else:
         points, com = world_object.points, np.asarray(world_object.centroid_xy, dtype=float)
-    _add_world(spec, result, settings, points, com)
+    add_world(spec, result, settings, points, com, contacts)
     if camera is not None:
         # Camera.axes() are MuJoCo's camera frame (x right, y up, looking along -z).
         spec.worldbody.add_camera(name=DEPTH_CAMERA, pos=list(camera.position), fovy=camera.fovy_deg,
@@ -387,10 +328,7 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         spec.visual.global_.offheight = max(spec.visual.global_.offheight, camera.height)
     spec.memory = _ARENA_BYTES
     spec.option.timestep = settings.timestep
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    spec.option.impratio = 10
-    spec.option.noslip_iterations = 10
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    contacts.apply(spec)
     try:
         model = spec.compile()
     except ValueError as error:
@@ -420,6 +358,8 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
             limits=np.array([limits[joint] for joint in gripper_joints], dtype=float).reshape(-1, 2),
         ),
         hand_geoms=hand_geoms,
+        robot_groups=groups.robot,
+        contacts=contacts,
         pad_geom=model.geom(pad.name).id,
         object_body=object_body,
         object_geoms={index for index in range(model.ngeom) if model.geom_bodyid[index] == object_body},
@@ -457,47 +397,6 @@ def _wxyz(rotation: np.ndarray) -> np.ndarray:
     return np.array([w, x, y, z])
 
 
-def _add_world(spec, result: PlanResult | Rig, settings: ExecutionSettings, points: np.ndarray, com: np.ndarray) -> None:
-    """Add the table prism and the object (boxes on a grid over the top cloud ``points``, one free body
-    with its origin at ``com``) to the spec."""
-    import mujoco
-
-    height = float(result.table["height"])
-    table = SupportSurface.from_vertices(result.table["polygon"], height, field="table.polygon")
-    for index, piece in enumerate(table_pieces(table.polygon)):
-        vertices = np.vstack([
-            np.column_stack([piece, np.full(len(piece), height)]),
-            np.column_stack([piece, np.full(len(piece), height - _TABLE_THICKNESS)]),
-        ])
-        spec.add_mesh(name=f"slideplan_table_{index}", uservert=vertices.ravel().tolist())
-        spec.worldbody.add_geom(
-            name=f"slideplan_table_{index}",
-            type=mujoco.mjtGeom.mjGEOM_MESH,
-            meshname=f"slideplan_table_{index}",
-            contype=_WORLD_CONTYPE,
-            conaffinity=_WORLD_CONAFFINITY,
-            friction=[settings.table_friction, 0.005, 0.0001],
-            rgba=[0.55, 0.45, 0.35, 1],
-        )
-    thickness = float(result.object["thickness"])
-    boxes = object_boxes(points, settings.cell_size)
-    body = spec.worldbody.add_body(name="slideplan_object", pos=[com[0], com[1], height + thickness / 2])
-    body.add_freejoint(name="slideplan_object_free")
-    for index, (x, y, half_x, half_y) in enumerate(boxes):
-        body.add_geom(
-            name=f"slideplan_object_{index}",
-            type=mujoco.mjtGeom.mjGEOM_BOX,
-            size=[half_x, half_y, thickness / 2],
-            pos=[x - com[0], y - com[1], 0.0],
-            density=settings.object_density,
-            contype=_WORLD_CONTYPE,
-            conaffinity=_WORLD_CONAFFINITY,
-            friction=[settings.table_friction, 0.005, 0.0001],
-            rgba=[0.2, 0.5, 0.8, 1],
-        )
-    spec.worldbody.add_light(pos=[0.5, 0, 2.0], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
-
-
 def set_servo_gains(built: Model, config: np.ndarray, settings: ExecutionSettings) -> None:
     """PD gains giving every arm joint the same bandwidth at the configuration's inertia (critical damping)."""
     import mujoco
@@ -519,6 +418,6 @@ def set_servo_gains(built: Model, config: np.ndarray, settings: ExecutionSetting
 def enable_hand_collisions(built: Model, enabled: bool) -> None:
     """Let the contact links' own geoms touch the world (grasping) or not (sliding: the pad only)."""
     model = built.model
-    model.geom_contype[built.hand_geoms] = _ROBOT_CONTYPE if enabled else 0
-    model.geom_conaffinity[built.hand_geoms] = _ROBOT_CONAFFINITY if enabled else 0
+    model.geom_contype[built.hand_geoms] = built.robot_groups[0] if enabled else 0
+    model.geom_conaffinity[built.hand_geoms] = built.robot_groups[1] if enabled else 0
 

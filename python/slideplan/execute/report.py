@@ -83,7 +83,8 @@ class Execution:
             f"{verdict}; Eq. 2 error {1000 * self.position_error_m:.1f} mm / {self.yaw_error_deg:.1f} deg, "
             f"overhang {100 * self.overhang_m:.1f} cm, CoM {1000 * self.com_margin_m:.1f} mm inside the table, "
             f"normal force {self.normal_force_n['mean']:.1f} N, lifted {'yes' if self.lifted else 'no'} "
-            f"({self.sim_time_s:.1f} s simulated in {self.wall_time_s:.1f} s)"
+            f"({self.sim_time_s:.1f} s simulated in {self.wall_time_s:.1f} s, "
+            f"{self.sim_time_s / max(self.wall_time_s, 1e-9):.1f}x real time)"
         )
 
 

@@ -18,6 +18,7 @@ _CLOSE_S = 0.8
 _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
+_FINITE_EVERY = 10  # steps between checks that the state is finite (MuJoCo's bad-acceleration warning is read every step)
 # A straight move (up, or aside to look) is solved a centimetre at a time; a step turning a joint further
 # than MAX_JOINT_STEP_RAD has left the arm's branch. The planner's lift check (lift_check) uses the same.
 UP_STEP_M = _core.LIFT_STEP_M
@@ -25,7 +26,7 @@ MAX_JOINT_STEP_RAD = _core.LIFT_JOINT_STEP_RAD
 
 
 class Unstable(Exception):
-    """The simulation produced NaN or MuJoCo reset it (bad accelerations)."""
+    """The simulation produced NaN or MuJoCo reset it (bad positions, velocities or accelerations)."""
 
 
 # ----------------------------------------------------------------------------- timing
@@ -94,6 +95,18 @@ def reference(path: np.ndarray, times: np.ndarray, t: float) -> np.ndarray:
     return path[index] + fraction * (path[index + 1] - path[index])
 
 
+def references(path: np.ndarray, times: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """:func:`reference` at each of the times ``at`` (s), as one (len(at), dof) array."""
+    path, times, at = np.asarray(path, dtype=float), np.asarray(times, dtype=float), np.asarray(at, dtype=float)
+    if len(times) < 2:
+        return np.repeat(path[-1:], len(at), axis=0)
+    index = np.clip(np.searchsorted(times, at, side="right") - 1, 0, len(times) - 2)
+    span = times[index + 1] - times[index]
+    fraction = np.where(span <= 0, 0.0, (at - times[index]) / np.where(span <= 0, 1.0, span))
+    out = path[index] + fraction[:, None] * (path[index + 1] - path[index])
+    out[at >= times[-1]] = path[-1]
+    return out
+
 
 class Runner:
     """Steps the simulation with the arm servoed along joint paths, checking for instability."""
@@ -106,6 +119,7 @@ class Runner:
         self.lifted = False
         # Reading the reference kv/kp ahead is velocity feed-forward to first order.
         self.lead = 1.0 / (math.pi * settings.servo_bandwidth_hz)
+        self._is_object = None  # per geom: part of the object (built on the first force sample)
 
     def follow(self, path: np.ndarray, times: np.ndarray, extra_s: float = 0.0, on_step=None) -> float:
         """Servo the arm along ``path`` at ``times`` (s from now), then hold its end for ``extra_s``.
@@ -128,17 +142,30 @@ class Runner:
         model, data = self.built.model, self.built.data
         start = data.time
         end = float(times[-1]) + extra_s
+        # The references of every step at once (the reference of step k is read at k * timestep + lead):
+        # no per-step interpolation in Python.
+        count = max(int(math.ceil(end / model.opt.timestep)) + 2, 1)
+        ahead = references(path, times, np.arange(count) * model.opt.timestep + self.lead)
+        ctrl, actuators = data.ctrl, self.built.arm_actuators
+        first = int(actuators[0]) if len(actuators) else 0
+        contiguous = np.array_equal(actuators, np.arange(first, first + len(actuators)))
+        warnings = data.warning.number  # a view: MuJoCo's warning counters, read without building structs
+        bad = [int(getattr(mujoco.mjtWarning, name)) for name in ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")]
+        full = [int(mujoco.mjtWarning.mjWARN_CNSTRFULL), int(mujoco.mjtWarning.mjWARN_CONTACTFULL)]
         step = 0
         while data.time - start < end - 1e-9:
             elapsed = data.time - start
-            data.ctrl[self.built.arm_actuators] = reference(path, times, elapsed + self.lead)
+            if contiguous:
+                ctrl[first:first + len(actuators)] = ahead[min(step, count - 1)]
+            else:
+                ctrl[actuators] = ahead[min(step, count - 1)]
             if on_step is not None and on_step(elapsed, step):
                 break
             mujoco.mj_step(model, data)
             step += 1
-            if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0 or not np.isfinite(data.qacc).all():
+            if warnings[bad].any() or (step % _FINITE_EVERY == 0 and not np.isfinite(data.qacc).all()):
                 raise Unstable(f"simulation unstable (bad accelerations) at t = {data.time:.3f} s")
-            if data.warning[mujoco.mjtWarning.mjWARN_CNSTRFULL].number or data.warning[mujoco.mjtWarning.mjWARN_CONTACTFULL].number:
+            if warnings[full[0]] or warnings[full[1]]:
                 raise Unstable(f"simulation out of contact memory at t = {data.time:.3f} s (contacts were dropped)")
             if self.on_frame is not None:
                 self.on_frame()
@@ -198,6 +225,8 @@ class Runner:
         """
         model, data, built, settings = self.built.model, self.built.data, self.built, self.settings
         model.qpos_spring[built.spring_qpos] = 0.0
+        if built.contacts.noslip_after_slide is not None:
+            model.opt.noslip_iterations = built.contacts.noslip_after_slide
         failure = None
 
         def during_approach(elapsed: float, step: int) -> None:
@@ -265,15 +294,19 @@ class Runner:
         import mujoco
 
         model, data = self.built.model, self.built.data
+        if data.ncon == 0:
+            return 0.0
+        if self._is_object is None:
+            self._is_object = np.zeros(model.ngeom, dtype=bool)
+            self._is_object[list(self.built.object_geoms)] = True
+        geoms = data.contact.geom[: data.ncon]
+        pad = self.built.pad_geom
+        touching = ((geoms[:, 0] == pad) & self._is_object[geoms[:, 1]]) | ((geoms[:, 1] == pad) & self._is_object[geoms[:, 0]])
         total = 0.0
         wrench = np.zeros(6)
-        pad, object_geoms = self.built.pad_geom, self.built.object_geoms
-        for index in range(data.ncon):
-            contact = data.contact[index]
-            pair = (int(contact.geom1), int(contact.geom2))
-            if pad in pair and (pair[0] in object_geoms or pair[1] in object_geoms):
-                mujoco.mj_contactForce(model, data, index, wrench)
-                total += abs(wrench[0])
+        for index in np.flatnonzero(touching):
+            mujoco.mj_contactForce(model, data, int(index), wrench)
+            total += abs(wrench[0])
         return total
 
 
