@@ -149,6 +149,8 @@ def test_plan_refusals_say_why_and_the_node_keeps_serving():
         client.close()
         log = _stop(serve)
     assert "Traceback" not in log, log
+    # Where it can be reached, said at start: this machine only, as _environment sets it (no warning then).
+    assert "slideplan: discovery range LOCALHOST" in log and "other hosts on the network" not in log, log
 
 
 def _check_trajectory(message: JointTrajectory, joint_names: list[str]) -> None:
