@@ -58,11 +58,13 @@ def _at(planning: PlanningNode, seconds: float) -> None:
 
 
 def _joints(planning: PlanningNode, positions=None, **fields) -> JointState:
+    """A JointState naming the arm's joints, ``positions`` (default all 0) and other ``fields``."""
     positions = [0.0] * len(planning.robot_joints) if positions is None else positions
     return JointState(name=planning.robot_joints, position=positions, **fields)
 
 
 def _cloud(**layout):
+    """A good 2 x 3 cloud, then its ``layout`` fields (row_step, point_step, ...) set as given."""
     message = cloud_message(np.ones((2, 3, 3)), Header(frame_id="slideplan_camera"))
     for name, value in layout.items():
         setattr(message, name, value)
@@ -70,6 +72,7 @@ def _cloud(**layout):
 
 
 def _last_ignored(planning: PlanningNode) -> dict:
+    """The node's last status line, which must say a message was ignored."""
     line = planning.status.lines[-1]
     assert line["phase"] == "ignored", line
     return line
