@@ -66,7 +66,8 @@ def main() -> None:
         f"(one core; the machine's other core was busy with another engineer's single-threaded experiment the whole "
         f"time), {time.perf_counter() - started:.0f} s for the open-loop part. The model before issue 52 "
         f"(`contacts.LEGACY`: the object's boxes on the table, noslip throughout, no sleeping) and today's "
-        f"(`contacts.CURRENT`: {contacts.CURRENT}) in the same run.",
+        f"(`contacts.CURRENT`: {contacts.CURRENT}) in the same run. The Python code is the tree at "
+        f"{execute_fidelity.tree_commit()} (the rows' `tree_commit`); `build` above names the installed extension it ran over.",
         "",
         "## Open loop: plans of the Fig. 10 set, nominal",
         "",

@@ -39,13 +39,14 @@ def run(args) -> None:
     from slideplan.verify import verify
 
     tasks = build_spec("execution").tasks[args.start::args.stride][: args.count]
+    tree = tree_commit()
     rows = []
     for number, task in enumerate(tasks):
         started = time.perf_counter()
         result = plan(cached_scene(task.scene), task.placed_object(), task.planner_config())
         base = dict(task_index=args.start + number * args.stride, scene=task.scene, object=task.object,
                     pose_index=task.pose_index, solved=bool(result.solved and verify(result).ok),
-                    planning_time_s=time.perf_counter() - started, **run_provenance())
+                    planning_time_s=time.perf_counter() - started, **run_provenance(), tree_commit=tree)
         if not base["solved"]:
             rows.append({**base, "model": None})
             print(f"{number + 1}/{len(tasks)} {task.scene} {task.object} {task.pose_index}: not solved", flush=True)
@@ -77,6 +78,18 @@ def run(args) -> None:
         pd.DataFrame(rows).to_parquet(args.out, index=False)  # after every task: a stopped run keeps its rows
     if {"legacy", "current"} <= set(args.models.split(";")):
         compare_rows(pd.DataFrame(rows))
+
+
+def tree_commit() -> str:
+    """The commit of the working tree this script runs from (``+dirty`` when the execution code differs
+    from it): the Python code may be newer than the installed extension that ``build`` names."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True).stdout.strip()
+    dirty = subprocess.run(["git", "status", "--porcelain", "python/slideplan/execute", "benchmarks/execute_fidelity.py"],
+                           cwd=root, capture_output=True, text=True).stdout.strip()
+    return commit + ("+dirty" if dirty else "")
 
 
 def compare_rows(rows: pd.DataFrame) -> bool:
