@@ -6,6 +6,8 @@ time limit in means (as in tables.md and the figures); rows of tasks that raised
 
 from __future__ import annotations
 
+import math
+
 import pandas as pd
 
 from numbers_common import build_of, count, percent, rows, seconds, span
@@ -165,15 +167,17 @@ def fig12() -> dict[str, str]:
         values[f"fig12-{preset}"] = "; ".join(items)
         smallest = summary.iloc[0]
         small = smallest.solved < summary.loc[100.0].solved and smallest.mean_s > summary.loc[100.0].mean_s
-        best = summary["mean_s"].idxmin()
+        at_100 = summary.loc[100.0]
         larger = summary[summary.index > 100.0]
         large = ", ".join(f"N* = {n:g} {1000 * row.mean_s:.1f} ms" for n, row in larger.iterrows())
+        # The paper: a larger N* is slower. Only a difference beyond twice its standard error counts as one.
+        slower = all(row.mean_s - at_100.mean_s > 2 * math.hypot(row.se_s, at_100.se_s) for _, row in larger.iterrows())
         verdict = f"too small an N* is too conservative: {'reproduced' if small else 'not reproduced'}; best at 100: "
-        if best == 100.0:
-            verdict += f"reproduced (N* = 100 {1000 * summary.loc[100.0].mean_s:.1f} ms, {large})"
+        if slower:
+            verdict += f"reproduced (N* = 100 {1000 * at_100.mean_s:.1f} ms, {large})"
         else:
-            verdict += (f"**not reproduced**, a larger N* costs nothing ({large}, against "
-                        f"{1000 * summary.loc[100.0].mean_s:.1f} ms at N* = 100)")
+            verdict += (f"**not reproduced**, a larger N* costs no more, within twice the standard error ({large}, "
+                        f"against {1000 * at_100.mean_s:.1f} ms at N* = 100)")
         values[f"fig12-{preset}-verdict"] = verdict
     return values
 
