@@ -11,7 +11,8 @@ the model before issue 52 and today's, from one run in one process (one core).
 
     python benchmarks/execute_bench.py [--start 0] [--stride 5] [--count 40] [--out docs/benchmarks/execution.md]
 
-Not a test (``make bench``). Writes the page (``--out``) and the rows (``--rows``).
+Not a test (``make bench``). Writes the page (``--out``; its last section, "Findings", is written by hand
+and kept) and the rows (``--rows``).
 """
 
 from __future__ import annotations
@@ -112,6 +113,9 @@ def main() -> None:
                                                profile, wall, execution.sim_time_s)
         contacts.ACTIVE[0] = contacts.CURRENT
         lines += ["", "## Profiles (benchmarks/execute_profile.py's instrumentation)", "", *profiles]
+    # The page's last section, "## Findings", is written by hand from a run: a rerun keeps it (and its date says which run).
+    if args.out.exists() and "\n## Findings" in args.out.read_text():
+        lines += ["", "## Findings" + args.out.read_text().split("\n## Findings", 1)[1].rstrip()]
     write_report(lines, args.out)
 
 
