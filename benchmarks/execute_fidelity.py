@@ -3,7 +3,7 @@
 before issue 52 (``contacts.LEGACY``) and with today's (``contacts.CURRENT``).
 
     python benchmarks/execute_fidelity.py run [--start 0] [--stride 5] [--count 40] [--out docs/benchmarks/execution_fidelity.parquet]
-    python benchmarks/execute_fidelity.py compare [docs/benchmarks/execution_fidelity.parquet]
+    python benchmarks/execute_fidelity.py compare [docs/benchmarks/execution_fidelity*.parquet]
 
 ``run`` plans each task of ``build_spec("execution").tasks[start::stride][:count]`` (as the execution
 experiment does: planned, verified) and writes one row per task and model: the slide's final planar
@@ -138,12 +138,12 @@ def main() -> None:
     runner.add_argument("--models", default="legacy;current",
                         help="';'-separated: legacy, current, or label=ContactModel(...) (a candidate)")
     comparer = commands.add_parser("compare")
-    comparer.add_argument("rows", type=Path, nargs="?", default=DEFAULT_OUT)
+    comparer.add_argument("rows", type=Path, nargs="*", default=[DEFAULT_OUT], help="row files, compared together")
     args = parser.parse_args()
     if args.command == "run":
         run(args)
     else:
-        sys.exit(0 if compare_rows(pd.read_parquet(args.rows)) else 1)
+        sys.exit(0 if compare_rows(pd.concat([pd.read_parquet(path) for path in args.rows], ignore_index=True)) else 1)
 
 
 if __name__ == "__main__":
