@@ -67,7 +67,7 @@ def test_the_demo_plan_slides_and_lifts_its_crescent(tmp_path):
 def test_unstable_simulation_is_reported_without_nan(slide_plan):
     execution = execute(slide_plan, ExecutionSettings(timestep=0.03))
     assert execution.failed_stage == "simulation"
-    assert "unstable" in execution.failure
+    assert "unstable (MuJoCo's BADQACC warning)" in execution.failure or "non-finite" in execution.failure
     assert execution.actual_motion is None and execution.position_error_m is None
     json.loads(execution.to_json())  # allow_nan=False: raises on any NaN
 
@@ -547,3 +547,19 @@ def test_a_move_straight_up_stays_on_the_vertical_and_on_the_arms_branch():
             assert np.linalg.norm(points[:, :2] - tips[0, :2], axis=1).max() < 0.001
         assert np.all(np.diff(tips[:, 2]) > 0) and tips[-1, 2] - tips[0, 2] == pytest.approx(0.1, abs=1e-4)
         assert np.abs(np.diff(way, axis=0)).max() <= MAX_JOINT_STEP_RAD
+
+
+def test_a_state_mujoco_resets_silently_is_named_as_the_cause():
+    # MuJoCo answers a huge or NaN position with its BADQPOS warning and a reset, then steps on: every
+    # stepping loop (execute, run, ros sim) must end there, naming it (once a 1e300 trajectory reset the arm).
+    import mujoco
+
+    from slideplan.execute.runner import instability
+
+    model = mujoco.MjModel.from_xml_string("<mujoco><worldbody><body><freejoint/><geom size='0.1'/></body></worldbody></mujoco>")
+    data = mujoco.MjData(model)
+    mujoco.mj_step(model, data)
+    assert instability(data) == ""
+    data.qpos[0] = 1e300
+    mujoco.mj_step(model, data)
+    assert instability(data) == "MuJoCo's BADQPOS warning"

@@ -18,6 +18,25 @@ _CLOSE_S = 0.8
 _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
+UNSTABLE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")  # MuJoCo resets the state on each
+
+
+def instability(data) -> str:
+    """Why a simulation can no longer be trusted, or "" while it can: one of MuJoCo's
+    :data:`UNSTABLE_WARNINGS` fired (it then resets the state and goes on, silently), or the
+    accelerations are not finite. Every stepping loop ends its run on a cause.
+
+    Args:
+        data: the ``mujoco.MjData`` after a step.
+    """
+    import mujoco
+
+    fired = [name[len("mjWARN_"):] for name in UNSTABLE_WARNINGS if data.warning[int(getattr(mujoco.mjtWarning, name))].number]
+    if fired:
+        return f"MuJoCo's {', '.join(fired)} warning"
+    return "" if np.isfinite(data.qacc).all() else "non-finite accelerations"
+
+
 _FINITE_EVERY = 10  # steps between checks that the state is finite (MuJoCo's bad-acceleration warning is read every step)
 # A straight move (up, or aside to look) is solved a centimetre at a time; a step turning a joint further
 # than MAX_JOINT_STEP_RAD has left the arm's branch. The planner's lift check (lift_check) uses the same.
@@ -150,7 +169,7 @@ class Runner:
         first = int(actuators[0]) if len(actuators) else 0
         contiguous = np.array_equal(actuators, np.arange(first, first + len(actuators)))
         warnings = data.warning.number  # a view: MuJoCo's warning counters, read without building structs
-        bad = [int(getattr(mujoco.mjtWarning, name)) for name in ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")]
+        bad = [int(getattr(mujoco.mjtWarning, name)) for name in UNSTABLE_WARNINGS]
         full = [int(mujoco.mjtWarning.mjWARN_CNSTRFULL), int(mujoco.mjtWarning.mjWARN_CONTACTFULL)]
         step = 0
         while data.time - start < end - 1e-9:
@@ -164,7 +183,7 @@ class Runner:
             mujoco.mj_step(model, data)
             step += 1
             if warnings[bad].any() or (step % _FINITE_EVERY == 0 and not np.isfinite(data.qacc).all()):
-                raise Unstable(f"simulation unstable (bad accelerations) at t = {data.time:.3f} s")
+                raise Unstable(f"simulation unstable ({instability(data)}) at t = {data.time:.3f} s")
             if warnings[full[0]] or warnings[full[1]]:
                 raise Unstable(f"simulation out of contact memory at t = {data.time:.3f} s (contacts were dropped)")
             if self.on_frame is not None:

@@ -32,7 +32,7 @@ import numpy as np
 from ..closed_loop import DEPTH_DROPOUT, Disturbance, execution_settings, default_camera, setting_draws
 from ..errors import InputError
 from ..execute.model import DEPTH_CAMERA, Rig, build_model, enable_hand_collisions, set_servo_gains
-from ..execute.runner import reference
+from ..execute.runner import instability, reference
 from ..objects import load_object
 from ..planning import PlannerConfig, build_robot, robot_description
 from ..rendering import Camera, camera_depth, noisy_depth
@@ -140,8 +140,9 @@ class Sim:
                 self._drive_gripper()
                 self._maybe_disturb()
                 mujoco.mj_step(self.model, self.data)
-            if not np.isfinite(self.data.qacc).all():
-                raise RuntimeError(f"simulation unstable (bad accelerations) at t = {self.data.time:.3f} s")
+            cause = instability(self.data)
+            if cause:  # MuJoCo would reset the arm and go on as if nothing happened
+                raise RuntimeError(f"simulation unstable ({cause}) at t = {self.data.time:.3f} s")
 
     def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
         """The arm's joint positions and velocities."""
