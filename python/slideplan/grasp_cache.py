@@ -58,7 +58,7 @@ def map_path(robot: dict[str, Any], vertices: tuple, height: float, thickness: f
         robot: the plan JSON's robot block (:func:`slideplan.planning.robot_description`).
         vertices, height: the table polygon and height.
         thickness: the object's thickness as the map keeps it (to the micrometre).
-        params: the values of the grasp parameters the map depends on (planning._GRASP_MAP_PARAMS).
+        params: the values of the grasp parameters the map depends on (slideplan.parameters.GRASP_MAP_NAMES).
 
     Raises:
         OSError: the URDF or an attached file cannot be read.

@@ -7,6 +7,7 @@ docs/parameters.md all come from it. Each entry is a :class:`Parameter`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -66,11 +67,9 @@ class Parameter:
 
 
 def _load() -> tuple[Parameter, ...]:
-    entries = []
-    for entry in _core.parameters():
-        spec = Parameter(**entry)
-        entries.append(Parameter(**{**entry, "default": spec.typed(entry["default"]), "paper": spec.typed(entry["paper"])}))
-    return tuple(entries)
+    """The core's registry, its values (doubles in C++) as each parameter's own type."""
+    raw = [Parameter(**entry) for entry in _core.parameters()]
+    return tuple(dataclasses.replace(p, default=p.typed(p.default), paper=p.typed(p.paper)) for p in raw)
 
 
 REGISTRY: tuple[Parameter, ...] = _load()
