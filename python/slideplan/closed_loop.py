@@ -52,31 +52,30 @@ import shapely
 
 from . import _core, jsontext
 from ._fields import as_numbers
+from .closed_loop_settings import (  # noqa: F401 - SETTINGS, RANDOM_RANGES, DEPTH_NOISE_AT_1M re-exported
+    DEPTH_NOISE_AT_1M, RANDOM_RANGES, SETTINGS, Disturbance, camera_as_mounted, execution_settings, hard_push,
+    push_candidates, setting_draws)
 from .errors import InputError
 from .execute.model import DEPTH_CAMERA, build_model
 from .execute.reach import Unreachable, collision_world, dense, reach_path
 from .execute.runner import SETTLE_S, Runner, Unstable, straight_line, straight_up, timed_way, timing_of, timing_options
-from .execute.settings import ExecutionSettings, stress_settings
+from .execute.settings import ExecutionSettings
+from .bounds import MAX_REPLANS, MAX_SLIDE_S, Progress
 from .execute.video import Recorder, plan_points
 from .objects import ThinObject, load_object, load_outline, place_outline
-from .planning import PlannerConfig, PlanResult, build_robot, plan
-from .rendering import Camera, camera_depth, noisy_depth, place_objects, render_scene
+from .plan.config import PlannerConfig
+from .plan.robot import build_robot
+from .plan.result import PlanResult
+from .plan.planner import plan
+from .rendering import Camera, back_project, camera_depth, depth_image, noisy_depth, place_objects, scene_mjcf
 from .scenes import Scene, load_scene
 from .timing import resolve_limits, time_path
 from .tracking import NOT_UNDER_TIP, Tracker
+from .verdict import Hold, held
 from .transforms import compose_planar, move_planar, pose_to_row, row_to_pose, wrap_angle
 from .verify import overhang, planar_motion
 
 CLOSED_LOOP_SCHEMA = "slideplan.closed_loop/1"
-SETTINGS = ("nominal", "stress", "random")
-RANDOM_RANGES = {  # the random setting draws each uniformly in its range, per run
-    "table_friction": (0.25, 0.6),
-    "pad_friction": (0.6, 1.2),
-    "torsional_friction": (0.002, 0.02),  # m
-    "mass_scale": (0.5, 2.0),
-    "depth_noise_at_1m": (0.001, 0.004),  # m
-}
-DEPTH_NOISE_AT_1M = 0.002  # m, nominal and stress (as slideplan.rendering)
 DEPTH_DROPOUT = 0.05
 CONFIRM = 2  # looks in a row off the predicted pose, agreeing with each other, that make a drift
 AGREE = 3.0  # two looks agree within this many thresholds
@@ -89,32 +88,6 @@ SIGHT_RADIUS_M = 0.005  # each a capsule of this radius (CollisionWorld.hidden_l
 HIDDEN_SHARE = 0.25  # a pose that hides at most this share of them shows the tracker enough of the object
 BLIND_S = 1.0  # a slide no look has seen the object in for this long stops, and the finger rises clear to look
 OBSTACLE_MARGIN = 0.01  # a search of the table keeps this far from an obstacle's footprint (its sides, depth noise)
-
-
-@dataclass(frozen=True)
-class Disturbance:
-    """The object moved by someone ``after_s`` seconds into the slide: by ``(dx, dy)`` (m) and turned
-    by ``dyaw`` (rad) about its centre of mass."""
-
-    dx: float
-    dy: float
-    dyaw: float
-    after_s: float
-
-    def apply(self, built) -> None:
-        """Move the object of an execution model (:class:`slideplan.execute.model.Model`) by this much,
-        about its centre of mass, and leave it at rest."""
-        import mujoco
-
-        model, data = built.model, built.data
-        joint = model.body_jntadr[built.object_body]
-        address = model.jnt_qposadr[joint]
-        data.qpos[address:address + 2] += (self.dx, self.dy)
-        turn = np.array([math.cos(self.dyaw / 2), 0.0, 0.0, math.sin(self.dyaw / 2)])
-        quaternion = np.zeros(4)
-        mujoco.mju_mulQuat(quaternion, turn, data.qpos[address + 3:address + 7].copy())
-        data.qpos[address + 3:address + 7] = quaternion
-        data.qvel[model.jnt_dofadr[joint]:][:6] = 0.0
 
 
 @dataclass
@@ -139,6 +112,8 @@ class Replan:
             the pose seen, or nothing was seen). After a blind look without a new plan the rest of the
             stopped slide goes on, from rest.
         detail: why refused or lost ("" otherwise).
+        frames: the indices of the depth frames (0 the run's first look) the decision used: the looks in a
+            row that confirmed a drift, or the end look's frames.
     """
 
     time_s: float
@@ -150,6 +125,7 @@ class Replan:
     outcome: str
     detail: str = ""
     sense_s: float = 0.0
+    frames: list[int] = dataclasses.field(default_factory=list)
 
     @property
     def latency_s(self) -> float:
@@ -162,12 +138,14 @@ class ClosedLoopRun:
     """What happened in one :func:`run`.
 
     Attributes:
-        success: the object as seen after the slide overhangs by >= u* with the centre of mass
-            com_margin inside the table, and it was lifted and held.
+        success: the world's verdict (:func:`slideplan.verdict.held`, the same for both modes): the object
+            was in the hand, at least 3 cm above the table top, through the whole hold, in the simulator's
+            true state. What the camera saw plays no part.
         mode: ``"closed"`` or ``"open"``.
-        setting: ``"nominal"``, ``"stress"`` or ``"random"``.
-        failed_stage: None, ``"plan"`` (no first plan), ``"slide"`` (the object ends short), ``"grasp"``,
-            ``"release"`` or ``"simulation"``.
+        setting: one of :data:`SETTINGS`.
+        failed_stage: None, ``"plan"`` (no first plan), ``"release"`` (the object fell off the table when
+            the finger let go), ``"grasp"`` (not lifted), ``"hold"`` (lifted, then out of the hand or lower than
+            3 cm in the hold) or ``"simulation"``.
         failure: one line saying what went wrong ("" on success).
         replans: re-plans whose new plan was followed (slides and grasps from a seen pose).
         replan_latency_s: median latency of the looks that planned (s), None if none did.
@@ -176,12 +154,21 @@ class ClosedLoopRun:
             look found the same, or nothing (events with outcome ``"kept"``).
         looks: depth frames tracked; lost_looks: of them, those that did not show the object.
         events: every look that asked for a plan, and each end-of-slide look (:class:`Replan`).
-        seen_motion: the object's motion from its perceived pose to where it was last seen, ``{x, y, yaw}``.
-        overhang_m, com_margin_m: at the last seen pose.
+        seen_status: after the slide, ``"seen"`` or ``"lost"`` (the look did not find the object: the seen
+            columns are then None, never the prediction); None without a slide. Diagnostic.
+        seen_frames: the frames that look used (the closed loop's last deciding look; the open loop's end
+            look, made by the same settled procedure, :meth:`Watch.settled`).
+        seen_motion: the object's motion from its perceived pose to where it was seen then, ``{x, y, yaw}``.
+        seen_overhang_m, seen_com_margin_m: at that pose.
         true_overhang_m, true_com_margin_m: at the object's true pose then.
-        lifted: the grasp lifted the object and held it.
-        draws: the physical parameters of the run (the random setting's draws).
-        disturbance: the ``--disturb`` applied, or None.
+        lifted: the runner's lift check (the object rose half the lift and stayed): diagnostic.
+        slide_stop: ``""`` or why the closed loop ended its sliding early: ``"no_progress"`` (the finger
+            travelled :data:`NO_PROGRESS_TRAVEL_M` while the object as seen moved less than
+            :data:`NO_PROGRESS_MOVE_M`), ``"replan_cap"`` (:data:`MAX_REPLANS` re-plans), ``"time_cap"``
+            (:data:`MAX_SLIDE_S` of slide).
+        slide_s: simulated time from the first slide's start to the grasp's start (s).
+        draws: the physical parameters of the run (the random and hard settings' draws).
+        disturbance: the push applied (``--disturb``, or the hard setting's), or None.
         sim_time_s, wall_time_s: simulated and wall time of the run (s).
     """
 
@@ -196,12 +183,16 @@ class ClosedLoopRun:
     looks: int
     lost_looks: int
     events: list[Replan]
+    seen_status: str | None
+    seen_frames: list[int]
     seen_motion: dict[str, float] | None
-    overhang_m: float | None
-    com_margin_m: float | None
+    seen_overhang_m: float | None
+    seen_com_margin_m: float | None
     true_overhang_m: float | None
     true_com_margin_m: float | None
     lifted: bool
+    slide_stop: str
+    slide_s: float
     draws: dict[str, float]
     disturbance: dict[str, float] | None
     sim_time_s: float
@@ -226,36 +217,14 @@ class ClosedLoopRun:
     def summary(self) -> str:
         """One line: the verdict and the numbers."""
         verdict = "ok" if self.success else f"failed at {self.failed_stage}: {self.failure}"
-        seen = "" if self.overhang_m is None else (
-            f"; seen overhang {100 * self.overhang_m:.1f} cm, CoM {1000 * self.com_margin_m:.1f} mm inside")
+        seen = f"; seen {self.seen_status}" if self.seen_overhang_m is None else (
+            f"; seen overhang {100 * self.seen_overhang_m:.1f} cm, CoM {1000 * self.seen_com_margin_m:.1f} mm inside")
+        true = "" if self.true_overhang_m is None else (
+            f"; true overhang {100 * self.true_overhang_m:.1f} cm, CoM {1000 * self.true_com_margin_m:.1f} mm inside")
+        stop = f"; slide stopped: {self.slide_stop}" if self.slide_stop else ""
         latency = "" if self.replan_latency_s is None else f", median latency {1000 * self.replan_latency_s:.0f} ms"
-        return (f"{verdict} ({self.mode} loop, {self.setting}){seen}; {self.replans} re-plans{latency}; "
+        return (f"{verdict} ({self.mode} loop, {self.setting}){seen}{true}{stop}; {self.replans} re-plans{latency}; "
                 f"lifted {'yes' if self.lifted else 'no'} ({self.sim_time_s:.1f} s simulated in {self.wall_time_s:.1f} s)")
-
-
-def setting_draws(setting: str, seed: int) -> dict[str, float]:
-    """The physical parameters of a run: the defaults (nominal, stress) or the random setting's draws,
-    from a generator seeded by ``seed`` alone (the same for open and closed loop).
-
-    Raises:
-        InputError: an unknown setting (field ``setting``).
-    """
-    if setting not in SETTINGS:
-        raise InputError(f"expected one of {', '.join(SETTINGS)}, got {setting!r}", field="setting")
-    nominal = ExecutionSettings()
-    if setting != "random":
-        return {"table_friction": nominal.table_friction, "pad_friction": nominal.pad_friction,
-                "torsional_friction": nominal.torsional_friction * (0.5 if setting == "stress" else 1.0),
-                "mass_scale": 1.0, "depth_noise_at_1m": DEPTH_NOISE_AT_1M}
-    rng = np.random.default_rng([seed, 24])
-    return {name: float(rng.uniform(*bounds)) for name, bounds in RANDOM_RANGES.items()}
-
-
-def execution_settings(setting: str, draws: dict[str, float], dz_min: float) -> ExecutionSettings:
-    base = stress_settings(dz_min) if setting == "stress" else ExecutionSettings()
-    return dataclasses.replace(base, table_friction=draws["table_friction"], pad_friction=draws["pad_friction"],
-                               torsional_friction=draws["torsional_friction"],
-                               object_density=base.object_density * draws["mass_scale"])
 
 
 def default_camera(scene: Scene) -> Camera:
@@ -268,14 +237,18 @@ def default_camera(scene: Scene) -> Camera:
     return Camera((centre.x - offset, centre.y - offset, scene.table.height + 0.6), (centre.x, centre.y, scene.table.height))
 
 
-def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: float, seed: int) -> ThinObject:
+def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: float, seed: int,
+                      mounted: Camera | None = None) -> ThinObject:
     """The object as the camera sees it before the slide: its known outline registered to the object
-    :func:`~slideplan.perception.perceive` finds in a rendered frame (the table is the scene's)."""
+    :func:`~slideplan.perception.perceive` finds in a rendered frame (the table is the scene's). The frame
+    is taken from where the camera is ``mounted`` (default: ``camera``) and read as if from ``camera``."""
     from .perception import perceive, register_outline
 
     placed = place_objects([(object_name, pose)])[0]
-    rendered = render_scene(scene.table, [placed], camera=camera, noise_at_1m=noise, dropout=DEPTH_DROPOUT, seed=seed)
-    perception = perceive(rendered.points, seed=seed, source="the rendered scene")
+    mounted = mounted or camera
+    depth = depth_image(scene_mjcf(scene.table, [placed], [], mounted), mounted)
+    points = back_project(noisy_depth(depth, noise, DEPTH_DROPOUT, np.random.default_rng(seed)), camera)
+    perception = perceive(points, seed=seed, source="the rendered scene")
     if not perception.objects:
         raise InputError("the camera does not see the object", field="--pose")
     outline, thickness, _ = load_outline(object_name)
@@ -373,22 +346,21 @@ def slide_segment(result: PlanResult, top: float, base) -> Segment:
                     top - np.asarray(result.fingertip_poses)[:, 2], tuple(float(value) for value in base))
 
 
-def _judge(report: dict[str, Any], table, perceived: ThinObject, truth: ThinObject, config: PlannerConfig, seen_motion,
-           runner: Runner) -> None:
-    """After the slide: the overhang and centre-of-mass margin as seen (the verdict) and as they are."""
-    seen = perceived.moved(seen_motion)
-    report["seen_motion"] = dict(zip(("x", "y", "yaw"), map(float, seen_motion)))
-    report["overhang_m"] = float(overhang(table, seen.points[:, :2])[0])
-    report["com_margin_m"] = float(table.edge_margin(seen.centroid_xy))
+def _diagnose(report: dict[str, Any], table, perceived: ThinObject, truth: ThinObject, seen_motion, seen: bool,
+              frames: list[int], runner: Runner) -> None:
+    """After the slide, diagnostics only (the verdict is the world's, :func:`slideplan.verdict.held`): the
+    overhang and centre-of-mass margin where the deciding look saw the object (None when it did not: a
+    lost look is reported lost, never as the prediction) and where the object truly is."""
+    report.update(seen_status="seen" if seen else "lost", seen_frames=list(frames))
+    if seen:
+        moved = perceived.moved(seen_motion)
+        report["seen_motion"] = dict(zip(("x", "y", "yaw"), map(float, seen_motion)))
+        report["seen_overhang_m"] = float(overhang(table, moved.points[:, :2])[0])
+        report["seen_com_margin_m"] = float(table.edge_margin(moved.centroid_xy))
     com, yaw, _ = runner.object_pose()  # the object's body starts unturned, its origin at the centre of mass
     motion = (*(com - move_planar(np.asarray(truth.centroid_xy, dtype=float), (0.0, 0.0, yaw))), yaw)
     report["true_overhang_m"] = float(overhang(table, move_planar(truth.points[:, :2], motion))[0])
     report["true_com_margin_m"] = float(table.edge_margin(com))
-    if report["overhang_m"] < config.u_star or report["com_margin_m"] < config.com_margin:
-        report["failed_stage"] = "slide"
-        report["failure"] = (f"the object ends overhanging {100 * report['overhang_m']:.1f} cm (u* = {100 * config.u_star:.1f}) "
-                             f"with its centre of mass {1000 * report['com_margin_m']:.1f} mm inside the table "
-                             f"(com_margin = {1000 * config.com_margin:.1f}), as seen")
 
 
 def _pose_error(obj: ThinObject, first, second) -> tuple[float, float]:
@@ -432,7 +404,7 @@ class Watch:
         perceived.symmetry_turns  # computed once, before the first look's latency
         self.looks = self.lost_looks = self.kept = 0
         self._last: tuple | None = None  # (motion seen, fingertip pose then) of the last look that found the object
-        self._beyond: list = []  # (pose seen, fingertip pose) of the looks in a row off the predicted pose
+        self._beyond: list = []  # (pose seen, fingertip pose, frame) of the looks in a row off the predicted pose
 
     def error(self, first, second) -> tuple[float, float]:
         """Distance (m) between the object's centre of mass under two motions, and their yaw difference (rad)."""
@@ -511,9 +483,9 @@ class Watch:
         else:
             # The finger carries the object between looks (a centimetre in 0.2 s): compare the last look
             # carried to this one's fingertip.
-            if self._beyond and not self.agree(self.carried(*self._beyond[-1], tip), seen.motion):
+            if self._beyond and not self.agree(self.carried(*self._beyond[-1][:2], tip), seen.motion):
                 self._beyond.clear()
-            self._beyond.append((seen.motion, tip))
+            self._beyond.append((seen.motion, tip, self.looks - 1))
         if len(self._beyond) < CONFIRM:
             return False
         if segment.still_works(self.perceived, self.scene.table, self.replan_config, tip, seen.motion, self.threshold[0]):
@@ -553,7 +525,7 @@ class Watch:
             finally:
                 sensed[0] += time.perf_counter() - begun
 
-        started = time.perf_counter()
+        started, first_frame = time.perf_counter(), self.looks
         if trigger in ("end", "clear", "blind", "search"):
             seen = self.settled(timed_frames, predicted, pressed=trigger == "end")
         else:
@@ -561,7 +533,7 @@ class Watch:
         tracked = time.perf_counter()
         error_m, error_yaw = self.error(seen.motion, predicted)
         event = Replan(elapsed, trigger, error_m, math.degrees(error_yaw), tracked - started - sensed[0], 0.0, "lost",
-                       seen.reason, sensed[0])
+                       seen.reason, sensed[0], list(range(first_frame, self.looks)))
         if trigger == "blind" and (not seen.ok or segment.still_works(self.perceived, self.scene.table, self.replan_config, tip,
                                                                       seen.motion, self.threshold[0])):
             # On track, or not seen even from above: the rest of the slide goes on as it would have.
@@ -572,6 +544,8 @@ class Watch:
             return None, (event if trigger != "drift" else None), seen
         if trigger == "drift" and not self.drifted(seen, predicted, segment, tip):
             return None, None, seen
+        if trigger == "drift":
+            event.frames = [frame for _, _, frame in self._beyond]
         self._beyond.clear()
         motion = seen.motion if start_tip is None else compose_planar(seen.motion, planar_motion(tip, start_tip))
         try:
@@ -592,17 +566,21 @@ class Stop:
     """Where a look during a slide leaves it (:meth:`SlideLoop.look`).
 
     Attributes:
-        plan: the new plan a confirmed drift asks for, followed from ``config``; None: blind (no look
-            has seen the object for ``BLIND_S``), the arm stops at ``config`` to look from above.
+        plan: the new plan a confirmed drift asks for, followed from ``config``; None: the arm stops at
+            ``config``, for ``reason``.
         motion: where the object was seen (motion from its perceived pose); None when blind.
         config: the configuration the new plan starts from, or the arm stops at.
         at_s: its time into the slide (s).
+        reason: why a stop without a plan: ``"blind"`` (no look has seen the object for ``BLIND_S``: it
+            looks from above) or ``"no_progress"`` (:class:`~slideplan.bounds.Progress`: the slide ends there,
+            looked at as at its end).
     """
 
     plan: PlanResult | None
     motion: tuple | None
     config: np.ndarray
     at_s: float
+    reason: str = "blind"
 
 
 class Arm(Protocol):
@@ -652,13 +630,28 @@ class SlideLoop:
 
     Attributes:
         replans: new plans followed.
+        stopped: ``""`` or why the loop ended its sliding early (:mod:`slideplan.bounds`): ``"no_progress"``,
+            ``"replan_cap"`` or ``"time_cap"``.
+        seen: whether the object's motion :meth:`run` returned was seen (else predicted), and
+        seen_frames: the frames of the look it came from.
+        abandoned: the slide stopped for no progress and no new plan followed: no grasp is made.
     """
 
     def __init__(self, watch: Watch | None, robot, top: float, end_replans: int, arm: Arm) -> None:
         self.watch, self.robot, self.top, self.end_replans, self.arm = watch, robot, top, end_replans, arm
         self.replans = self.ends = self.blinds = 0
         self.unseen = Unseen()
+        self.progress = Progress()
         self.segment: Segment | None = None
+        self.stopped, self.seen, self.seen_frames, self.abandoned = "", False, [], False
+
+    def capped(self) -> bool:
+        """Whether a bound ends the sliding now (:attr:`stopped` says which)."""
+        if not self.stopped and self.replans >= MAX_REPLANS:
+            self.stopped = "replan_cap"
+        elif not self.stopped and self.arm.clock() >= MAX_SLIDE_S:
+            self.stopped = "time_cap"
+        return self.stopped in ("replan_cap", "time_cap")
 
     def look(self, frames, stamp: float, tip: np.ndarray, config: np.ndarray, at_s: float,
              start_tip: np.ndarray | None = None) -> Stop | None:
@@ -666,43 +659,54 @@ class SlideLoop:
         commanded at ``tip`` (4, 4); a new plan would start from ``config``, ``at_s`` into the slide (its
         fingertip ``start_tip`` when later than the look's). Returns where to leave the slide, or None."""
         segment = self.segment
+        if self.capped():  # no new plan: the slide goes on to its end, then its own grasp
+            return None
         again, event, seen = self.watch.replan("drift", stamp, frames, segment.predicted(tip), config, segment=segment,
                                                tip=tip, start_tip=start_tip)
         if event is not None:
             self.arm.record(event)
+        if again is None and self.progress.update(np.asarray(tip)[:2, 3], seen.motion if seen.ok else None):
+            self.stopped = "no_progress"
+            return Stop(None, seen.motion, config, at_s, "no_progress")
         if again is None:
             if (self.unseen.update(seen.ok, stamp) < BLIND_S or segment.times[-1] - at_s < BLIND_S
                     or max(self.ends, self.blinds) >= self.end_replans):
                 return None
             return Stop(None, None, config, at_s)
         self.unseen.update(True, stamp)
+        self.seen_frames = event.frames
         return Stop(again, seen.motion, config, at_s)
 
     def run(self, result: PlanResult) -> tuple[PlanResult, tuple]:
         """Slide along ``result`` and whatever the looks ask for. Returns the plan whose grasp is made, and
-        the object's motion from its perceived pose then: as last seen (the tracker's best guess, the
-        prediction or the last pose seen carried on, when the last look did not see it), or where Eq. 2
-        puts it (open loop)."""
+        the object's motion from its perceived pose then: where the last deciding look saw it (:attr:`seen`
+        True, its frames :attr:`seen_frames`), or its best guess when that look did not see it (the
+        prediction or the last pose seen carried on: :attr:`seen` False), or where Eq. 2 puts it when no
+        look decided (open loop, or a bound reached: :attr:`seen` None)."""
         robot, arm, watch = self.robot, self.arm, self.watch
         segment = slide_segment(result, self.top, (0.0, 0.0, 0.0))
+        self.seen, self.seen_frames = None, []
         while True:
             self.segment = segment
+            self.progress.reset()
             stop = arm.slide(segment, None if watch is None else self.look)
             if stop is not None and stop.plan is not None:
                 self.replans += 1
                 arm.replanned("drift", "grasp" if len(stop.plan.trajectory) == 1 else "slide", self.replans)
                 arm.switch(stop)
                 if len(stop.plan.trajectory) == 1:  # already graspable where it was seen: the slide ends here
+                    self.seen = True
                     return stop.plan, stop.motion
                 segment = slide_segment(stop.plan, self.top, stop.motion)
                 continue
-            blind = stop is not None
-            end_config, end_s = (stop.config, stop.at_s) if blind else (np.asarray(segment.result.trajectory)[-1], float(segment.times[-1]))
+            blind = stop is not None and stop.reason == "blind"
+            end_config, end_s = (stop.config, stop.at_s) if stop is not None else (np.asarray(segment.result.trajectory)[-1], float(segment.times[-1]))
             predicted = segment.predicted(np.asarray(robot.fk(end_config)))
-            if watch is None:
+            if watch is None or self.capped():
+                self.seen, self.seen_frames = None, []
                 return segment.result, predicted
-            if blind:
-                self.blinds += 1
+            if stop is not None:  # blind, or no progress: the slide ends where the arm stops
+                self.blinds += blind
                 arm.stop(stop)
             lifted, trigger = (self.clear_way(segment.result, end_config, predicted), "blind") if blind else (None, "clear")
             if lifted is None:
@@ -729,8 +733,11 @@ class SlideLoop:
             replanned = again is not None
             if blind and not replanned:  # on track, not seen or no new plan: the rest of the slide, from rest
                 again = segment.rest(robot, end_s, end_config)
+            self.seen, self.seen_frames = bool(seen.ok), event.frames
             if again is None or self.ends >= self.end_replans:
-                return segment.result, seen.motion  # its own grasp, from where Eq. 2 put the object
+                # Its own grasp, from where Eq. 2 put the object; none after no progress (the arm is mid-slide).
+                self.abandoned = stop is not None and stop.reason == "no_progress"
+                return segment.result, seen.motion
             if replanned:
                 self.replans += 1
                 arm.replanned("blind" if blind else "end", outcome, self.replans)
@@ -900,13 +907,16 @@ def run(
         scene: a :class:`~slideplan.scenes.Scene`, a built-in scene name or a scene TOML.
         object_name: the object's outline (a name in ``data/objects`` or a TOML path).
         pose: (x, y, yaw) where the object really lies (m, m, rad).
-        seed: seeds the camera's noise, perception, the planner and the random setting's draws.
+        seed: seeds the camera's noise, perception, the planner and the random and hard settings' draws.
         closed: re-plan from what the camera sees (True) or execute the first plan blind (False).
-        setting: ``"nominal"``, ``"stress"`` (torsional friction halved, the finger at ``dz_min``) or
-            ``"random"`` (frictions, mass and depth noise drawn per run: :data:`RANDOM_RANGES`).
-        disturbance: move the object during the slide (a test hook and a demo), or None.
+        setting: ``"nominal"``, ``"stress"`` (torsional friction halved, the finger at ``dz_min``),
+            ``"random"`` (frictions, mass and depth noise drawn per run: :data:`RANDOM_RANGES`) or ``"hard"``
+            (issue 53's: :mod:`slideplan.closed_loop_settings`).
+        disturbance: move the object during the slide (a test hook and a demo; in the hard setting, in
+            place of its own push), or None.
         config: planner parameters (default: the scene's hand, ``seed``).
-        camera: the fixed depth camera (default :func:`default_camera`).
+        camera: the fixed depth camera (default :func:`default_camera`): where the planner and the tracker
+            believe it is (the hard setting mounts it off there: :func:`camera_as_mounted`).
         replan_period: simulated time between looks (s).
         threshold: (m, rad) a seen pose further than this from the predicted one asks for a re-plan.
         replan_time_limit: planning time limit of each re-plan (s).
@@ -916,8 +926,8 @@ def run(
         progress: called with the simulated time (s) every simulated tenth of a second, or None.
 
     Returns:
-        The report. A run that cannot plan at first, or whose simulation goes unstable, is a report
-        with that ``failed_stage``.
+        The report, judged by the world (:mod:`slideplan.verdict`). A run that cannot plan at first, or
+        whose simulation goes unstable, is a report with that ``failed_stage``.
 
     Raises:
         InputError: an unknown setting, a pose that is not 3 numbers or puts the object off the table,
@@ -944,13 +954,15 @@ def run(
     if not scene.table.polygon.contains(truth.outline):
         raise InputError(f"the object at {pose} is not wholly on the table", field="--pose")
     os.environ.setdefault("MUJOCO_GL", "egl")
-    perceived = _perceived_object(scene, object_name, camera, pose, draws["depth_noise_at_1m"], seed)
+    mounted = camera_as_mounted(camera, draws)
+    perceived = _perceived_object(scene, object_name, camera, pose, draws["depth_noise_at_1m"], seed, mounted)
 
     mode = "closed" if closed else "open"
     report: dict[str, Any] = dict(
         success=False, mode=mode, setting=setting, failed_stage=None, failure="", replans=0, replan_latency_s=None,
-        kept=0, looks=0, lost_looks=0, events=[], seen_motion=None, overhang_m=None, com_margin_m=None, true_overhang_m=None, true_com_margin_m=None,
-        lifted=False, draws=draws, disturbance=None if disturbance is None else dataclasses.asdict(disturbance),
+        kept=0, looks=0, lost_looks=0, events=[], seen_status=None, seen_frames=[], seen_motion=None, seen_overhang_m=None,
+        seen_com_margin_m=None, true_overhang_m=None, true_com_margin_m=None, lifted=False, slide_stop="", slide_s=0.0,
+        draws=draws, disturbance=None if disturbance is None else dataclasses.asdict(disturbance),
     )
     first = plan(scene, perceived, config)
     if not first.solved:
@@ -965,7 +977,7 @@ def run(
     import mujoco
 
     settings = execution_settings(setting, draws, float(first.params["dz_min"]))
-    built = build_model(first, settings, world_object=truth, camera=camera)
+    built = build_model(first, settings, world_object=truth, camera=mounted)
     model, data = built.model, built.data
     depth_renderer = mujoco.Renderer(model, camera.height, camera.width)
     depth_renderer.enable_depth_rendering()
@@ -983,10 +995,20 @@ def run(
         return frame, np.asarray(robot.fk(data.qpos[built.arm_qpos]))
 
     pending = [disturbance]
+    if disturbance is None and draws.get("push"):
+        pending = [push_candidates(int(draws["push_seed"]), draws["push_fraction"] * slide_s)]
 
     def on_step(now: float) -> None:
-        if pending[0] is not None and now >= pending[0].after_s:
-            pending[0].apply(built)
+        if pending[0] is None:
+            return
+        after_s = pending[0][0].after_s if isinstance(pending[0], list) else pending[0].after_s
+        if now >= after_s:
+            push = pending[0]
+            if isinstance(push, list):  # the hard setting's: redrawn while it would leave the CoM near an edge
+                push = hard_push(push, scene.table, runner.object_pose()[0])
+                report["disturbance"] = None if push is None else dataclasses.asdict(push)
+            if push is not None:
+                push.apply(built)
             pending[0] = None
 
     runner.press(first.trajectory[0], segment.depths[0])
@@ -994,21 +1016,32 @@ def run(
                      _Simulated(runner, robot, settings, frames, report["events"], replan_period, on_step))
     try:
         grasp_plan, seen_motion = loop.run(first)
-        if not closed:  # the camera only watched: where it sees the object, for the verdict
-            seen_motion = watch.look(*frames(), seen_motion).motion
-        _judge(report, scene.table, perceived, truth, config, seen_motion, runner)
-        failure = runner.grasp(np.asarray(grasp_plan.grasp["approach"], dtype=float),
-                               _times(grasp_plan, "approach", len(grasp_plan.grasp["approach"])),
-                               np.asarray(grasp_plan.grasp["config"], dtype=float), robot,
-                               resolve_limits(grasp_plan, timing_options(settings, robot.velocity_limits)), top,
-                               scene.table.height + truth.thickness / 2)
+        report["slide_s"] = loop.arm.clock()
+        seen, seen_frames = loop.seen, loop.seen_frames
+        if seen is None:  # no look decided (open loop, or a bound): one look for the diagnostics, as the closed loop's end look
+            first_frame = watch.looks
+            look = watch.settled(frames, seen_motion)
+            seen, seen_frames, seen_motion = look.ok, list(range(first_frame, watch.looks)), look.motion
+        _diagnose(report, scene.table, perceived, truth, seen_motion, seen, seen_frames, runner)
+        failure = None
+        if loop.abandoned:
+            failure = ("slide", "no progress: the finger travelled on and the object did not, and no new plan followed")
+        else:
+            failure = runner.grasp(np.asarray(grasp_plan.grasp["approach"], dtype=float),
+                                   _times(grasp_plan, "approach", len(grasp_plan.grasp["approach"])),
+                                   np.asarray(grasp_plan.grasp["config"], dtype=float), robot,
+                                   resolve_limits(grasp_plan, timing_options(settings, robot.velocity_limits)), top,
+                                   scene.table.height + truth.thickness / 2)
         report["lifted"] = runner.lifted
-        if failure is not None and report["failed_stage"] is None:
-            report["failed_stage"], report["failure"] = failure
+        ok, why = held(Hold.from_samples(runner.hold, settings.hold_s) if runner.hold else None, scene.table.height)
+        if not ok:
+            stage, message = failure or ("hold", why)
+            report["failed_stage"], report["failure"] = stage, message
     except Unstable as error:
         report.update(failed_stage="simulation", failure=str(error), lifted=False)
     finally:
-        report.update(replans=loop.replans, looks=watch.looks, lost_looks=watch.lost_looks, kept=watch.kept)
+        report.update(replans=loop.replans, looks=watch.looks, lost_looks=watch.lost_looks, kept=watch.kept,
+                      slide_stop=loop.stopped)
         recorder.close()
         depth_renderer.close()
     planned = [event.latency_s for event in report["events"] if event.outcome in ("slide", "grasp", "refused", "timeout")]

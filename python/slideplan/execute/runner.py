@@ -18,6 +18,7 @@ _CLOSE_S = 0.8
 _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
+_HOLD_SAMPLE_EVERY = 10  # steps between samples of the object over the hold (the verdict: slideplan.verdict.SAMPLE_GAP_S)
 UNSTABLE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")  # MuJoCo resets the state on each
 
 
@@ -136,9 +137,12 @@ class Runner:
         self.on_frame = on_frame
         self.forces: list[float] = []  # the pad's normal force while sliding (N), every few steps
         self.lifted = False
-        # Reading the reference kv/kp ahead is velocity feed-forward to first order.
-        self.lead = 1.0 / (math.pi * settings.servo_bandwidth_hz)
+        # Reading the reference kv/kp ahead is velocity feed-forward to first order; an arm that follows
+        # its references late (settings.reference_lag_s) reads them that much behind.
+        self.lead = 1.0 / (math.pi * settings.servo_bandwidth_hz) - settings.reference_lag_s
+        self.hold: list[tuple[float, float, bool]] = []  # (s into the hold, object's lowest z, in the hand): the verdict's record
         self._is_object = None  # per geom: part of the object (built on the first force sample)
+        self._object_ids = None  # the object's geoms, sorted (built on the first hold sample)
 
     def follow(self, path: np.ndarray, times: np.ndarray, extra_s: float = 0.0, on_step=None) -> float:
         """Servo the arm along ``path`` at ``times`` (s from now), then hold its end for ``extra_s``.
@@ -164,7 +168,7 @@ class Runner:
         # The references of every step at once (the reference of step k is read at k * timestep + lead):
         # no per-step interpolation in Python.
         count = max(int(math.ceil(end / model.opt.timestep)) + 2, 1)
-        ahead = references(path, times, np.arange(count) * model.opt.timestep + self.lead)
+        ahead = references(path, times, np.maximum(np.arange(count) * model.opt.timestep + self.lead, 0.0))
         ctrl, actuators = data.ctrl, self.built.arm_actuators
         first = int(actuators[0]) if len(actuators) else 0
         contiguous = np.array_equal(actuators, np.arange(first, first + len(actuators)))
@@ -193,7 +197,7 @@ class Runner:
     def commanded(self, path: np.ndarray, times: np.ndarray, elapsed: float) -> np.ndarray:
         """The joint reference the servos hold ``elapsed`` s into ``path``: where a new path must start
         for the reference not to jump."""
-        return reference(path, times, elapsed + self.lead)
+        return reference(path, times, max(elapsed + self.lead, 0.0))
 
     def press(self, config: np.ndarray, depth: float) -> None:
         """Start pressed: the arm at ``config``, the finger spring compressed by the planned ``depth``; only
@@ -283,7 +287,15 @@ class Runner:
         if lift_way is None:
             return failure or ("grasp", f"no inverse kinematics for the {100 * settings.lift_height:.0f} cm lift")
         # The lift is not in the plan: timed here, the fingertip capped all the way (it holds the object).
-        self.follow(*timed_way(robot, lift_way, limits, "lift"), settings.hold_s)
+        lift_path, lift_times = timed_way(robot, lift_way, limits, "lift")
+        lift_s = float(lift_times[-1])
+
+        def holding(elapsed: float, step: int) -> None:
+            if elapsed >= lift_s - 1e-9 and step % _HOLD_SAMPLE_EVERY == 0:
+                self.hold.append(self.hold_sample(elapsed - lift_s))
+
+        self.follow(lift_path, lift_times, settings.hold_s, holding)
+        self.hold.append(self.hold_sample(settings.hold_s))
         self.lifted = self.object_pose()[2] >= rest_z + _LIFTED_FRACTION * settings.lift_height
         if not self.lifted:
             blocked = f" ({', '.join(on_table)} stopped by the table when closing)" if on_table else ""
@@ -296,6 +308,25 @@ class Runner:
         body = self.built.object_body
         rotation = data.xmat[body].reshape(3, 3)
         return data.xpos[body][:2].copy(), math.atan2(rotation[1, 0], rotation[0, 0]), float(data.xpos[body][2])
+
+    def hold_sample(self, at: float) -> tuple[float, float, bool]:
+        """``(at, the object's lowest point's height, whether it touches the robot)`` from the true state now."""
+        import mujoco
+
+        model, data, built = self.built.model, self.built.data, self.built
+        if self._object_ids is None:
+            self._object_ids = np.array(sorted(built.object_geoms), dtype=int)
+        geoms = self._object_ids
+        boxes = model.geom_type[geoms] == int(mujoco.mjtGeom.mjGEOM_BOX)
+        # A box's lowest corner: its centre less the half sizes along its axes' vertical components.
+        reach = np.where(boxes, np.einsum("gi,gi->g", np.abs(data.geom_xmat[geoms].reshape(-1, 3, 3)[:, 2, :]),
+                                          model.geom_size[geoms]), model.geom_rbound[geoms])
+        lowest = float(np.min(data.geom_xpos[geoms, 2] - reach))
+        # In the hand: touching a robot body (the table and clutter are the world body's, 0).
+        bodies = model.geom_bodyid[data.contact.geom[:data.ncon]].reshape(-1, 2)
+        other = np.where(bodies[:, 0] == built.object_body, bodies[:, 1], bodies[:, 0])
+        touching = bool(np.any((bodies == built.object_body).any(axis=1) & (other != 0) & (other != built.object_body)))
+        return float(at), lowest, touching
 
     def robot_bodies_on_table(self) -> list[str]:
         """Names of the robot bodies touching the table now (e.g. a closing finger it stopped)."""

@@ -44,6 +44,8 @@ class ExecutionSettings:
         lift_height: lift of the hand after closing (m).
         hold_s: hold time after the lift (s).
         timestep: simulation step (s).
+        spring_scale: factor on the finger compliance's stiffness (the hard setting's draw, issue 53).
+        reference_lag_s: the arm follows its joint references this late (s; the hard setting's 30 ms).
         position_tolerance: a slide succeeds within this position error (m)...
         yaw_tolerance: ... and this yaw error (rad) of Eq. 2.
     """
@@ -69,6 +71,8 @@ class ExecutionSettings:
     lift_height: float = 0.05
     hold_s: float = 1.0
     timestep: float = 0.001
+    spring_scale: float = 1.0
+    reference_lag_s: float = 0.0
     position_tolerance: float = 0.005
     yaw_tolerance: float = math.radians(3.0)
 
@@ -79,16 +83,20 @@ class ExecutionSettings:
                 continue
             if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
                 raise InputError(f"expected a finite number, got {value!r}", field=item.name)
-            if item.name != "contact_depth" and value <= 0:
+            if item.name not in _NON_NEGATIVE and value <= 0:
                 raise InputError(f"must be > 0, got {value!r}", field=item.name)
+            if item.name == "reference_lag_s" and value < 0:
+                raise InputError(f"must be >= 0, got {value!r}", field=item.name)
 
 
     def spring_stiffness(self, dz_min: float, dz_max: float) -> float:
         """The finger compliance's stiffness for a hand whose contact-depth band is [dz_min, dz_max] (N/m)."""
-        return self.finger_stiffness if self.finger_stiffness is not None else self.press_force / (0.5 * (dz_min + dz_max))
+        stiffness = self.finger_stiffness if self.finger_stiffness is not None else self.press_force / (0.5 * (dz_min + dz_max))
+        return self.spring_scale * stiffness
 
 
 _OPTIONAL = ("contact_depth", "finger_stiffness")
+_NON_NEGATIVE = ("contact_depth", "reference_lag_s")  # may be 0: no press, no lag (contact_depth: any sign)
 STRESS_TORSION_FACTOR = 0.5
 
 

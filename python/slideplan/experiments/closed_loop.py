@@ -1,15 +1,17 @@
-"""The closed-loop experiment (issue 24): the Fig. 10 set run whole in MuJoCo, open and closed loop.
+"""The closed-loop experiment (issues 24 and 53): whole tasks in MuJoCo, open and closed loop.
 
-Each task is one object pose of the execution experiment's set (5 objects x 4 tables, same poses
-and planner seeds for the same experiment seed); its worker runs :func:`slideplan.closed_loop.run`
-in every setting (nominal, stress, random) and mode (open, closed): perceive, plan, slide, grasp,
-lift. The random setting's draws come from the task's seed alone, so open and closed loop meet the
-same physics. One part file per task holds its six runs side by side (``<setting>_<mode>_<column>``);
-:func:`closed_loop_runs` turns them into one row per run::
+Each task is one object pose of a task set (``--set dev``: the execution experiment's Fig. 10 set, 5
+objects x 4 tables; ``--set eval``: the held-out letters, :func:`slideplan.experiments.tasks.closed_loop_eval_spec`);
+its worker runs :func:`slideplan.closed_loop.run` in every setting (nominal, stress, random, hard) and
+mode (open, closed): perceive, plan, slide, grasp, lift, hold, judged by the world
+(:mod:`slideplan.verdict`). The random and hard settings' draws come from the task's seed alone, so open
+and closed loop meet the same physics. One part file per task holds its eight runs side by side
+(``<setting>_<mode>_<column>``); :func:`closed_loop_runs` turns them into one row per run::
 
-    slideplan experiment closed-loop --poses 2 --out out/closed_loop
+    slideplan experiment closed-loop --set eval --out out/closed_loop_eval
     python -c "from slideplan.experiments.closed_loop import *; \\
-        closed_loop_runs(load_closed_loop('out/closed_loop')).to_parquet('docs/results/closed_loop.parquet')"
+        closed_loop_runs(load_closed_loop('out/closed_loop_eval')).to_parquet('docs/results/closed_loop_eval.parquet')"
+    .venv/bin/python docs/results/make_tables.py   # docs/results/closed_loop.md from the rows
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import json
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -28,27 +31,41 @@ from ..provenance import PROVENANCE_COLUMNS, run_provenance
 from .execution import TASK_COLUMNS
 from .results import PROVENANCE_FIELDS, load_results
 from .stats import wilson_interval
-from .tasks import Task, cached_scene
+from .tasks import Task, cached_scene, task_set
 
 MODES = ("open", "closed")
 _RUN_COLUMNS = [
     ("success", pa.bool_()), ("failed_stage", pa.string()), ("failure", pa.string()), ("replans", pa.int64()),
     ("kept", pa.int64()), ("replan_latency_s", pa.float64()), ("max_latency_s", pa.float64()), ("looks", pa.int64()),
-    ("lost_looks", pa.int64()), ("overhang_m", pa.float64()), ("com_margin_m", pa.float64()),
+    ("lost_looks", pa.int64()), ("seen_status", pa.string()), ("seen_frames", pa.string()),
+    ("seen_overhang_m", pa.float64()), ("seen_com_margin_m", pa.float64()),
     ("true_overhang_m", pa.float64()), ("true_com_margin_m", pa.float64()), ("lifted", pa.bool_()),
-    ("draws", pa.string()), ("sim_time_s", pa.float64()), ("wall_time_s", pa.float64()),
+    ("slide_stop", pa.string()), ("slide_s", pa.float64()), ("decision_frames", pa.string()),
+    ("draws", pa.string()), ("disturbance", pa.string()), ("sim_time_s", pa.float64()), ("wall_time_s", pa.float64()),
 ]
 CLOSED_LOOP_ROW_SCHEMA = pa.schema(
     TASK_COLUMNS
-    + [("solved", pa.bool_())]
+    + [("task_set", pa.string()), ("solved", pa.bool_())]
     + [(f"{setting}_{mode}_{name}", kind) for setting, mode in itertools.product(SETTINGS, MODES) for name, kind in _RUN_COLUMNS]
     + [("error", pa.string())]
     + PROVENANCE_FIELDS
 )
-"""Columns of a task's part file: the task, ``solved`` (every run of it finished), then each run's outcome
-(:class:`slideplan.closed_loop.ClosedLoopRun`; ``max_latency_s`` the slowest re-plan; ``draws`` the
-physics as JSON), then ``error`` (a run that raised), then the provenance columns of
-:data:`slideplan.experiments.results.ROW_SCHEMA`."""
+"""Columns of a task's part file: the task, its ``task_set`` (``dev`` or ``eval``), ``solved`` (every run of
+it finished), then each run's outcome (:class:`slideplan.closed_loop.ClosedLoopRun`; ``max_latency_s`` the
+slowest re-plan; as JSON: ``draws`` the physics, ``disturbance`` the push, ``seen_frames`` the frames of the
+look after the slide, ``decision_frames`` each deciding look's trigger, outcome and frames), then ``error``
+(a run that raised), then the provenance columns of :data:`slideplan.experiments.results.ROW_SCHEMA`."""
+
+
+def run_columns(report) -> dict[str, Any]:
+    """A :class:`~slideplan.closed_loop.ClosedLoopRun` as the values of :data:`_RUN_COLUMNS`."""
+    outcome = dataclasses.asdict(report)
+    for name in ("draws", "disturbance", "seen_frames"):
+        outcome[name] = json.dumps(outcome[name], sort_keys=True)
+    outcome["decision_frames"] = json.dumps([[event.trigger, event.outcome, event.frames] for event in report.events])
+    latencies = [event.latency_s for event in report.events if event.outcome != "lost"]
+    outcome["max_latency_s"] = max(latencies) if latencies else None
+    return {name: outcome[name] for name, _ in _RUN_COLUMNS}
 
 
 def run_closed_loop_task(task: Task) -> dict:
@@ -61,17 +78,13 @@ def run_closed_loop_task(task: Task) -> dict:
         A dict with the keys of :data:`CLOSED_LOOP_ROW_SCHEMA`; an exception becomes the ``error`` column.
     """
     row = {field.name: None for field in CLOSED_LOOP_ROW_SCHEMA}
-    row.update(task.fields(), solved=False, **run_provenance())
+    row.update(task.fields(), task_set=task_set(task), solved=False, **run_provenance())
     try:
         scene, config = cached_scene(task.scene), task.planner_config()
         for setting, mode in itertools.product(SETTINGS, MODES):
             report = run(scene, task.object, (task.x, task.y, task.yaw), seed=task.seed, closed=mode == "closed",
                          setting=setting, config=config)
-            outcome = dataclasses.asdict(report)
-            outcome["draws"] = json.dumps(report.draws, sort_keys=True)
-            latencies = [event.latency_s for event in report.events if event.outcome != "lost"]
-            outcome["max_latency_s"] = max(latencies) if latencies else None
-            row.update({f"{setting}_{mode}_{name}": outcome[name] for name, _ in _RUN_COLUMNS})
+            row.update({f"{setting}_{mode}_{name}": value for name, value in run_columns(report).items()})
         row["solved"] = True
     except Exception as error:  # noqa: BLE001 - recorded in the row; one bad task must not end the run
         row["error"] = f"{type(error).__name__}: {error}"
@@ -88,16 +101,19 @@ def load_closed_loop(path: str | Path) -> pd.DataFrame:
 
 
 def closed_loop_runs(tasks: pd.DataFrame) -> pd.DataFrame:
-    """One row per run: the task's columns, ``setting``, ``mode``, the run's outcome columns and the task's
-    provenance columns.
+    """One row per run: the task's columns and set, ``setting``, ``mode``, the run's outcome columns and the
+    task's provenance columns.
 
     Args:
-        tasks: :func:`load_closed_loop` rows; tasks that raised are left out.
+        tasks: :func:`load_closed_loop` rows; tasks that raised are left out, and the settings they did not
+            run (rows from before a setting existed).
     """
     tasks = tasks[tasks["error"].isna()]
-    task_columns = [field.name for field in TASK_COLUMNS]
+    task_columns = [field.name for field in TASK_COLUMNS] + ["task_set"]
     parts = []
     for setting, mode in itertools.product(SETTINGS, MODES):
+        if len(tasks) and tasks[f"{setting}_{mode}_success"].isna().all():
+            continue
         part = tasks[task_columns].copy()
         part.insert(len(task_columns), "setting", setting)
         part.insert(len(task_columns) + 1, "mode", mode)
@@ -174,7 +190,7 @@ def plot_closed_loop(runs: pd.DataFrame, out_dir: str | Path, name: str = "close
                           label=setting)
         for mode, style in zip(MODES, (":", "-")):
             ran = runs[(runs["setting"] == setting) & (runs["mode"] == mode)]
-            error = np.sort(1000 * (ran["overhang_m"] - ran["true_overhang_m"]).dropna().to_numpy())
+            error = np.sort(1000 * (ran["seen_overhang_m"] - ran["true_overhang_m"]).dropna().to_numpy())
             error_axes.step(error, np.arange(1, len(error) + 1) / max(len(error), 1), where="post", color=colour,
                             linestyle=style, label=f"{setting}, {mode}")
     replan_axes.set(xlabel="re-plans per closed-loop run", ylabel="fraction of runs")

@@ -21,7 +21,7 @@ from shapely.geometry import Polygon
 
 from ..errors import InputError
 from ..objects import ThinObject, load_outline, sample_pose_on_table
-from ..planning import PLANNERS, PlannerConfig
+from ..plan.config import PLANNERS, PlannerConfig
 from ..scenes import Scene, load_scene
 
 FIGURES = ("fig10", "fig11", "fig12")
@@ -35,6 +35,12 @@ BASELINE_RANGE_M = 0.02
 N_STAR_VALUES = (1.0, 10.0, 100.0, 1000.0, 10000.0)  # Fig. 12, see fig12_spec
 PAPER_TIME_LIMIT_S = 60.0  # the paper's time budget (V-5)
 QUICK_OBJECTS = ("square", "crescent")  # an easy and a hard (non-convex) shape
+# The closed loop's task sets (issue 53): ``dev``, the execution experiment's Fig. 10 set, to find and fix
+# failures on; ``eval``, held out, run once on one build: objects, poses and seed the dev set never used.
+CLOSED_LOOP_SETS = {"dev": "closed-loop", "eval": "closed-loop-eval"}  # set -> the tasks' ``experiment``
+EVAL_OBJECTS = ("Y", "A", "L", "E")
+EVAL_POSES = 5
+EVAL_SEED = 53  # the eval set's experiment seed (the dev set's is the run's --seed, 0 for every committed row)
 QUICK_POSES = 2
 QUICK_TIME_LIMIT_S = 5.0
 
@@ -44,7 +50,7 @@ class Task:
     """One planning problem: a scene, an object at an initial pose, and a planner setting.
 
     Every field that changes the result is here; the planner parameters not listed are
-    :class:`~slideplan.planning.PlannerConfig` defaults (and enter :attr:`task_id` too).
+    :class:`~slideplan.plan.config.PlannerConfig` defaults (and enter :attr:`task_id` too).
 
     Attributes:
         experiment: the figure the task belongs to (``"fig10"``, ...).
@@ -330,6 +336,27 @@ def closed_loop_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tup
     return _executed_tasks("closed-loop", base, quick, poses)
 
 
+def closed_loop_eval_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
+    """The closed loop's held-out ``eval`` set: the objects :data:`EVAL_OBJECTS` on the four tables, 5 poses
+    each (80 tasks), the hand's band, poses and planner seeds from ``base.seed`` (:data:`EVAL_SEED`).
+
+    Args:
+        base: supplies the seed, the time limit and ``dz_min``.
+        quick: 2 objects x 2 poses per table instead (16 tasks).
+        poses: poses per cell instead of 5 (None: 5, or the quick count).
+    """
+    return _tasks(
+        CLOSED_LOOP_SETS["eval"], scenes=TABLES, objects=EVAL_OBJECTS[:2] if quick else EVAL_OBJECTS, scales=(1.0,),
+        poses=_pose_count(poses, quick, EVAL_POSES), settings=(_Setting(),), base=base, hand_band=True,
+    )
+
+
+def task_set(task: Task) -> str:
+    """The closed-loop set (``"dev"`` or ``"eval"``) a task belongs to, from its ``experiment``; "" for
+    a task of another experiment."""
+    return next((name for name, experiment in CLOSED_LOOP_SETS.items() if task.experiment == experiment), "")
+
+
 def _executed_tasks(experiment: str, base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
     """The full-size Fig. 10 set with the hand's band, 10 poses per cell (the experiments run in MuJoCo)."""
     return _tasks(
@@ -345,6 +372,7 @@ _SPEC_BUILDERS = {"fig10": fig10_spec, "fig11": fig11_spec, "fig12": fig12_spec,
 def build_spec(
     figure: str, *, quick: bool = False, time_limit_s: float | None = None, seed: int = 0, poses: int | None = None,
     params: dict | None = None, preset: str = "default", planners: tuple[str, ...] | None = None,
+    task_set: str = "dev",
 ) -> ExperimentSpec:
     """Build the tasks of one figure.
 
@@ -365,6 +393,9 @@ def build_spec(
         planners: only the tasks of these planners (``"slideplan"``, ``"cbirrt"``, ``"cbirrt2"``;
             None: all): Fig. 11's baselines run the same tasks in both presets, so a rerun of one
             preset need not repeat them. The task ids are those of the whole figure's.
+        task_set: the closed loop's ``"dev"`` set (every other figure's only set) or its held-out
+            ``"eval"`` set (:func:`closed_loop_eval_spec`; its experiment seed is :data:`EVAL_SEED`, so
+            ``seed`` must stay 0).
 
     Returns:
         The spec.
@@ -372,16 +403,24 @@ def build_spec(
     Raises:
         InputError: unknown figure (field ``figure``), a time limit that is not a positive
             finite number (``time_limit_s``), a bad seed (``seed``) or pose count (``poses``), an
-            unknown planner (``planner``).
+            unknown planner (``planner``), an unknown set or one the figure does not have (``set``), a
+            seed given to the eval set (``seed``).
     """
     if figure not in _SPEC_BUILDERS:
         raise InputError(f"unknown figure {figure!r} (expected one of: {', '.join(EXPERIMENTS)})", field="figure")
+    if task_set not in CLOSED_LOOP_SETS or (task_set != "dev" and figure != "closed-loop"):
+        raise InputError(f"expected {' or '.join(CLOSED_LOOP_SETS)} (eval for closed-loop only), got {task_set!r}",
+                         field="set")
+    if task_set == "eval":
+        if seed != 0:
+            raise InputError(f"the eval set's experiment seed is fixed ({EVAL_SEED}), got {seed!r}", field="seed")
+        seed = EVAL_SEED
     if time_limit_s is None:
         time_limit_s = QUICK_TIME_LIMIT_S if quick else PAPER_TIME_LIMIT_S
     base = PlannerConfig(seed=seed, time_limit_s=time_limit_s, preset=preset).resolved()  # validates them, naming the field
     if poses is not None and (isinstance(poses, bool) or not isinstance(poses, int) or poses < 1):
         raise InputError(f"must be a whole number >= 1, got {poses!r}", field="poses")
-    tasks = _SPEC_BUILDERS[figure](base, quick, poses)
+    tasks = (closed_loop_eval_spec if task_set == "eval" else _SPEC_BUILDERS[figure])(base, quick, poses)
     if planners is not None:
         unknown = sorted(set(planners) - set(PLANNERS))
         if unknown or not planners:

@@ -34,7 +34,8 @@ from ..errors import InputError
 from ..execute.model import DEPTH_CAMERA, Rig, build_model, enable_hand_collisions, set_servo_gains
 from ..execute.runner import instability, reference
 from ..objects import load_object
-from ..planning import PlannerConfig, build_robot, robot_description
+from ..plan.config import PlannerConfig
+from ..plan.robot import build_robot, robot_description
 from ..rendering import Camera, camera_depth, noisy_depth
 from ..scenes import Scene
 from ..transforms import homogeneous
@@ -70,6 +71,8 @@ class Sim:
         os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo is first imported
         import mujoco
 
+        if setting == "hard":  # its camera error and push are slideplan.closed_loop.run's, not this simulator's
+            raise InputError("the hard setting runs in `slideplan run` and the closed-loop experiment only", field="setting")
         self.draws = setting_draws(setting, seed)
         self.truth = load_object(object_name, table_height=scene.table.height, pose=pose)
         if not scene.table.polygon.contains(self.truth.outline):
