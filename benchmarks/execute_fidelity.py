@@ -34,7 +34,7 @@ def run(args) -> None:
     from slideplan.execute import ExecutionSettings, contacts, execute
     from slideplan.experiments import build_spec
     from slideplan.experiments.tasks import cached_scene
-    from slideplan.planning import plan
+    from slideplan.plan.planner import plan
     from slideplan.provenance import run_provenance
     from slideplan.verify import verify
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from slideplan import PlannerConfig, load_object, load_scene, plan
 from slideplan.objects import load_outline, sample_pose_on_table
-from slideplan.planning import clear_grasp_map_cache
+from slideplan.plan.planner import clear_grasp_map_cache
 from slideplan.provenance import run_provenance
 
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")
@@ -75,7 +75,7 @@ def run_peer(job: tuple[str, str, int, float]) -> tuple[float, float]:
     ConstrainedExtend (the cbirrt baseline after its precomputation) and by OMPL's ProjectedStateSpace +
     RRTConnect on the same constraint. Returns (ours, OMPL's) connection seconds, inf if unsolved."""
     from slideplan import _core
-    from slideplan.planning import core_task
+    from slideplan.plan.planner import core_task
 
     scene_name, object_name, pose_index, time_limit = job
     scene = load_scene(scene_name)

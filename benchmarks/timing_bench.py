@@ -82,7 +82,7 @@ def first_call_seconds(result) -> float:
         path = Path(directory) / "plan.json"
         path.write_text(result.to_json())
         code = (
-            "import sys, time; from slideplan.planning import PlanResult; "
+            "import sys, time; from slideplan.plan.result import PlanResult; "
             "r = PlanResult.from_json(open(sys.argv[1]).read()); s = time.perf_counter(); "
             "from slideplan.timing import parameterize; parameterize(r); print(time.perf_counter() - s)"
         )

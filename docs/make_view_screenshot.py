@@ -15,7 +15,8 @@ from pathlib import Path
 from playwright.sync_api import sync_playwright
 
 from slideplan.cli import _load_object
-from slideplan.planning import PlannerConfig, plan
+from slideplan.plan.config import PlannerConfig
+from slideplan.plan.planner import plan
 from slideplan.scenes import load_scene
 from slideplan.view import open_view
 

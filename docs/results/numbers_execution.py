@@ -295,7 +295,7 @@ def replanned_tables(results: pd.DataFrame) -> str:
 
     from slideplan.execute import cloud_footprint
     from slideplan.experiments.tasks import Task, cached_scene
-    from slideplan.planning import plan
+    from slideplan.plan.planner import plan
 
     executed = _executed(results)
     features = []

@@ -22,7 +22,9 @@ from .errors import InputError
 from .geometry import SupportSurface
 from .objects import ThinObject, load_object
 from .perception import Perception, perceive
-from .planning import PlannerConfig, PlanResult, plan
+from .plan.config import PlannerConfig
+from .plan.result import PlanResult
+from .plan.planner import plan
 from .provenance import build_info
 from .scenes import Scene, load_scene
 from .verify import Verification, verify

@@ -2,7 +2,7 @@
 that name links, obstacles and parameters, before any plan is tried.
 
 It asks what the planner asks, with the planner's own parts: whether the fingertip reaches the table
-top (:func:`slideplan.planning.table_reach`), which 1 cm stretches of each table edge admit a side
+top (:func:`slideplan.plan.robot.table_reach`), which 1 cm stretches of each table edge admit a side
 grasp the arm reaches and can lift (the planner's grasp map), and, at those grasps, whether the
 pre-grasp ``grasp_backoff`` before them is reachable and clear; where an edge has no grasp at all, why
 not at its middle (the hand against the table, no arm configuration, the arm in collision).
@@ -20,7 +20,9 @@ import numpy as np
 from . import _core
 from .errors import MeshWarning
 from .objects import ThinObject
-from .planning import PlannerConfig, base_pose_matrix, collision_world, grasp_map, robot_model, table_reach_map
+from .plan.config import PlannerConfig
+from .plan.robot import base_pose_matrix, robot_model, scene_collision_world, table_reach_map
+from .plan.planner import grasp_map
 from .scenes import Scene
 
 MIN_REACH = 0.5  # below this share of the table reached, plans mostly time out without start roots
@@ -35,7 +37,7 @@ class SceneCheck:
         lines: the report, one finding per line, the causes of failure first.
         ok: the fingertip reaches at least :data:`MIN_REACH` of the table and some edge admits a side
             grasp with a clear pre-grasp.
-        reach_points, reached: the table lattice of :func:`slideplan.planning.table_reach_map` and
+        reach_points, reached: the table lattice of :func:`slideplan.plan.robot.table_reach_map` and
             whether the fingertip reaches each point.
         stretches: per 1 cm stretch of each edge, where its grasp frame is (x, y) and what it admits:
             ``clear`` (a side grasp with a clear pre-grasp), ``blocked`` (a grasp, but it or its
@@ -82,7 +84,7 @@ def check_scene(scene: Scene, obj: ThinObject, config: PlannerConfig | None = No
     else:
         notes.append(line)
 
-    world = collision_world(scene)
+    world = scene_collision_world(scene)
     if world.always_in_contact:
         notes.append("self-collision: not checked between " + ", ".join(f"{a} and {b}" for a, b in world.always_in_contact)
                      + " (in contact at almost every configuration of the arm: overlapping collision shapes, or a held "

@@ -29,7 +29,7 @@ from .errors import InputError
 from .verify import require_motion
 
 if TYPE_CHECKING:
-    from .planning import PlanResult
+    from .plan.result import PlanResult
 
 FORMATS = ("ros-json", "csv")
 ROS_JSON_FORMAT = "slideplan.joint_trajectories/1"

@@ -55,7 +55,7 @@ def map_path(robot: dict[str, Any], vertices: tuple, height: float, thickness: f
     """The file of the grasp map of these inputs (None when the cache is off).
 
     Args:
-        robot: the plan JSON's robot block (:func:`slideplan.planning.robot_description`).
+        robot: the plan JSON's robot block (:func:`slideplan.plan.robot.robot_description`).
         vertices, height: the table polygon and height.
         thickness: the object's thickness as the map keeps it (to the micrometre).
         params: the values of the grasp parameters the map depends on (slideplan.parameters.GRASP_MAP_NAMES).

@@ -1,6 +1,6 @@
 """The planner's parameters, as the C++ core declares them (``_core.parameters()``, params.cpp).
 
-The registry is the one list of parameters: :class:`~slideplan.planning.PlannerConfig`'s fields, the
+The registry is the one list of parameters: :class:`~slideplan.plan.config.PlannerConfig`'s fields, the
 keys a scene's ``[hand] params`` accepts, the grasp map's key, the paper preset and the table in
 docs/parameters.md all come from it. Each entry is a :class:`Parameter`.
 """

@@ -25,22 +25,19 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
 from . import _core
 from ._fields import is_number
 from .errors import InputError, SlideplanWarning
-
-if TYPE_CHECKING:
-    from .planning import PlanResult
+from .plan.result import PlanResult
 
 DEFAULT_JOINT_VELOCITY = 1.0  # rad/s, for joints whose URDF velocity limit is missing, zero or negative
 DEFAULT_JOINT_ACCELERATION = 1.0  # rad/s^2: gentle for a cable-driven arm pressing a finger on an object
 DEFAULT_FINGERTIP_SPEED = 0.05  # m/s while sliding: the object must follow the fingertip
 NEAR_TABLE_M = _core.NEAR_TABLE_M  # approach waypoints with the fingertip this close above the object's top are capped too
-SEGMENTS = ("trajectory", "approach")  # timing keys; "approach" times grasp.approach
 
 
 class LimitWarning(SlideplanWarning):
@@ -209,54 +206,3 @@ def time_path(path: np.ndarray, tips: np.ndarray, capped: np.ndarray, limits: di
                                capped=[bool(flag) for flag in capped], limits=core_limits(limits))
     except (ValueError, RuntimeError) as error:
         raise InputError(str(error), field=f"timing.{name}") from None
-
-
-def timing_from_dict(data: Any, dof: int, counts: dict[str, int]) -> dict[str, Any]:
-    """Read and check a plan's ``timing`` block (``slideplan.plan/2``).
-
-    Args:
-        data: the parsed ``timing`` value.
-        dof: number of joints.
-        counts: waypoints per segment, ``{"trajectory": M, "approach": K}``.
-
-    Returns:
-        The block with numpy arrays.
-
-    Raises:
-        InputError: naming the field (e.g. ``timing.trajectory.time_from_start``): missing keys,
-            wrong lengths, times not starting at 0 or not strictly increasing, or not at rest at
-            the ends.
-    """
-    if not isinstance(data, dict) or set(data) != {*SEGMENTS, "limits"}:
-        found = sorted(data) if isinstance(data, dict) else type(data).__name__
-        raise InputError(f"expected keys {sorted({*SEGMENTS, 'limits'})}, got {found}", field="timing")
-    block = {}
-    for name in SEGMENTS:
-        field = f"timing.{name}"
-        segment = data[name]
-        if not isinstance(segment, dict) or set(segment) != {"time_from_start", "velocities", "accelerations"}:
-            raise InputError("expected keys time_from_start, velocities, accelerations", field=field)
-        try:
-            times = np.asarray(segment["time_from_start"], dtype=float).reshape(-1)
-            velocities = np.asarray(segment["velocities"], dtype=float).reshape(-1, dof)
-            accelerations = np.asarray(segment["accelerations"], dtype=float).reshape(-1, dof)
-        except (TypeError, ValueError) as error:
-            raise InputError(f"not numbers of the joints' shape ({error})", field=field) from None
-        if not len(times) == len(velocities) == len(accelerations) == counts[name]:
-            raise InputError(f"expected {counts[name]} entries (one per waypoint), got {len(times)}", field=field)
-        if len(times) and (times[0] != 0.0 or np.any(np.diff(times) <= 0) or not np.all(np.isfinite(times))):
-            raise InputError("must start at 0 and increase strictly", field=f"{field}.time_from_start")
-        if len(times) and (np.any(velocities[0] != 0) or np.any(velocities[-1] != 0)):
-            raise InputError("the first and last velocities must be zero", field=f"{field}.velocities")
-        block[name] = {"time_from_start": times, "velocities": velocities, "accelerations": accelerations}
-    limits = data["limits"]
-    try:
-        block["limits"] = {
-            "joint_velocity": np.asarray(limits["joint_velocity"], dtype=float).reshape(dof),
-            "joint_acceleration": np.asarray(limits["joint_acceleration"], dtype=float).reshape(dof),
-            "fingertip_speed": float(limits["fingertip_speed"]),
-        }
-    except (KeyError, TypeError, ValueError) as error:
-        raise InputError(f"expected joint_velocity and joint_acceleration ({dof} each) and fingertip_speed ({error})",
-                         field="timing.limits") from None
-    return block

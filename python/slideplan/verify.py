@@ -1,6 +1,6 @@
 """A second check of a plan, from the plan data alone (not independent of the planner: see below).
 
-:func:`verify` recomputes, from the fields of a :class:`~slideplan.planning.PlanResult`
+:func:`verify` recomputes, from the fields of a :class:`~slideplan.plan.result.PlanResult`
 (robot URDF and mount, table, object cloud, configurations), everything the plan claims:
 the contact constraint at every waypoint (docs/design.md 3, paper IV-C.3), the path density,
 the object motion of Eq. 2, the graspability of the final object pose (paper IV-C.1) and
@@ -8,13 +8,13 @@ the approach to the grasp.
 
 It is not independent of the planner's code. It shares with the planner:
 
-- the C++ core's robot model (``_core.RobotModel``, loaded through ``planning.plan_robot``
+- the C++ core's robot model (``_core.RobotModel``, loaded through ``slideplan.plan.robot.plan_robot``
   by :meth:`PlanResult.robot_model`): the URDF parse, the forward kinematics (``fk``,
   ``frame_pose``), the joint names and limits;
 - the core's FCL collision world (``_core.CollisionWorld`` with ``_core.SupportSurface`` and
   ``_core.ContactMode``): the links' collision shapes, which links may touch while sliding,
   and the object prism it sets;
-- ``planning.core_obstacles`` (the plan's obstacles as the core's) and
+- the one collision-world builder (``slideplan.plan.robot.collision_world``: the plan's obstacles as the core's) and
   ``scenes.obstacle_footprint`` (their footprints);
 - the data layer: ``geometry.SupportSurface`` (the table polygon: ``contains``,
   ``edge_margin``), ``geometry.area_centroid`` (the core's ``_core.area_centroid``, the one
@@ -38,7 +38,8 @@ from shapely.geometry import MultiPoint
 
 from .errors import InputError, require_type
 from .geometry import SupportSurface, area_centroid
-from .planning import PlanResult, core_obstacles
+from .plan.schema import check_ends, check_shapes
+from .plan.result import PlanResult
 from .scenes import obstacle_footprint
 from .transforms import move_planar, rotation_2d, rotation_angle_between, rotation_vector, row_to_pose, wrap_angle
 
@@ -47,7 +48,6 @@ DEPTH_TOLERANCE_M = 1e-3  # contact depth band slack (the planner projects to 1e
 ANGLE_TOLERANCE_RAD = 1e-3  # pitch band slack and largest allowed roll
 STEP_SLACK = 1e-9  # rounding slack on the joint and fingertip step bounds
 MOTION_TOLERANCE = 1e-6  # object motion and overhang against their recomputed values (m, rad)
-CONFIG_TOLERANCE = 1e-9  # rad: configurations that must be the same (approach ends)
 LIFT_SLACK_M = 1e-3  # the approach switches to free-mode checks once the fingertip is this close to the lift height
 GRASP_TOLERANCE_M = 1e-4  # the grasp frame against H_g recomputed from the cloud (the planner computes it from the same points)
 GRASP_ANGLE_TOLERANCE_RAD = 1e-4
@@ -145,14 +145,10 @@ def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_
 def _rebuild_world(result: PlanResult, collisions: bool = True) -> _PlanWorld:
     """Load the plan's robot and build its table and, with ``collisions``, its collision world (sliding:
     no object)."""
-    from . import _core
-
     robot = result.robot_model()  # the parsed URDF, shared (immutable): a mesh robot takes 0.5 s to parse
     polygon = np.asarray(result.table["polygon"], dtype=float)
     height = float(result.table["height"])
-    collision_world = None if not collisions else _core.CollisionWorld(
-        robot, _core.SupportSurface(polygon, height), core_obstacles(result.obstacles), list(result.robot["contact_links"])
-    )
+    collision_world = result.collision_world() if collisions else None
     return _PlanWorld(
         robot=robot,
         collision_world=collision_world,
@@ -212,52 +208,6 @@ def check_names(result: PlanResult, robot) -> list[str]:
     links = set(robot.link_names)
     for name, named in (("robot.grasp_link", [result.robot["grasp_link"]]), ("robot.contact_links", result.robot["contact_links"])):
         violations += [f"{name}: {link!r} is not a link of the URDF" for link in named if link not in links]
-    return violations
-
-
-def check_shapes(result: PlanResult) -> list[str]:
-    """Check that the plan's arrays fit together.
-
-    Args:
-        result: the plan.
-
-    Returns:
-        Violations: a trajectory without waypoints, arrays whose sizes disagree with the
-        joint count or with each other.
-    """
-    dof = len(result.joint_names)
-    violations = []
-    trajectory = np.asarray(result.trajectory)
-    shapes = {
-        "trajectory": (trajectory.shape, (max(len(trajectory), 1), dof)),
-        "fingertip_poses": (np.shape(result.fingertip_poses), (max(len(trajectory), 1), 7)),
-        "start_config": (np.shape(result.start_config), (dof,)),
-        "goal_config": (np.shape(result.goal_config), (dof,)),
-        "grasp.pose": (np.shape(result.grasp["pose"]), (7,)),
-        "grasp.config": (np.shape(result.grasp["config"]), (dof,)),
-        "grasp.approach": (np.shape(result.grasp["approach"]), (max(len(result.grasp["approach"]), 1), dof)),
-        "object.points": (np.shape(result.object["points"]), (max(len(result.object["points"]), 1), 3)),
-    }
-    for name, (actual, expected) in shapes.items():
-        if tuple(actual) != expected:
-            violations.append(f"{name}: shape {tuple(actual)}, expected {expected}")
-    return violations
-
-
-def check_ends(result: PlanResult) -> list[str]:
-    """Check that the plan's pieces join: the trajectory runs from ``start_config`` to ``goal_config``,
-    and the approach from there to ``grasp.config`` (arrays of the right shapes: :func:`check_shapes`)."""
-    violations = []
-    trajectory = np.asarray(result.trajectory)
-    for name, config, index in (("start_config", result.start_config, 0), ("goal_config", result.goal_config, -1)):
-        gap = float(np.max(np.abs(trajectory[index] - config)))
-        if gap > CONFIG_TOLERANCE:
-            violations.append(f"{name}: differs from trajectory[{index % len(trajectory)}] by {gap:.3g} rad")
-    approach = np.asarray(result.grasp["approach"])
-    for name, end, index in (("goal_config", result.goal_config, 0), ("grasp.config", result.grasp["config"], -1)):
-        gap = float(np.max(np.abs(approach[index] - end)))
-        if gap > CONFIG_TOLERANCE:
-            violations.append(f"approach[{index % len(approach)}]: differs from {name} by {gap:.3g} rad")
     return violations
 
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from .errors import InputError
 from .framing import frame_points, view_direction
-from .planning import PlanResult
+from .plan.result import PlanResult
 from .transforms import move_planar, quaternion_from_matrix, row_to_pose
 from .verify import planar_motion, require_motion
 
@@ -273,7 +273,7 @@ class PlanView:
         from viser.extras import ViserUrdf
 
         from . import _core
-        from .planning import merge_urdf, search_dirs
+        from .plan.robot import merge_urdf, search_dirs
 
         result, scene = self.result, self.server.scene
         path = Path(result.robot["urdf"])

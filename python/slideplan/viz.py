@@ -22,7 +22,7 @@ from .verify import moved_object_xy, overhang, planar_motion
 SLIDE_SPACING_M = 0.03  # the object is drawn every this much fingertip travel
 
 if TYPE_CHECKING:
-    from .planning import PlanResult
+    from .plan.result import PlanResult
 
 _TABLE_STYLE = {"facecolor": "0.9", "edgecolor": "0.35", "linewidth": 1.2, "label": "table"}
 

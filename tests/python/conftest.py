@@ -5,7 +5,8 @@ import os
 import pytest
 
 from slideplan.objects import load_object
-from slideplan.planning import PlannerConfig, plan
+from slideplan.plan.config import PlannerConfig
+from slideplan.plan.planner import plan
 from slideplan.scenes import load_scene
 
 

@@ -17,7 +17,9 @@ import numpy as np
 
 from slideplan import _core
 from slideplan.geometry import area_centroid
-from slideplan.planning import PlannerConfig, PlanResult, robot_description, robot_model
+from slideplan.plan.config import PlannerConfig
+from slideplan.plan.robot import robot_description, robot_model
+from slideplan.plan.result import PlanResult
 from slideplan.scenes import load_scene
 from slideplan.transforms import pose_to_row
 

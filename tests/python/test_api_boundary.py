@@ -8,7 +8,9 @@ from slideplan.closed_loop import run
 from slideplan.errors import InputError
 from slideplan.execute import execute
 from slideplan.objects import ThinObject, load_object
-from slideplan.planning import PlannerConfig, PlanResult, plan
+from slideplan.plan.config import PlannerConfig
+from slideplan.plan.result import PlanResult
+from slideplan.plan.planner import plan
 from slideplan.scenes import load_scene
 from slideplan.verify import verify
 

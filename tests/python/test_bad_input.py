@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 from slideplan._limits import MAX_MAGNITUDE, MAX_PLAN_BYTES, MAX_ROBOT_FILE_BYTES, MAX_SCENE_MAGNITUDE, MAX_WAYPOINTS
 from slideplan.cli import app
 from slideplan.errors import InputError
-from slideplan.planning import PlanResult
+from slideplan.plan.result import PlanResult
 from slideplan.scenes import load_scene
 
 TABLE = "[table]\npolygon = [[0.4, -0.3], [0.8, -0.3], [0.8, 0.3], [0.4, 0.3]]\n"

@@ -121,7 +121,7 @@ def test_a_round_table_is_summarised_by_ranges_of_edges_covering_each_edge_once(
 
 def test_a_grasp_blocked_by_the_arm_itself_is_not_told_to_change_the_standoff():
     from slideplan.check_scene import _grasp_advice
-    from slideplan.planning import robot_model
+    from slideplan.plan.robot import robot_model
     robot = robot_model(load_scene("square"))
     assert "grasp_standoff" not in _grasp_advice(robot, "grasp in collision (wam_link1-wam_link3)")
     assert "base_pose" in _grasp_advice(robot, "grasp in collision (wam_link1-wam_link3)")

@@ -344,7 +344,7 @@ def test_an_object_seen_over_the_edge_with_the_finger_off_it_is_grasped_from_a_t
     table): the planner takes an object over an edge only from a state, so a new contact puts the finger
     down on it where it is seen, and plans from there, rather than grasping where Eq. 2 put the object."""
     from slideplan.closed_loop import SlideLoop
-    from slideplan.planning import build_robot
+    from slideplan.plan.robot import build_robot
     from slideplan.verify import verify
 
     scene = load_scene(DEMO[0])

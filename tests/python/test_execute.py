@@ -84,7 +84,7 @@ def _largest_acceleration(path, times):
 
 def test_untimed_plan_is_executed_under_the_limits_of_its_settings(slide_plan, monkeypatch):
     from slideplan.execute import runner as runner_module
-    from slideplan.planning import build_robot
+    from slideplan.plan.robot import build_robot
     from slideplan.timing import NEAR_TABLE_M
 
     followed = []
@@ -346,7 +346,7 @@ def test_a_hand_with_nothing_to_close_executes_the_slide_and_says_why_it_cannot_
 def _rig(name: str):
     from slideplan import PlannerConfig, load_object, load_scene
     from slideplan.execute.model import Rig
-    from slideplan.planning import robot_model
+    from slideplan.plan.robot import robot_model
 
     scene = load_scene(name)
     obj = load_object("square", table_height=scene.table.height, pose=(0.55, 0.0, 0.0))

@@ -24,7 +24,7 @@ from hypothesis.extra.numpy import arrays
 
 from slideplan import InputError, PlannerConfig, PlanResult, SupportSurface, ThinObject, load_object, load_scene, perceive, plan, verify
 from slideplan.export import export_plan
-from slideplan.planning import robot_model
+from slideplan.plan.robot import robot_model
 from slideplan.verify import require_motion
 
 # Fixtures (tmp_path_factory, capfd) serve every example: each example writes its own files or reads

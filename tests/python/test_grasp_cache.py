@@ -13,7 +13,8 @@ from typer.testing import CliRunner
 from slideplan import PlannerConfig, load_object, load_scene, plan
 from slideplan import grasp_cache
 from slideplan.cli import app
-from slideplan.planning import _grasp_map_and_file, clear_grasp_map_cache, robot_description
+from slideplan.plan.robot import robot_description
+from slideplan.plan.planner import _grasp_map_and_file, clear_grasp_map_cache
 
 POSE = (0.55, -0.08, 0.4)
 
@@ -53,7 +54,7 @@ def test_a_stored_map_starts_warm_and_gives_the_plan_a_fresh_map_gives(store, mo
 
 def test_the_second_process_reads_what_the_first_stored(store):
     code = ("from slideplan import PlannerConfig, load_object, load_scene, plan; "
-            "from slideplan.planning import grasp_map; "
+            "from slideplan.plan.planner import grasp_map; "
             "s = load_scene('square'); o = load_object('crescent', table_height=s.table.height, pose=(0.55, -0.08, 0.4)); "
             "c = PlannerConfig.for_scene(s, seed=1); print(grasp_map(s, o, c).probed); r = plan(s, o, c); "
             "print(r.trajectory.sum())")

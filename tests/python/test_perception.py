@@ -15,7 +15,8 @@ from slideplan import InputError, load_scene, perceive
 from slideplan.cli import app
 from slideplan.objects import ThinObject, load_object, load_outline
 from slideplan.perception import register_outline, write_perception
-from slideplan.planning import PlannerConfig, PlanResult
+from slideplan.plan.config import PlannerConfig
+from slideplan.plan.result import PlanResult
 from slideplan.rendering import Box, place_objects, render_scene
 from slideplan.verify import moved_object_xy, overhang, verify
 

@@ -8,7 +8,10 @@ import numpy as np
 import pytest
 
 from slideplan.errors import InputError
-from slideplan.planning import PLAN_SCHEMA, PlannerConfig, PlanResult, base_pose_matrix
+from slideplan.plan.config import PlannerConfig
+from slideplan.plan.schema import PLAN_SCHEMA
+from slideplan.plan.robot import base_pose_matrix
+from slideplan.plan.result import PlanResult
 from slideplan.scenes import load_scene
 from slideplan.transforms import (matrix_from_quaternion, pose_to_row, quaternion_from_matrix, rotation_from_rpy, rotation_vector,
                                   row_to_pose)

@@ -11,7 +11,8 @@ from typer.testing import CliRunner
 from slideplan import InputError, PlannerConfig, PlanResult, load_object, load_scene, plan, verify
 from slideplan.cli import app
 from slideplan.objects import load_outline, sample_pose_on_table
-from slideplan.planning import _cached_grasp_map, grasp_map, robot_model
+from slideplan.plan.robot import robot_model
+from slideplan.plan.planner import _cached_grasp_map, grasp_map
 from slideplan.transforms import row_to_pose
 from slideplan.verify import planar_motion
 

@@ -15,7 +15,8 @@ from typer.testing import CliRunner
 from slideplan import PlannerConfig, _core, load_object, load_scene, plan, verify
 from slideplan.cli import app
 from slideplan.objects import load_outline, sample_pose_on_table
-from slideplan.planning import grasp_map, robot_model
+from slideplan.plan.robot import robot_model
+from slideplan.plan.planner import grasp_map
 from slideplan.transforms import row_to_pose
 from slideplan.scenes import package_search_dirs
 
@@ -373,7 +374,7 @@ def test_a_hand_with_several_concave_meshes_gives_one_warning_naming_them_all():
     import warnings
 
     from slideplan.errors import MeshWarning
-    from slideplan.planning import build_robot, robot_description
+    from slideplan.plan.robot import build_robot, robot_description
 
     exact = {link for link, _, _, is_exact in robot_model(load_scene("so101_square")).collision_meshes if is_exact}
     assert len(exact) >= 2

@@ -30,7 +30,8 @@ from visualization_msgs.msg import Marker, MarkerArray  # noqa: E402
 from slideplan.closed_loop import default_camera  # noqa: E402
 from slideplan.errors import InputError  # noqa: E402
 from slideplan.objects import load_object  # noqa: E402
-from slideplan.planning import PlannerConfig, robot_model  # noqa: E402
+from slideplan.plan.config import PlannerConfig  # noqa: E402
+from slideplan.plan.robot import robot_model
 from slideplan.ros.messages import cloud_message, cloud_points, pose_matrix, seconds, trajectory_arrays, trajectory_message  # noqa: E402,E501
 from slideplan.ros.serve import Execution, Refused, Task, cloud_in_world, tracking_camera  # noqa: E402
 from slideplan.ros.sim import Sim, camera_pose_of  # noqa: E402

@@ -186,7 +186,7 @@ def test_default_robot_urdf_has_the_default_tip_and_contact_links():
 
 @pytest.mark.parametrize("name", ["square", "panda_square", "ur5_round", "z1_square"])
 def test_robot_toml_writes_a_robot_and_hand_that_load_back_the_same(name, tmp_path):
-    from slideplan.planning import robot_description
+    from slideplan.plan.robot import robot_description
     from slideplan.scenes import robot_toml
 
     scene = load_scene(name)
@@ -207,7 +207,7 @@ def test_files_behind_a_scene_are_named_in_its_errors(tmp_path):
     """Each once gave a message naming no file, or the wrong one: a scene, an object or a URDF that is
     not UTF-8 ('utf-8' codec can't decode byte 0xff), an obstacle's object file with a bad field ("must
     be > 0, got -1"), and an attached URDF fragment urdfdom cannot read (blamed on the main URDF)."""
-    from slideplan.planning import robot_model
+    from slideplan.plan.robot import robot_model
 
     table = "[table]\npolygon = [[0.3, -0.2], [0.7, -0.2], [0.7, 0.2], [0.3, 0.2]]\n"
     binary = tmp_path / "binary.toml"
@@ -242,7 +242,7 @@ def test_files_behind_a_scene_are_named_in_its_errors(tmp_path):
 
 
 def test_a_gripper_joint_is_held_open_while_planning_and_a_wrong_one_is_named_in_hand(tmp_path):
-    from slideplan.planning import robot_description, robot_model
+    from slideplan.plan.robot import robot_description, robot_model
 
     scene = load_scene("panda_square")
     assert robot_description(scene)["fixed_joints"]["panda_finger_joint1"] == scene.hand.gripper_joints["panda_finger_joint1"][0]

@@ -20,7 +20,9 @@ from slideplan import _core
 from slideplan.cli import app
 from slideplan.errors import InputError
 from slideplan.objects import load_object
-from slideplan.planning import PlannerConfig, PlanResult, plan
+from slideplan.plan.config import PlannerConfig
+from slideplan.plan.result import PlanResult
+from slideplan.plan.planner import plan
 from slideplan.scenes import load_scene
 from slideplan.timing import (
     DEFAULT_FINGERTIP_SPEED,

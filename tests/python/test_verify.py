@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from handmade_plan import DEPTH_M, PITCH, THICKNESS, build_grasp_plan, build_plan, contact_target
 
-from slideplan.planning import robot_model
+from slideplan.plan.robot import robot_model
 from slideplan.scenes import load_scene
 from slideplan.transforms import pose_to_row
 from slideplan.verify import moved_object_xy, overhang, planar_motion, verify
@@ -260,7 +260,8 @@ def test_a_crescent_overhanging_with_both_horns_is_grasped_on_a_horn_not_between
     from shapely.affinity import rotate, translate
 
     from slideplan.objects import load_object
-    from slideplan.planning import PlannerConfig, plan
+    from slideplan.plan.config import PlannerConfig
+    from slideplan.plan.planner import plan
     from slideplan.transforms import row_to_pose
 
     scene = load_scene("round")

@@ -12,7 +12,8 @@ from xml.etree import ElementTree
 import numpy as np
 
 from ..errors import InputError
-from ..planning import PlanResult, merge_urdf, plan_robot, robot_description, search_dirs
+from ..plan.robot import merge_urdf, plan_robot, robot_description, search_dirs
+from ..plan.result import PlanResult
 from ..transforms import quaternion_from_matrix
 from . import contacts as contact_models
 from .contacts import ContactModel
@@ -81,7 +82,7 @@ class Rig:
     @classmethod
     def for_scene(cls, scene, obj, config, joint_names: list[str], start_config) -> Rig:
         """A scene's robot and table, ``obj`` (a :class:`~slideplan.objects.ThinObject`) and
-        ``config``'s hand parameters (a :class:`~slideplan.planning.PlannerConfig`)."""
+        ``config``'s hand parameters (a :class:`~slideplan.plan.config.PlannerConfig`)."""
         return cls(robot=robot_description(scene), joint_names=list(joint_names),
                    params={"beta0": config.beta0, "dz_min": config.dz_min, "dz_max": config.dz_max},
                    table={"polygon": np.array(scene.table.vertices, dtype=float), "height": float(scene.table.height)},

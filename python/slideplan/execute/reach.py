@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import _core
 from ..objects import ThinObject
-from ..planning import PlanResult
+from ..plan.result import PlanResult
 from .runner import straight_up
 
 HOVER_M = 0.03  # the reach comes down onto the first contact from this far above the object
@@ -26,11 +26,7 @@ def collision_world(result: PlanResult, obj: ThinObject):
     """The plan's robot, table, clutter and object (a prism over its cloud's hull) for collision checks."""
     import shapely
 
-    from ..planning import core_obstacles
-
-    world = _core.CollisionWorld(result.robot_model(),
-                                 _core.SupportSurface(np.asarray(result.table["polygon"], dtype=float), float(result.table["height"])),
-                                 core_obstacles(result.obstacles), list(result.robot["contact_links"]))
+    world = result.collision_world()
     hull = np.asarray(shapely.MultiPoint(obj.points[:, :2]).convex_hull.exterior.coords)[:-1]
     world.set_object(hull, float(result.table["height"]) + obj.thickness)
     return world

@@ -13,7 +13,8 @@ import numpy as np
 
 from ..errors import InputError, require_type
 from ..geometry import SupportSurface
-from ..planning import PlanResult, build_robot
+from ..plan.robot import build_robot
+from ..plan.result import PlanResult
 from ..timing import parameterize, resolve_limits
 from ..transforms import move_planar, rotation_2d, wrap_angle
 from ..verify import overhang, require_motion

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from .. import jsontext
-from ..planning import PlanResult
+from ..plan.result import PlanResult
 from ..transforms import row_to_pose, wrap_angle
 from ..verify import contact_angles
 

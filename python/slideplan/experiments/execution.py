@@ -21,7 +21,7 @@ import pandas as pd
 import pyarrow as pa
 
 from ..execute import ExecutionSettings, execute, path_features, stress_settings
-from ..planning import plan
+from ..plan.planner import plan
 from ..provenance import run_provenance
 from ..transforms import row_to_pose
 from ..verify import verify

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..planning import plan
+from ..plan.planner import plan
 from ..provenance import run_provenance
 from ..verify import verify
 from .executors import LocalPoolExecutor, TaskExecutor

@@ -29,7 +29,10 @@ from ..errors import InputError
 from ..execute.reach import Unreachable, reach_path
 from ..execute.runner import reference, straight_up
 from ..objects import ThinObject
-from ..planning import PlannerConfig, PlanResult, base_pose_matrix, plan, robot_model
+from ..plan.config import PlannerConfig
+from ..plan.robot import base_pose_matrix, robot_model
+from ..plan.result import PlanResult
+from ..plan.planner import plan
 from ..rendering import Camera
 from ..scenes import Scene
 from ..timing import time_path
