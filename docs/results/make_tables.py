@@ -17,8 +17,9 @@ not show::
     | setting | mode | ... |
     <!-- /generated -->
 
-The name says which value goes there (the functions ``values()`` of ``numbers_planning.py`` and
-``numbers_execution.py`` make them). A block whose opening comment ends its line is a block of lines
+The name says which value goes there (the functions ``values()`` of ``numbers_planning.py``,
+``numbers_execution.py`` and ``numbers_closed_loop.py`` make them). A block whose opening comment ends
+its line is a block of lines
 (tables); any other is inline and must not start a line (markdown would take the line for raw HTML).
 Edit the text around a block freely; edit inside it and the next run (or ``--check``) puts the rows'
 value back. An unknown name, an unclosed block or a nested one is an error (exit 2).
@@ -178,13 +179,15 @@ def fill_blocks(text: str, values: dict[str, str], where: str) -> tuple[str, lis
 def all_values() -> dict[str, str]:
     """Every block value, by name."""
     sys.path.insert(0, str(HERE))
+    import numbers_closed_loop
     import numbers_execution
     import numbers_planning
 
-    planning, physics = numbers_planning.values(), numbers_execution.values()
-    clash = set(planning) & set(physics)
+    parts = [numbers_planning.values(), numbers_execution.values(), numbers_closed_loop.values()]
+    names = [name for part in parts for name in part]
+    clash = {name for name in names if names.count(name) > 1}
     assert not clash, f"block names defined twice: {sorted(clash)}"
-    return {**planning, **physics}
+    return {name: value for part in parts for name, value in part.items()}
 
 
 def marked_pages(root: Path) -> list[Path]:
