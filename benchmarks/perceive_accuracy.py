@@ -28,7 +28,7 @@ from slideplan import InputError, PlannerConfig, load_scene, plan
 from slideplan.objects import ThinObject, load_outline, place_outline, sample_pose_on_table
 from slideplan.perception import perceive, register_outline
 from slideplan.rendering import Box, PlacedObject, render_scene
-from slideplan.verify import moved_object_xy
+
 
 NOISE_AT_1M = (0.0, 0.001, 0.002, 0.004, 0.006)  # m; the table is ~0.76 m from the camera: 0.58 x these
 TABLES = ("square", "round", "triangle", "long")
@@ -141,7 +141,7 @@ def figure(path: Path) -> None:
     panels[1].set_title("perceived: table, thin objects, clutter")
     panels[2].scatter(*target.points[:, :2].T, s=0.5, color="0.6", label="object 0 at start")
     if result.solved:
-        panels[2].scatter(*moved_object_xy(result).T, s=0.5, color="tab:blue", label="object 0 at goal")
+        panels[2].scatter(*result.moved_object_xy().T, s=0.5, color="tab:blue", label="object 0 at goal")
         panels[2].plot(*result.fingertip_poses[:, :2].T, "k-", linewidth=1, label="fingertip path")
     panels[2].set_title(f"plan for object 0: {result.status}, overhang {100 * result.overhang_m:.1f} cm")
     limits = [((0.0, 1.1), (-0.5, 0.5)), ((0.27, 0.73), (-0.23, 0.23)), ((0.27, 0.73), (-0.23, 0.23))]

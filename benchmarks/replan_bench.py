@@ -29,7 +29,7 @@ from slideplan.objects import load_outline, sample_pose_on_table
 from slideplan.rendering import Box, Camera, PlacedObject, depth_image, noisy_depth, scene_mjcf
 from slideplan.tracking import Tracker
 from slideplan.transforms import rotation_2d, row_to_pose
-from slideplan.verify import planar_motion
+from slideplan.transforms import planar_motion
 
 OBJECTS = ("crescent", "L", "E", "triangle", "irregular")
 

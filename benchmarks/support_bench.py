@@ -22,7 +22,7 @@ from plan_bench import write_report
 from slideplan import plan
 from slideplan.experiments.tasks import _placed_object, build_spec, cached_scene
 from slideplan.transforms import move_planar, row_to_pose
-from slideplan.verify import planar_motion
+from slideplan.transforms import planar_motion
 
 
 def lowest_margin(table, result) -> float:

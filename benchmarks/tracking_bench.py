@@ -73,7 +73,7 @@ def arm_frames(rng, poses: int):
     from slideplan.objects import load_outline, sample_pose_on_table
     from slideplan.rendering import camera_depth
     from slideplan.transforms import row_to_pose
-    from slideplan.verify import planar_motion
+    from slideplan.transforms import planar_motion
 
     scene = load_scene("square")
     camera = default_camera(scene)

@@ -73,7 +73,8 @@ from .timing import resolve_limits, time_path
 from .tracking import NOT_UNDER_TIP, Tracker
 from .verdict import Hold, held
 from .transforms import compose_planar, move_planar, pose_to_row, row_to_pose, wrap_angle
-from .verify import overhang, planar_motion
+from .geometry import overhang
+from .transforms import planar_motion
 
 CLOSED_LOOP_SCHEMA = "slideplan.closed_loop/1"
 DEPTH_DROPOUT = 0.05

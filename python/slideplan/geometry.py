@@ -211,3 +211,36 @@ def area_centroid(xy) -> np.ndarray:
     if not np.isfinite(points).all():
         raise InputError("a point is not finite", field="xy")
     return np.asarray(_core.area_centroid(points))
+
+
+def _closest_edge(table: SupportSurface, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A point on the table edge closest to ``point`` and that edge's outward unit normal."""
+    starts = table.vertices
+    edges = np.roll(starts, -1, axis=0) - starts
+    along = np.clip(np.einsum("ij,ij->i", point - starts, edges) / np.einsum("ij,ij->i", edges, edges), 0.0, 1.0)
+    closest = int(np.argmin(np.linalg.norm(starts + along[:, None] * edges - point, axis=1)))
+    direction = edges[closest] / np.linalg.norm(edges[closest])
+    return starts[closest], np.array([direction[1], -direction[0]])  # right of the edge: outside for a CCW polygon
+
+
+def overhang(table: SupportSurface, moved_xy: np.ndarray) -> tuple[float, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """Overhang ``u`` of paper IV-C.1 for an object at its final pose.
+
+    ``u`` is the largest distance, along the outward normal of the table edge closest to
+    the centroid of the points outside the table (``P_out``), of a point of ``P_out``
+    beyond that edge.
+
+    Args:
+        table: the support surface (vertices counter-clockwise).
+        moved_xy: (N, 2) object points at the final pose.
+
+    Returns:
+        ``(u, outside, edge)``: u (m; 0 when no point is outside), the (N,) bool mask of ``P_out``,
+        and that edge as (a point on it, its outward unit normal), or None when no point is outside.
+    """
+    outside = ~table.contains(moved_xy)
+    if not outside.any():
+        return 0.0, outside, None
+    out_points = moved_xy[outside]
+    start, normal = _closest_edge(table, out_points.mean(axis=0))
+    return float(np.max((out_points - start) @ normal)), outside, (start, normal)

@@ -183,3 +183,37 @@ def compose_planar(first, then) -> tuple[float, float, float]:
     == move_planar(move_planar(p, first), then)``."""
     x, y = move_planar(np.asarray(first[:2], dtype=float), then)
     return float(x), float(y), float(first[2]) + float(then[2])
+
+
+def contact_angles(pose: np.ndarray) -> tuple[float, float, float]:
+    """Yaw, pitch and roll of a fingertip pose relative to the horizontal surface (docs/design.md 3).
+
+    Args:
+        pose: (4, 4) or (3, 3) pose of the contact frame ``F``.
+
+    Returns:
+        ``(yaw, pitch, roll)``: yaw = atan2(X_F.y, X_F.x), pitch = asin(-Z_F.z),
+        roll = asin(X_F.z) (rad).
+    """
+    rotation = np.asarray(pose)[:3, :3]
+    x_axis, z_axis = rotation[:, 0], rotation[:, 2]
+    return (
+        math.atan2(x_axis[1], x_axis[0]),
+        math.asin(max(-1.0, min(1.0, -z_axis[2]))),
+        math.asin(max(-1.0, min(1.0, x_axis[2]))),
+    )
+
+
+def planar_motion(first_pose: np.ndarray, last_pose: np.ndarray) -> tuple[float, float, float]:
+    """Eq. 2 restricted to SE(2): the planar motion taking one contact frame to another.
+
+    Args:
+        first_pose, last_pose: (4, 4) fingertip poses.
+
+    Returns:
+        ``(x, y, yaw)`` such that ``R(yaw) p + (x, y)`` maps the first frame's xy (and its
+        X_F heading) onto the last one's.
+    """
+    yaw = wrap_angle(contact_angles(last_pose)[0] - contact_angles(first_pose)[0])
+    x, y = last_pose[:2, 3] - rotation_2d(yaw) @ first_pose[:2, 3]
+    return float(x), float(y), yaw

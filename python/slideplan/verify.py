@@ -37,11 +37,11 @@ import shapely
 from shapely.geometry import MultiPoint
 
 from .errors import InputError, require_type
-from .geometry import SupportSurface, area_centroid
+from .geometry import SupportSurface, area_centroid, overhang
 from .plan.schema import check_ends, check_shapes
 from .plan.result import PlanResult
 from .scenes import obstacle_footprint
-from .transforms import move_planar, rotation_2d, rotation_angle_between, rotation_vector, row_to_pose, wrap_angle
+from .transforms import contact_angles, move_planar, planar_motion, rotation_angle_between, rotation_vector, row_to_pose, wrap_angle
 
 POSE_TOLERANCE = 1e-6  # m and rad: recorded poses must be the forward kinematics (JSON keeps floats exact)
 DEPTH_TOLERANCE_M = 1e-3  # contact depth band slack (the planner projects to 1e-4)
@@ -85,7 +85,6 @@ class _PlanWorld:
     table: SupportSurface
     object_top_z: float  # z_s = table height + object thickness
     approach_tips: np.ndarray  # (K, 3) fingertip positions along grasp.approach, by forward kinematics
-
 
 
 def _pose_mismatch(computed: np.ndarray, recorded: np.ndarray) -> str:
@@ -245,25 +244,6 @@ def _density_violations(name: str, path: np.ndarray, max_joint_step: float, tip_
     return violations
 
 
-def contact_angles(pose: np.ndarray) -> tuple[float, float, float]:
-    """Yaw, pitch and roll of a fingertip pose relative to the horizontal surface (docs/design.md 3).
-
-    Args:
-        pose: (4, 4) or (3, 3) pose of the contact frame ``F``.
-
-    Returns:
-        ``(yaw, pitch, roll)``: yaw = atan2(X_F.y, X_F.x), pitch = asin(-Z_F.z),
-        roll = asin(X_F.z) (rad).
-    """
-    rotation = np.asarray(pose)[:3, :3]
-    x_axis, z_axis = rotation[:, 0], rotation[:, 2]
-    return (
-        math.atan2(x_axis[1], x_axis[0]),
-        math.asin(max(-1.0, min(1.0, -z_axis[2]))),
-        math.asin(max(-1.0, min(1.0, x_axis[2]))),
-    )
-
-
 def _start_contact_violations(cloud_xy: np.ndarray, tip_xy: np.ndarray) -> list[str]:
     """Eq. 3: the slide starts with the fingertip on the object (within the cloud's own point spacing
     of one of its points), or nothing is pushed."""
@@ -325,21 +305,6 @@ def check_sliding_path(result: PlanResult, world: _PlanWorld) -> list[str]:
     if tips:
         violations += _start_contact_violations(np.asarray(result.object["points"], dtype=float)[:, :2], tips[0][:2])
     return violations
-
-
-def planar_motion(first_pose: np.ndarray, last_pose: np.ndarray) -> tuple[float, float, float]:
-    """Eq. 2 restricted to SE(2): the planar motion taking one contact frame to another.
-
-    Args:
-        first_pose, last_pose: (4, 4) fingertip poses.
-
-    Returns:
-        ``(x, y, yaw)`` such that ``R(yaw) p + (x, y)`` maps the first frame's xy (and its
-        X_F heading) onto the last one's.
-    """
-    yaw = wrap_angle(contact_angles(last_pose)[0] - contact_angles(first_pose)[0])
-    x, y = last_pose[:2, 3] - rotation_2d(yaw) @ first_pose[:2, 3]
-    return float(x), float(y), yaw
 
 
 def obstacle_footprints(result: PlanResult):
@@ -408,52 +373,6 @@ def check_object_motion(result: PlanResult) -> list[str]:
     ]
 
 
-def moved_object_xy(result: PlanResult) -> np.ndarray:
-    """The object points' xy at the final pose, ``P'_o``, by the recorded object motion.
-
-    Args:
-        result: the plan.
-
-    Returns:
-        (N, 2) array.
-    """
-    motion = result.object_motion
-    return move_planar(np.asarray(result.object["points"])[:, :2], (motion["x"], motion["y"], motion["yaw"]))
-
-
-def _closest_edge(table: SupportSurface, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A point on the table edge closest to ``point`` and that edge's outward unit normal."""
-    starts = table.vertices
-    edges = np.roll(starts, -1, axis=0) - starts
-    along = np.clip(np.einsum("ij,ij->i", point - starts, edges) / np.einsum("ij,ij->i", edges, edges), 0.0, 1.0)
-    closest = int(np.argmin(np.linalg.norm(starts + along[:, None] * edges - point, axis=1)))
-    direction = edges[closest] / np.linalg.norm(edges[closest])
-    return starts[closest], np.array([direction[1], -direction[0]])  # right of the edge: outside for a CCW polygon
-
-
-def overhang(table: SupportSurface, moved_xy: np.ndarray) -> tuple[float, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
-    """Overhang ``u`` of paper IV-C.1 for an object at its final pose.
-
-    ``u`` is the largest distance, along the outward normal of the table edge closest to
-    the centroid of the points outside the table (``P_out``), of a point of ``P_out``
-    beyond that edge.
-
-    Args:
-        table: the support surface (vertices counter-clockwise).
-        moved_xy: (N, 2) object points at the final pose.
-
-    Returns:
-        ``(u, outside, edge)``: u (m; 0 when no point is outside), the (N,) bool mask of ``P_out``,
-        and that edge as (a point on it, its outward unit normal), or None when no point is outside.
-    """
-    outside = ~table.contains(moved_xy)
-    if not outside.any():
-        return 0.0, outside, None
-    out_points = moved_xy[outside]
-    start, normal = _closest_edge(table, out_points.mean(axis=0))
-    return float(np.max((out_points - start) @ normal)), outside, (start, normal)
-
-
 def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
     """Check the final object pose (paper IV-C.1): ``u >= u*``, ``u`` as recorded, CoM on the table.
 
@@ -465,7 +384,7 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
         Violations with the numbers.
     """
     violations = []
-    u, outside, edge = overhang(table, moved_object_xy(result))
+    u, outside, edge = overhang(table, result.moved_object_xy())
     if not outside.any():
         violations.append("final object pose: no object point overhangs the table")
     standoff = result.params.get("grasp_standoff", 0.0)
@@ -579,7 +498,7 @@ def check_grasp_pose(result: PlanResult, world: _PlanWorld,
     Returns:
         Violations naming ``grasp.pose`` and the numbers.
     """
-    moved = moved_object_xy(result)
+    moved = result.moved_object_xy()
     _, outside, edge = overhang(world.table, moved)
     if edge is None:
         return []  # check_graspability reports it
@@ -709,7 +628,7 @@ def check_grasp(result: PlanResult, world: _PlanWorld) -> list[str]:
     reached = np.flatnonzero(tips[:, 2] >= world.object_top_z + result.params["grasp_lift"] - LIFT_SLACK_M)
     lift_end = int(reached[0]) if reached.size else len(approach)  # from here on the hand is free of the object
     collision_world = world.collision_world
-    hull = MultiPoint(moved_object_xy(result)).convex_hull
+    hull = MultiPoint(result.moved_object_xy()).convex_hull
     collision_world.set_object(shapely.get_coordinates(hull.exterior)[:-1], world.object_top_z)
     try:
         for index, waypoint in enumerate(approach):

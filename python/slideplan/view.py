@@ -32,9 +32,10 @@ from .errors import InputError
 from .framing import frame_points, view_direction
 from .plan.result import PlanResult
 from .transforms import move_planar, quaternion_from_matrix, row_to_pose
-from .verify import planar_motion, require_motion
+from .transforms import planar_motion
 
 # Colours (RGB 0-255) with distinct hues, so that a screenshot can tell the parts apart (tests do).
+from .verify import require_motion
 ROBOT_COLOR = (40, 160, 170)
 TABLE_COLOR = (200, 150, 80)
 OBJECT_COLOR = (220, 40, 160)
@@ -69,7 +70,7 @@ def object_motions(result: PlanResult) -> np.ndarray:
     """The object's planar motion at every slide waypoint (Eq. 2).
 
     At waypoint ``k`` the object has moved as the contact frame has from waypoint 0 to ``k``:
-    the planar motion (x, y, yaw of ``X_F``) of :func:`slideplan.verify.planar_motion`.
+    the planar motion (x, y, yaw of ``X_F``) of :func:`slideplan.transforms.planar_motion`.
 
     Args:
         result: a plan with fingertip poses (none for an unsolved plan).

@@ -17,7 +17,8 @@ from matplotlib.patches import Polygon as PolygonPatch
 from .geometry import SupportSurface
 from .scenes import obstacle_footprint
 from .transforms import move_planar, row_to_pose
-from .verify import moved_object_xy, overhang, planar_motion
+from .geometry import overhang
+from .transforms import planar_motion
 
 SLIDE_SPACING_M = 0.03  # the object is drawn every this much fingertip travel
 
@@ -112,7 +113,7 @@ def draw_plan(result: PlanResult, path: str | Path, label: str = "") -> Path:
                 first = number == 0 and ring_number == 0
                 axes.plot(along[:, 0], along[:, 1], color="tab:blue", linewidth=0.8, alpha=0.35,
                           label=f"object every {100 * SLIDE_SPACING_M:.0f} cm of the slide" if first else None)
-        final_xy = moved_object_xy(result)
+        final_xy = result.moved_object_xy()
         _, outside, _ = overhang(table, final_xy)
         axes.scatter(final_xy[~outside, 0], final_xy[~outside, 1], s=2, color="tab:blue", label="object at goal")
         axes.scatter(final_xy[outside, 0], final_xy[outside, 1], s=3, color="tab:red", label="overhang")

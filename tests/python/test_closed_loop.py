@@ -16,7 +16,7 @@ from slideplan.objects import load_object
 from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_mjcf
 from slideplan.tracking import Tracker
 from slideplan.transforms import row_to_pose, wrap_angle
-from slideplan.verify import planar_motion
+from slideplan.transforms import planar_motion
 
 DEMO = ("square", "crescent", (0.55, -0.08, 0.4))
 PUSHED = Disturbance(0.0, -0.03, 0.17, 2.0)  # 3 cm and 10 degrees, 2 s into the slide

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from slideplan import InputError, PlannerConfig, load_object, load_scene, plan, verify
 from slideplan.cli import app
-from slideplan.verify import moved_object_xy
+
 
 TABLE = """[table]
 polygon = [[0.30, -0.20], [0.70, -0.20], [0.70, 0.20], [0.30, 0.20]]
@@ -29,7 +29,8 @@ def scene_with(tmp_path, obstacles: str):
 def object_overlaps_an_obstacle_along_the_slide(result) -> bool:
     """Independent of the planner and the verifier: the object's points at every waypoint by Eq. 2."""
     from slideplan.transforms import row_to_pose
-    from slideplan.verify import obstacle_footprints, planar_motion
+    from slideplan.transforms import planar_motion
+    from slideplan.verify import obstacle_footprints
 
     footprints = obstacle_footprints(result)
     points = np.asarray(result.object["points"])[:, :2]
@@ -59,7 +60,7 @@ def test_the_slide_goes_around_an_obstacle_or_to_another_edge(tmp_path, seed):
     verification = verify(result)
     assert verification.ok, verification.violations[:5]
     assert not object_overlaps_an_obstacle_along_the_slide(result)
-    final = shapely.MultiPoint(moved_object_xy(result)).convex_hull
+    final = shapely.MultiPoint(result.moved_object_xy()).convex_hull
     assert not final.intersects(shapely.box(0.35, -0.18, 0.65, -0.16))
 
 
@@ -80,7 +81,7 @@ def test_verify_catches_an_object_pushed_through_an_obstacle():
     plan_ = copy.deepcopy(build_grasp_plan())
     assert verify(plan_).ok
     # A can on the hand-made slide's path: the object, moved by Eq. 2, passes over it.
-    middle = moved_object_xy(plan_).mean(axis=0)
+    middle = plan_.moved_object_xy().mean(axis=0)
     plan_.obstacles = [{"shape": "cylinder", "center": np.array([middle[0] - 0.02, middle[1], 0.06]), "radius": 0.02,
                         "height": 0.12}]
     violations = verify(plan_).violations

@@ -18,7 +18,8 @@ from slideplan.perception import register_outline, write_perception
 from slideplan.plan.config import PlannerConfig
 from slideplan.plan.result import PlanResult
 from slideplan.rendering import Box, place_objects, render_scene
-from slideplan.verify import moved_object_xy, overhang, verify
+from slideplan.geometry import overhang
+from slideplan.verify import verify
 
 runner = CliRunner()
 
@@ -108,7 +109,7 @@ def true_geometry_plan(result, truth, placed):
     hand = PlannerConfig.for_scene(load_scene("square"))
     params = {**result.params, "u_star": hand.u_star, "grasp_standoff": hand.grasp_standoff}
     swapped = dataclasses.replace(result, table=table, object=obj, params=params)
-    return dataclasses.replace(swapped, overhang_m=overhang(truth.table, moved_object_xy(swapped))[0])
+    return dataclasses.replace(swapped, overhang_m=overhang(truth.table, swapped.moved_object_xy())[0])
 
 
 def test_perceive_and_plan_passes_verification_against_the_truth(tmp_path, square_scene):

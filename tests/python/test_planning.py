@@ -14,7 +14,7 @@ from slideplan.objects import load_outline, sample_pose_on_table
 from slideplan.plan.robot import robot_model
 from slideplan.plan.planner import _cached_grasp_map, grasp_map
 from slideplan.transforms import row_to_pose
-from slideplan.verify import planar_motion
+from slideplan.transforms import planar_motion
 
 TABLES = ["square", "round", "triangle", "long"]
 OBJECTS = ["crescent", "square", "L"]

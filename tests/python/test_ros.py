@@ -36,7 +36,7 @@ from slideplan.ros.messages import cloud_message, cloud_points, pose_matrix, sec
 from slideplan.ros.serve import Execution, Refused, Task, cloud_in_world, tracking_camera  # noqa: E402
 from slideplan.ros.sim import Sim, camera_pose_of  # noqa: E402
 from slideplan.scenes import load_scene  # noqa: E402
-from slideplan.verify import overhang  # noqa: E402
+from slideplan.geometry import overhang  # noqa: E402
 
 _DOMAINS = itertools.count(os.getpid() % 100 + 100)  # this run's domains: parallel runs keep apart
 POSE = (0.55, -0.08, 0.4)  # the crescent on the square table (as tests/python/test_closed_loop.py)

@@ -9,7 +9,9 @@ from handmade_plan import DEPTH_M, PITCH, THICKNESS, build_grasp_plan, build_pla
 from slideplan.plan.robot import robot_model
 from slideplan.scenes import load_scene
 from slideplan.transforms import pose_to_row
-from slideplan.verify import moved_object_xy, overhang, planar_motion, verify
+from slideplan.geometry import overhang
+from slideplan.transforms import planar_motion
+from slideplan.verify import verify
 from slideplan.geometry import SupportSurface
 from slideplan.viz import draw_plan
 
@@ -168,7 +170,7 @@ def test_a_grasp_nearer_the_edge_than_the_standoff_is_reported(plan):
 
 def test_the_overhang_within_the_standoff_is_not_held(plan):
     table = SupportSurface.from_vertices(plan.table["polygon"], plan.table["height"])
-    _, _, (start, normal) = overhang(table, moved_object_xy(plan))
+    _, _, (start, normal) = overhang(table, plan.moved_object_xy())
     grasp = np.asarray(plan.grasp["pose"][:2], dtype=float)
     plan.grasp["pose"][:2] = grasp + (0.04 - (grasp - start) @ normal) * normal  # 4 cm beyond the edge
     plan.params["grasp_standoff"] = 0.001  # so 3.9 cm of the 2.5 cm overhang lie within the hand's free length
@@ -283,8 +285,8 @@ def test_a_crescent_overhanging_with_both_horns_is_grasped_on_a_horn_not_between
 
     grasp_xy = np.asarray(result.grasp["pose"][:2])
     assert strip(grasp_xy).intersection(moved).area >= 0.5 * hold * hold
-    _, outside, (start, normal) = overhang(SupportSurface.from_vertices(result.table["polygon"], result.table["height"]), moved_object_xy(result))
-    centroid = moved_object_xy(result)[outside].mean(axis=0)
+    _, outside, (start, normal) = overhang(SupportSurface.from_vertices(result.table["polygon"], result.table["height"]), result.moved_object_xy())
+    centroid = result.moved_object_xy()[outside].mean(axis=0)
     paper_xy = centroid + max(0.0, result.params["grasp_standoff"] - float((centroid - start) @ normal)) * normal
     assert strip(paper_xy).intersection(moved).area == 0.0  # the paper's H_g holds nothing here
     paper = copy.deepcopy(result)

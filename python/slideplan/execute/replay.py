@@ -17,7 +17,8 @@ from ..plan.robot import build_robot
 from ..plan.result import PlanResult
 from ..timing import parameterize, resolve_limits
 from ..transforms import move_planar, rotation_2d, wrap_angle
-from ..verify import overhang, require_motion
+from ..geometry import overhang
+from ..verify import require_motion
 from .model import build_model
 from .report import Execution, path_features
 from .runner import SETTLE_S, Runner, Unstable, timing_of, timing_options

@@ -11,7 +11,7 @@ import numpy as np
 from .. import jsontext
 from ..plan.result import PlanResult
 from ..transforms import row_to_pose, wrap_angle
-from ..verify import contact_angles
+from ..transforms import contact_angles
 
 EXECUTION_SCHEMA = "slideplan.execution/1"
 STAGES = ("slide", "release", "grasp", "simulation")

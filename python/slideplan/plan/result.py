@@ -17,6 +17,7 @@ import numpy as np
 from .. import jsontext
 from .._limits import MAX_PLAN_BYTES, parse_int, read_regular_file
 from ..errors import InputError, require_type
+from ..transforms import move_planar
 from . import schema
 from .robot import collision_world, plan_robot
 
@@ -97,6 +98,15 @@ class PlanResult:
             InputError: the URDF or a mesh cannot be loaded, naming the file.
         """
         return plan_robot(self.robot)
+
+    def moved_object_xy(self) -> np.ndarray:
+        """The object points' xy at the final pose, ``P'_o``, by the recorded object motion (Eq. 2).
+
+        Returns:
+            (N, 2) array.
+        """
+        motion = self.object_motion
+        return move_planar(np.asarray(self.object["points"])[:, :2], (motion["x"], motion["y"], motion["yaw"]))
 
     def collision_world(self):
         """The plan's robot, table and obstacles as a ``_core.CollisionWorld`` (sliding: no object)."""

@@ -156,8 +156,6 @@ def plan_markers(result, header: Header) -> MarkerArray:
     (x, y, z arrows, red, green, blue)."""
     import shapely
 
-    from ..verify import moved_object_xy
-
     markers = []
     height = float(result.table["height"])
     polygon = np.asarray(result.table["polygon"], dtype=float)
@@ -167,7 +165,7 @@ def plan_markers(result, header: Header) -> MarkerArray:
     top = height + float(result.object["thickness"])
     for marker_id, (namespace, xy, rgba) in enumerate(
             (("object_now", np.asarray(result.object["points"])[:, :2], (0.2, 0.5, 0.8, 1.0)),
-             ("object_planned", moved_object_xy(result), (0.2, 0.8, 0.3, 1.0))), start=1):
+             ("object_planned", result.moved_object_xy(), (0.2, 0.8, 0.3, 1.0))), start=1):
         hull = np.asarray(shapely.MultiPoint(xy).convex_hull.exterior.coords)
         markers.append(_marker(header, marker_id, namespace, Marker.LINE_STRIP, rgba, (0.004, 0, 0),
                                np.column_stack([hull, np.full(len(hull), top)])))
