@@ -71,7 +71,7 @@ from .rendering import Camera, back_project, camera_depth, depth_image, noisy_de
 from .scenes import Scene, load_scene
 from .timing import resolve_limits, time_path
 from .tracking import NOT_UNDER_TIP, Tracker
-from .verdict import Hold, held
+from .verdict import Hold, judge
 from .transforms import compose_planar, move_planar, pose_to_row, row_to_pose, wrap_angle
 from .geometry import overhang
 from .transforms import planar_motion
@@ -1024,7 +1024,6 @@ def run(
             look = watch.settled(frames, seen_motion)
             seen, seen_frames, seen_motion = look.ok, list(range(first_frame, watch.looks)), look.motion
         _diagnose(report, scene.table, perceived, truth, seen_motion, seen, seen_frames, runner)
-        failure = None
         if loop.abandoned:
             failure = ("slide", "no progress: the finger travelled on and the object did not, and no new plan followed")
         else:
@@ -1034,10 +1033,8 @@ def run(
                                    resolve_limits(grasp_plan, timing_options(settings, robot.velocity_limits)), top,
                                    scene.table.height + truth.thickness / 2)
         report["lifted"] = runner.lifted
-        ok, why = held(Hold.from_samples(runner.hold, settings.hold_s) if runner.hold else None, scene.table.height)
-        if not ok:
-            stage, message = failure or ("hold", why)
-            report["failed_stage"], report["failure"] = stage, message
+        hold = Hold.from_samples(runner.hold, settings.hold_s) if runner.hold else None
+        _, report["failed_stage"], report["failure"] = judge(hold, scene.table.height, failure)
     except Unstable as error:
         report.update(failed_stage="simulation", failure=str(error), lifted=False)
     finally:

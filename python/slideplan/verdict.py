@@ -65,3 +65,14 @@ def held(hold: Hold | None, table_top: float, height: float = HOLD_HEIGHT_M) -> 
         return False, f"the object was out of the hand {times[first]:.2f} s into the hold"
     return False, (f"the object was {100 * clearance[first]:.1f} cm above the table top {times[first]:.2f} s into the hold "
                    f"(< {100 * height:.0f} cm)")
+
+
+def judge(hold: Hold | None, table_top: float, failure: tuple[str, str] | None = None) -> tuple[bool, str | None, str]:
+    """A run's outcome: ``(success, failed stage or None, why)``. Success is :func:`held` alone; a failure's
+    stage is the one the run reported on the way (``failure``: e.g. ``("grasp", "not lifted")``), else
+    ``"hold"`` (lifted, then lost or sagging in the hold)."""
+    ok, why = held(hold, table_top)
+    if ok:
+        return True, None, ""
+    stage, message = failure or ("hold", why)
+    return False, stage, message
