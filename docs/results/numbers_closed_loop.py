@@ -12,6 +12,17 @@ SET_FILES = {name: f"closed_loop_{name}.parquet" for name in SETS}
 
 
 def values() -> dict[str, str]:
-    """The ``cl53-report`` block."""
+    """The ``cl53-report`` block, and the README's sentence on the eval set (``readme-cl53-eval``)."""
     sets = {name: rows(file, "runs") if (HERE / file).exists() else None for name, file in SET_FILES.items()}
-    return {"cl53-report": report(sets)}
+    return {"cl53-report": report(sets), "readme-cl53-eval": eval_sentence(sets["eval"])}
+
+
+def eval_sentence(runs) -> str:
+    """True success on the eval set per setting, closed loop then open loop, or that it has not been run."""
+    if runs is None or not len(runs):
+        return "the held-out `eval` set has not been run yet, so there are no numbers for it"
+    ok = runs.assign(ok=runs["success"].fillna(False).astype(bool)).groupby(["setting", "mode"], sort=False)["ok"].mean()
+    settings = list(dict.fromkeys(runs["setting"]))
+    return ("on the held-out `eval` set, judged by the world, the closed loop succeeded in "
+            + ", ".join(f"{100 * ok[(setting, 'closed')]:.1f}% ({setting})" for setting in settings)
+            + " of runs, the open loop in " + ", ".join(f"{100 * ok[(setting, 'open')]:.1f}%" for setting in settings))
