@@ -31,10 +31,12 @@ a refused look (the object pushed from under the finger) asks for a whole new sl
 from where the finger is (lifted off first, every link checked: :mod:`slideplan.execute.reach`).
 
 Open loop (``closed=False``): the first plan is executed as planned, its own grasp included; the
-camera only watches, for the verdict.
+camera only watches: after the slide it looks as the closed loop looks at the end of a slide
+(:meth:`Watch.settled`), for the diagnostics.
 
-Success, in both modes: the object as seen after the slide overhangs a table edge by at least ``u*``
-with its centre of mass ``com_margin`` inside the table, and the grasp lifts it and holds it.
+Success, in both modes, is the world's verdict (:mod:`slideplan.verdict`): the object in the hand, at
+least 3 cm above the table top, through the whole hold, in the simulator's true state. The seen and
+true overhang after the slide are diagnostics. A closed loop's sliding is bounded (:mod:`slideplan.bounds`).
 """
 
 from __future__ import annotations
