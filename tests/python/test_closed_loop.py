@@ -27,6 +27,7 @@ def disturbed_closed():
     return run(*DEMO, seed=1, closed=True, disturbance=PUSHED)
 
 
+@pytest.mark.physics
 def test_the_closed_loop_recovers_from_a_push_the_open_loop_does_not(disturbed_closed):
     opened = run(*DEMO, seed=1, closed=False, disturbance=PUSHED)
     assert not opened.success and opened.replans == 0
@@ -39,6 +40,7 @@ def test_the_closed_loop_recovers_from_a_push_the_open_loop_does_not(disturbed_c
     assert all(event.latency_s > 0 for event in disturbed_closed.events)
 
 
+@pytest.mark.physics
 def test_the_same_seed_gives_the_same_run(disturbed_closed):
     again = run(*DEMO, seed=1, closed=True, disturbance=PUSHED)
     assert [(event.time_s, event.outcome) for event in again.events] == \
@@ -195,6 +197,7 @@ def test_a_perceived_object_a_millimetre_over_an_edge_is_moved_onto_the_table():
             assert placed == pose
 
 
+@pytest.mark.physics
 def test_when_the_arm_hides_the_object_at_the_end_the_finger_rises_clear_to_look(monkeypatch):
     # A camera beside the slide's end: at the end of the slide the hand hides the object from it. The
     # finger rises clear, the look from there finds the object, and the loop goes on from what it saw.
@@ -212,6 +215,7 @@ def test_when_the_arm_hides_the_object_at_the_end_the_finger_rises_clear_to_look
     assert report.success, report.summary()
 
 
+@pytest.mark.physics
 def test_with_a_camera_behind_the_arm_the_finger_moves_aside_to_look(monkeypatch):
     # Behind the arm and above its shoulder, the camera sees the object past the hand, but at the slide's
     # end the forearm hides it, also from 10 cm higher: only a move across clears its lines of sight.
@@ -227,6 +231,7 @@ def test_with_a_camera_behind_the_arm_the_finger_moves_aside_to_look(monkeypatch
     assert report.success, report.summary()
 
 
+@pytest.mark.physics
 def test_a_slide_hidden_from_the_camera_stops_to_look_from_above_and_recovers_from_a_push(monkeypatch):
     # The hand hides the object from every look with the finger on it (a camera behind the arm): the
     # push goes unseen until the slide stops, the finger rises clear and looks from there.
@@ -250,6 +255,7 @@ def test_a_slide_hidden_from_the_camera_stops_to_look_from_above_and_recovers_fr
     assert report.success, report.summary()
 
 
+@pytest.mark.physics
 def test_under_the_stress_setting_the_loop_does_not_chase_the_trackers_error():
     # Torsional friction halved and the finger at its shallowest: the tracker's scatter under the arm is
     # about the 3 mm / 2 degree threshold, so looks off the prediction come often. Before the re-plan was
@@ -260,6 +266,7 @@ def test_under_the_stress_setting_the_loop_does_not_chase_the_trackers_error():
     assert report.kept >= 1  # drifts were seen and the plan kept
 
 
+@pytest.mark.physics
 def test_the_closed_loop_experiment_records_each_run_of_a_task(monkeypatch, tmp_path):
     # One task of `slideplan experiment closed-loop`, the nominal setting only (each run is a whole MuJoCo task).
     import json
@@ -286,6 +293,7 @@ def test_the_closed_loop_experiment_records_each_run_of_a_task(monkeypatch, tmp_
     assert [path.suffix for path in experiment.plot_closed_loop(runs, tmp_path)] == [".png", ".svg"]
 
 
+@pytest.mark.physics
 def test_a_stopped_blind_slide_not_seen_from_above_either_goes_on_with_the_rest_of_its_plan(monkeypatch):
     # No look finds the object at all: after each blind stop the rest of the slide goes on from rest, as
     # it would have without the stop, rather than grasping where the slide stopped (short of the edge).
@@ -305,6 +313,7 @@ def test_a_stopped_blind_slide_not_seen_from_above_either_goes_on_with_the_rest_
     assert report.replans == 0 and report.true_overhang_m >= 0.02, report.summary()
 
 
+@pytest.mark.physics
 def test_a_push_from_under_the_finger_is_followed_by_a_new_slide_from_a_new_contact():
     # Pushed 4 cm sideways 2 s into the slide: the finger is no longer on the object as seen, so no slide
     # can go on from where the arm is; a whole new slide is planned, reached from above, and followed.
@@ -416,3 +425,15 @@ def test_a_run_seen_short_whose_object_was_held_succeeds_and_a_lost_look_is_repo
     again = run(*DEMO, seed=1, closed=False)
     assert again.seen_status == "lost" and again.seen_overhang_m is None and again.seen_motion is None
     assert again.success == report.success and again.true_overhang_m == report.true_overhang_m
+
+
+@pytest.mark.physics
+def test_a_capped_closed_loop_re_plans_no_more_and_says_so(monkeypatch):
+    # The disturbed demo with the re-plan cap at 0: the push is not chased, the slide runs to its end and the
+    # row says why the loop stopped deciding.
+    import slideplan.closed_loop as closed_loop
+
+    monkeypatch.setattr(closed_loop, "MAX_REPLANS", 0)
+    report = run(*DEMO, seed=1, closed=True, disturbance=PUSHED)
+    assert report.replans == 0 and report.slide_stop == "replan_cap", report.summary()
+    assert report.seen_frames and report.slide_s > 0
