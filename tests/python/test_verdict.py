@@ -225,3 +225,14 @@ def test_the_report_gives_wilson_intervals_and_the_exact_mcnemar_test_of_the_pai
     assert "| hard | closed | 18 | 17 (94.4%) |" in text and "| hard | open | 18 | 6 (33.3%) |" in text
     assert "**`eval`: not run yet.**" in text and "abc1234 (72 runs)" in text
     assert text.index("| nominal |") < text.index("| hard |")  # settings in their order
+
+
+def test_the_experiment_s_set_option_refuses_what_it_does_not_know_naming_the_option(tmp_path):
+    from typer.testing import CliRunner
+
+    from slideplan.cli import app
+
+    for arguments, option in ((["--set", "test"], "--set"), (["--set", "eval", "--seed", "2"], "--seed")):
+        result = CliRunner().invoke(app, ["experiment", "closed-loop", *arguments, "--out", str(tmp_path / "out")])
+        assert result.exit_code == 2 and result.output.startswith(f"slideplan: error: {option}:"), result.output
+    assert not (tmp_path / "out").exists()
