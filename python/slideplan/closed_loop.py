@@ -146,8 +146,8 @@ class ClosedLoopRun:
             true state. What the camera saw plays no part.
         mode: ``"closed"`` or ``"open"``.
         setting: one of :data:`SETTINGS`.
-        failed_stage: None, ``"plan"`` (no first plan), ``"release"`` (the object fell off the table when
-            the finger let go), ``"grasp"`` (not lifted), ``"hold"`` (lifted, then out of the hand or lower than
+        failed_stage: None, ``"plan"`` (no first plan), ``"slide"`` (stopped for no progress, and no new plan
+            followed: no grasp), ``"release"`` (the object fell off the table when the finger let go), ``"grasp"`` (not lifted), ``"hold"`` (lifted, then out of the hand or lower than
             3 cm in the hold) or ``"simulation"``.
         failure: one line saying what went wrong ("" on success).
         replans: re-plans whose new plan was followed (slides and grasps from a seen pose).
@@ -165,10 +165,10 @@ class ClosedLoopRun:
         seen_overhang_m, seen_com_margin_m: at that pose.
         true_overhang_m, true_com_margin_m: at the object's true pose then.
         lifted: the runner's lift check (the object rose half the lift and stayed): diagnostic.
-        slide_stop: ``""`` or why the closed loop ended its sliding early: ``"no_progress"`` (the finger
-            travelled :data:`NO_PROGRESS_TRAVEL_M` while the object as seen moved less than
-            :data:`NO_PROGRESS_MOVE_M`), ``"replan_cap"`` (:data:`MAX_REPLANS` re-plans), ``"time_cap"``
-            (:data:`MAX_SLIDE_S` of slide).
+        slide_stop: ``""`` or the bound (:mod:`slideplan.bounds`) the closed loop met: ``"no_progress"`` (a
+            slide stopped: the finger travelled on, the object as seen did not), ``"replan_cap"`` or
+            ``"time_cap"`` (no new plan after ``MAX_REPLANS`` re-plans or ``MAX_SLIDE_S`` of sliding: the slide
+            followed then ends as planned, and its own grasp follows).
         slide_s: simulated time from the first slide's start to the grasp's start (s).
         draws: the physical parameters of the run (the random and hard settings' draws).
         disturbance: the push applied (``--disturb``, or the hard setting's), or None.
