@@ -233,33 +233,24 @@ def _summary(result: PlanResult) -> str:
     )
 
 
-def _verify_and_mark(result: PlanResult) -> PlanResult:
-    """Verify a solved plan; print its violations and return it marked ``invalid`` if it fails."""
-    from .verify import verify
-
-    verification = verify(result)
-    if verification.ok:
-        return result
-    typer.echo(f"slideplan: plan fails verification ({len(verification.violations)} violations):", err=True)
-    for violation in verification.violations[:_SHOWN_VIOLATIONS]:
-        typer.echo(f"  {violation}", err=True)
-    if len(verification.violations) > _SHOWN_VIOLATIONS:
-        typer.echo(f"  ... and {len(verification.violations) - _SHOWN_VIOLATIONS} more", err=True)
-    return dataclasses.replace(result, status="invalid")
-
-
 def _plan_verify_write(scene: Scene, obj: ThinObject, config: PlannerConfig, json_path: Path | None,
                        png_path: Path | None) -> PlanResult:
-    """Plan, verify a solved plan (marking it ``invalid`` if it fails) and write the outputs asked for."""
-    from .plan.planner import plan
+    """Plan, verify a solved plan (:func:`slideplan.pipeline.plan_checked`: marked ``invalid`` if it fails,
+    its violations printed) and write the outputs asked for."""
+    from .pipeline import plan_checked
 
     with _warnings_as_lines():
-        result = plan(scene, obj, config)
-    if result.solved:
-        result = _verify_and_mark(result)
+        checked = plan_checked(scene, obj, config)
+    if checked.verification is not None and not checked.verification.ok:
+        violations = checked.verification.violations
+        typer.echo(f"slideplan: plan fails verification ({len(violations)} violations):", err=True)
+        for violation in violations[:_SHOWN_VIOLATIONS]:
+            typer.echo(f"  {violation}", err=True)
+        if len(violations) > _SHOWN_VIOLATIONS:
+            typer.echo(f"  ... and {len(violations) - _SHOWN_VIOLATIONS} more", err=True)
     scene_name = Path(scene.source).stem if scene.source else "scene"
-    _write_outputs(result, json_path, png_path, f"{obj.name or 'object'} on {scene_name}")
-    return result
+    _write_outputs(checked.result, json_path, png_path, f"{obj.name or 'object'} on {scene_name}")
+    return checked.result
 
 
 def _exit_for(result: PlanResult) -> typer.Exit:
@@ -451,10 +442,10 @@ def perceive_command(
         return
     try:
         config = _config_from_options(scene, seed, time_limit, None, "slideplan", [])
-        # The plan must hold on the true geometry: the margins measured from the perceived edges grow
-        # by how far those edges may be off.
+        from .pipeline import for_perceived
+
         margin = perception.edge_uncertainty
-        config = dataclasses.replace(config, u_star=config.u_star + margin, grasp_standoff=config.grasp_standoff + margin)
+        config = for_perceived(config, margin)
         typer.echo(f"planning with u* and grasp_standoff raised by the perception's edge uncertainty, {1000 * margin:.1f} mm")
         obj, _ = _load_object(scene, str(cloud_paths[plan_target]), None, seed)
         result = _plan_verify_write(scene, obj, config, json_out, png_out)

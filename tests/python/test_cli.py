@@ -160,12 +160,12 @@ def test_a_time_limit_spent_setting_up_says_so(planned):
 
 
 def test_ctrl_c_exits_130_with_one_line(monkeypatch):
-    from slideplan.plan import planner
+    from slideplan import pipeline
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(planner, "plan", interrupted)
+    monkeypatch.setattr(pipeline, "plan", interrupted)
     result = run("plan", "--scene", "square", "--object", "crescent")
     assert result.exit_code == 130, (result.exit_code, result.output, result.stderr)  # documented in README and cli.py
     assert "Traceback" not in result.output + result.stderr

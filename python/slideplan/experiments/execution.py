@@ -21,10 +21,9 @@ import pandas as pd
 import pyarrow as pa
 
 from ..execute import ExecutionSettings, execute, path_features, stress_settings
-from ..plan.planner import plan
+from ..pipeline import plan_checked
 from ..provenance import run_provenance
 from ..transforms import row_to_pose
-from ..verify import verify
 from .results import PROVENANCE_FIELDS, ROW_SCHEMA, load_results
 from .tasks import Task, cached_scene
 
@@ -71,10 +70,9 @@ def run_execution_task(task: Task) -> dict:
     try:
         scene = cached_scene(task.scene)
         obj = task.placed_object()
-        result = plan(scene, obj, task.planner_config())
+        result = plan_checked(scene, obj, task.planner_config()).result
         row.update(status=result.status, planning_time_s=result.planning_time_s)
-        if not result.solved or not verify(result).ok:
-            row["status"] = "invalid" if result.solved else result.status
+        if not result.solved:
             return row
         tip_path, yaw_travel = path_features(result)
         ends = [row_to_pose(result.fingertip_poses[index])[:2, 3] for index in (0, -1)]

@@ -10,9 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..plan.planner import plan
+from ..pipeline import plan_checked
 from ..provenance import run_provenance
-from ..verify import verify
 from .executors import LocalPoolExecutor, TaskExecutor
 from .results import ROW_SCHEMA, STAT_COLUMNS, finished_task_ids, results_dir, write_row
 from .tasks import ExperimentSpec, Task, cached_scene
@@ -59,13 +58,14 @@ def run_task(task: Task) -> dict:
     try:
         scene = cached_scene(task.scene)
         obj = task.placed_object()
-        result = plan(scene, obj, task.planner_config())
-        verified = verify(result).ok if result.solved else None
+        checked = plan_checked(scene, obj, task.planner_config())
+        result = checked.result
+        verified = checked.verification.ok if checked.verification is not None else None
     except Exception as error:  # noqa: BLE001 - recorded in the row; one bad task must not end the run
         row["error"] = f"{type(error).__name__}: {error}"
         return row
     row.update(
-        solved=bool(verified), status="invalid" if verified is False else result.status,
+        solved=bool(verified), status=result.status,
         planning_time_s=result.planning_time_s, overhang_m=result.overhang_m if result.solved else None,
         verified=verified, **{name: int(result.stats.get(name, 0)) for name in STAT_COLUMNS},
     )

@@ -32,7 +32,6 @@ from ..objects import ThinObject
 from ..plan.config import PlannerConfig
 from ..plan.robot import base_pose_matrix, robot_model
 from ..plan.result import PlanResult
-from ..plan.planner import plan
 from ..rendering import Camera
 from ..scenes import Scene
 from ..timing import time_path
@@ -77,10 +76,10 @@ def cloud_in_world(points: np.ndarray, camera_pose) -> np.ndarray:
 
 
 def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: int,
-                   table_plane=None) -> tuple[Scene, ThinObject, int, tuple]:
+                   table_plane=None) -> tuple[Scene, ThinObject, int, tuple, float]:
     """The perceived scene (its table and clutter, the robot from ``scene``), the object ``target``, how
-    many objects were seen, and the table plane (``table_plane``: the plane of an earlier cloud of the
-    same camera, :func:`slideplan.perception.perceive`'s).
+    many objects were seen, the table plane (``table_plane``: the plane of an earlier cloud of the
+    same camera, :func:`slideplan.perception.perceive`'s) and how far the perceived edges may be off (m).
 
     Raises:
         Refused: an empty cloud (``no_cloud``), nothing perceived (``perception``), or a target that is
@@ -101,7 +100,7 @@ def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: in
                                 f"{len(perception.objects) - 1}, largest first)")
     seen = perception.objects[target]
     obj = ThinObject.from_points(seen.points, table_height=perception.table.height, name=f"object {target}")
-    return perception.scene(scene), obj, len(perception.objects), perception.plane
+    return perception.scene(scene), obj, len(perception.objects), perception.plane, perception.edge_uncertainty
 
 
 def lift_path(result: PlanResult) -> np.ndarray:
@@ -145,23 +144,24 @@ def plan_task(scene: Scene, points: np.ndarray, joints: np.ndarray | None, *, ca
         Refused: no joint state yet (``no_joint_state``), a failed perception, an unsolved plan
             (``timeout`` or the planner's status), a plan that fails the verifier (``invalid``) or no reach.
     """
-    from ..verify import verify
+    from ..pipeline import for_perceived, plan_checked
 
     started = time.perf_counter()
-    perceived_scene, obj, seen, plane = perceived_task(scene, cloud_in_world(points, camera_pose), target, seed, table_plane)
+    perceived_scene, obj, seen, plane, margin = perceived_task(scene, cloud_in_world(points, camera_pose), target, seed,
+                                                               table_plane)
     perceived = time.perf_counter()
     if joints is None:
         raise Refused("no_joint_state", "no message on /joint_states yet: the arm's configuration is unknown")
-    config = PlannerConfig.for_scene(perceived_scene, seed=seed, time_limit_s=time_limit)
+    config = for_perceived(PlannerConfig.for_scene(perceived_scene, seed=seed, time_limit_s=time_limit), margin)
     try:
-        result = plan(perceived_scene, obj, config)
+        checked = plan_checked(perceived_scene, obj, config)
     except InputError as error:
         raise Refused("plan", error.problem) from None
-    if not result.solved:
+    result = checked.result
+    if checked.verification is None:
         raise Refused(result.status, f"no plan within {time_limit:g} s ({result.status})")
-    verification = verify(result)
-    if not verification.ok:
-        raise Refused("invalid", f"the plan fails verification: {verification.violations[0]}")
+    if not checked.ok:
+        raise Refused("invalid", f"the plan fails verification: {checked.verification.violations[0]}")
     try:
         reach = reach_path(result, obj, joints)
     except Unreachable as error:
