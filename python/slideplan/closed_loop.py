@@ -165,10 +165,10 @@ class ClosedLoopRun:
         seen_overhang_m, seen_com_margin_m: at that pose.
         true_overhang_m, true_com_margin_m: at the object's true pose then.
         lifted: the runner's lift check (the object rose half the lift and stayed): diagnostic.
-        slide_stop: ``""`` or the bound (:mod:`slideplan.bounds`) the closed loop met: ``"no_progress"`` (a
-            slide stopped: the finger travelled on, the object as seen did not), ``"replan_cap"`` or
-            ``"time_cap"`` (no new plan after ``MAX_REPLANS`` re-plans or ``MAX_SLIDE_S`` of sliding: the slide
-            followed then ends as planned, and its own grasp follows).
+        slide_stop: ``""`` or the bounds (:mod:`slideplan.bounds`) the closed loop met, ``+``-joined:
+            ``"no_progress"`` (a slide stopped: the finger travelled on, the object as seen did not),
+            ``"replan_cap"`` or ``"time_cap"`` (no new plan after ``MAX_REPLANS`` re-plans or ``MAX_SLIDE_S``
+            of sliding: the slide followed then ends as planned, and its own grasp follows).
         slide_s: simulated time from the first slide's start to the grasp's start (s).
         draws: the physical parameters of the run (the random and hard settings' draws).
         disturbance: the push applied (``--disturb``, or the hard setting's), or None.
@@ -633,8 +633,8 @@ class SlideLoop:
 
     Attributes:
         replans: new plans followed.
-        stopped: ``""`` or why the loop ended its sliding early (:mod:`slideplan.bounds`): ``"no_progress"``,
-            ``"replan_cap"`` or ``"time_cap"``.
+        stops: the bounds met (:mod:`slideplan.bounds`), each once, in order: ``"no_progress"``,
+            ``"replan_cap"``, ``"time_cap"``; :attr:`stopped` joins them with ``+`` ("" for none).
         seen: whether the object's motion :meth:`run` returned was seen (else predicted), and
         seen_frames: the frames of the look it came from.
         abandoned: the slide stopped for no progress and no new plan followed: no grasp is made.
@@ -646,15 +646,24 @@ class SlideLoop:
         self.unseen = Unseen()
         self.progress = Progress()
         self.segment: Segment | None = None
-        self.stopped, self.seen, self.seen_frames, self.abandoned = "", False, [], False
+        self.stops: list[str] = []
+        self.seen, self.seen_frames, self.abandoned = False, [], False
+
+    @property
+    def stopped(self) -> str:
+        return "+".join(self.stops)
+
+    def _met(self, bound: str) -> None:
+        if bound not in self.stops:
+            self.stops.append(bound)
 
     def capped(self) -> bool:
-        """Whether a bound ends the sliding now (:attr:`stopped` says which)."""
-        if not self.stopped and self.replans >= MAX_REPLANS:
-            self.stopped = "replan_cap"
-        elif not self.stopped and self.arm.clock() >= MAX_SLIDE_S:
-            self.stopped = "time_cap"
-        return self.stopped in ("replan_cap", "time_cap")
+        """Whether a cap ends the re-planning now (recorded in :attr:`stops`)."""
+        for bound, met in (("replan_cap", self.replans >= MAX_REPLANS), ("time_cap", self.arm.clock() >= MAX_SLIDE_S)):
+            if met:
+                self._met(bound)
+                return True
+        return False
 
     def look(self, frames, stamp: float, tip: np.ndarray, config: np.ndarray, at_s: float,
              start_tip: np.ndarray | None = None) -> Stop | None:
@@ -669,7 +678,7 @@ class SlideLoop:
         if event is not None:
             self.arm.record(event)
         if again is None and self.progress.update(np.asarray(tip)[:2, 3], seen.motion if seen.ok else None):
-            self.stopped = "no_progress"
+            self._met("no_progress")
             return Stop(None, seen.motion, config, at_s, "no_progress")
         if again is None:
             if (self.unseen.update(seen.ok, stamp) < BLIND_S or segment.times[-1] - at_s < BLIND_S

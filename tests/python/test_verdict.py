@@ -221,7 +221,10 @@ def test_the_report_gives_wilson_intervals_and_the_exact_mcnemar_test_of_the_pai
     better, worse, p = mcnemar(runs[runs["setting"] == "hard"])
     assert (better, worse) == (12, 1) and p == pytest.approx(binomtest(12, 13, 0.5).pvalue) and p < 0.01
     assert mcnemar(runs[runs["setting"] == "nominal"]) == (0, 0, 1.0)
+    runs.loc[(runs["setting"] == "hard") & (runs["mode"] == "open") & (runs["task_id"] == "t0"), "slide_stop"] = \
+        "no_progress+replan_cap"
     text = report({"dev": runs, "eval": None})
+    assert "| hard | open | 0 | 0 | 0 | 12 | 0 | 0 | 1 | 1 | 0 |" in text  # failures by stage, then the bounds met
     assert "| hard | closed | 18 | 17 (94.4%) |" in text and "| hard | open | 18 | 6 (33.3%) |" in text
     assert "**`eval`: not run yet.**" in text and "abc1234 (72 runs)" in text
     assert text.index("| nominal |") < text.index("| hard |")  # settings in their order
@@ -236,3 +239,24 @@ def test_the_experiment_s_set_option_refuses_what_it_does_not_know_naming_the_op
         result = CliRunner().invoke(app, ["experiment", "closed-loop", *arguments, "--out", str(tmp_path / "out")])
         assert result.exit_code == 2 and result.output.startswith(f"slideplan: error: {option}:"), result.output
     assert not (tmp_path / "out").exists()
+
+
+def test_every_bound_a_closed_loop_meets_is_recorded_and_a_cap_holds_after_a_no_progress_stop():
+    import slideplan.closed_loop as closed_loop
+    from slideplan.bounds import MAX_REPLANS, MAX_SLIDE_S
+
+    class Clock:
+        now = 0.0
+
+        def clock(self):
+            return self.now
+
+    arm = Clock()
+    loop = closed_loop.SlideLoop(None, None, 0.0, 3, arm)
+    assert not loop.capped() and loop.stopped == ""
+    loop._met("no_progress")
+    loop.replans = MAX_REPLANS
+    assert loop.capped() and loop.stopped == "no_progress+replan_cap"
+    loop.replans, arm.now = 0, MAX_SLIDE_S
+    assert loop.capped() and loop.stopped == "no_progress+replan_cap+time_cap"
+    assert loop.capped() and loop.stops.count("time_cap") == 1

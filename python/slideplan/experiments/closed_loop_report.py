@@ -15,7 +15,7 @@ from .stats import wilson_interval
 
 SETS = ("dev", "eval")
 STAGES = ("plan", "slide", "release", "grasp", "hold", "simulation")  # ClosedLoopRun.failed_stage
-STOPS = ("no_progress", "replan_cap", "time_cap")  # ClosedLoopRun.slide_stop
+STOPS = ("no_progress", "replan_cap", "time_cap")  # ClosedLoopRun.slide_stop, "+"-joined
 
 
 def _table(header: list[str], rows: list[list[str]]) -> str:
@@ -79,8 +79,9 @@ def failure_table(runs: pd.DataFrame) -> str:
             group = runs[(runs["setting"] == setting) & (runs["mode"] == mode)]
             failed = group[~_ok(group)]
             stops = group["slide_stop"].fillna("")
+            met = stops.str.split("+")
             rows.append([setting, mode, *(str(int((failed["failed_stage"] == stage).sum())) for stage in STAGES),
-                         *(str(int((stops == stop).sum())) for stop in STOPS)])
+                         *(str(int(met.map(lambda bounds, stop=stop: stop in bounds).sum())) for stop in STOPS)])
     return _table(["setting", "mode", *STAGES, *(f"stopped: {stop}" for stop in STOPS)], rows)
 
 
