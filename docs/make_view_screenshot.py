@@ -14,7 +14,7 @@ from pathlib import Path
 
 from playwright.sync_api import sync_playwright
 
-from slideplan.cli import _load_object
+from slideplan.cli.common import _load_object
 from slideplan.plan.config import PlannerConfig
 from slideplan.plan.planner import plan
 from slideplan.scenes import load_scene

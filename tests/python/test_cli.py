@@ -135,7 +135,7 @@ def test_demo_writes_into_a_folder_it_makes_and_its_picture_names_the_object_and
 def test_a_plan_not_found_says_what_was_rejected_most(planned):
     import dataclasses
 
-    from slideplan.cli import _summary
+    from slideplan.cli.common import _summary
 
     stats = {**planned.stats, "rejections": {"grasp pose unreachable": 40, "overhang below u*": 3,
                                              "grasp configuration in collision (wam_link6-table)": 1204,
@@ -150,7 +150,7 @@ def test_a_time_limit_spent_setting_up_says_so(planned):
     # A 0.01 s limit on the SO-101 reported "timeout after 0.66 s": the time went before the search began.
     import dataclasses
 
-    from slideplan.cli import _summary
+    from slideplan.cli.common import _summary
 
     assert 0.0 < planned.stats["setup_time"] <= planned.planning_time_s  # recorded, and part of the planning time
     slow = dataclasses.replace(planned, status="timeout", planning_time_s=0.66, stats={**planned.stats, "setup_time": 0.65})

@@ -54,6 +54,7 @@ def test_grasp_of_a_far_overhanging_plate_lifts_it():
     assert report["schema"] == "slideplan.execution/1" and report["lifted"] is True
 
 
+@pytest.mark.physics
 def test_the_demo_plan_slides_and_lifts_its_crescent(tmp_path):
     # The planner's T42 grasp lies grasp_standoff beyond the edge, so the lower finger passes the table.
     assert CliRunner().invoke(app, ["demo", "--out", str(tmp_path)]).exit_code == 0
@@ -187,6 +188,7 @@ def test_cli_executes_and_writes_the_report(tmp_path, slide_plan):
     assert "Eq. 2 error" in output
 
 
+@pytest.mark.physics
 def test_timed_plan_uses_its_timing_block(tmp_path, slide_plan):
     from slideplan.timing import TimingOptions, parameterize
 
@@ -282,7 +284,7 @@ def test_progress_reports_the_simulated_time_as_it_goes(slide_plan):
 
 
 def test_cli_progress_line_is_one_line_per_interval_in_a_log(capsys):
-    from slideplan.cli import _progress_line
+    from slideplan.cli.physics import _progress_line
 
     with _progress_line("executing", after_s=0.0) as progress:
         progress(1.0)
@@ -291,6 +293,7 @@ def test_cli_progress_line_is_one_line_per_interval_in_a_log(capsys):
     assert err.splitlines() == ["executing: 1.0 s simulated in 0 s"]
 
 
+@pytest.mark.physics
 def test_the_video_keeps_the_table_and_the_hand_in_view_through_the_transfer(tmp_path, monkeypatch):
     # The Panda's approach rises far above the table: a camera fixed on the object lost its hand.
     from slideplan import PlannerConfig, load_object, load_scene, plan
@@ -416,6 +419,7 @@ def test_the_t42_tendon_closes_both_fingers_to_the_grasp_plane_together():
     assert abs(reached[0] - reached[1]) < 0.1 * ramp_s, (reached, ramp_s)
 
 
+@pytest.mark.physics
 @pytest.mark.parametrize("scene_name", ["panda_square", "ur5_gripper_square"])
 def test_a_parallel_gripper_lifts_the_object_with_its_own_prismatic_jaws(scene_name):
     """The Panda's own hand; the UR5 with the gripper fragment data/robots/ur5_gripper.urdf attached. The
@@ -492,6 +496,7 @@ def _plan_and_execute(scene_name: str, object_name: str, pose: tuple[float, floa
         return execute(result)
 
 
+@pytest.mark.physics
 def test_the_z1_closes_its_jaw_on_the_overhang_and_lifts_the_object():
     execution = _plan_and_execute("z1_square", "circle", (0.52, 0.0, 0.4), 2)
     assert execution.lifted, execution.failure
@@ -500,6 +505,7 @@ def test_the_z1_closes_its_jaw_on_the_overhang_and_lifts_the_object():
     assert execution.success, execution.failure
 
 
+@pytest.mark.physics
 def test_the_five_joint_so101_slides_grasps_and_lifts():
     execution = _plan_and_execute("so101_square", "square", (0.37, 0.0, 0.5), 1)
     assert execution.success, execution.failure

@@ -1,0 +1,125 @@
+"""``slideplan experiment`` and ``plot`` (the ``experiments`` extra)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import InputError
+from .common import EXIT_NOT_SOLVED, _OPTION_OF_FIELD, _fail, _parse_params, app
+
+
+def _experiment_executor(workers: int | None, scheduler: str | None, threads: bool = False):
+    """The executor the options ask for: a Dask scheduler, or local processes or threads (default: all cores).
+
+    Raises:
+        InputError: both options given, or a worker count < 1.
+    """
+    from ..experiments import DaskExecutor, LocalPoolExecutor
+
+    if workers is not None and scheduler is not None:
+        raise InputError("give at most one of --workers and --scheduler", field="--workers")
+    if threads and scheduler is not None:
+        raise InputError("--threads is for local workers; give the Dask workers their threads", field="--threads")
+    return DaskExecutor(scheduler) if scheduler is not None else LocalPoolExecutor(workers, threads=threads)
+
+
+@app.command("experiment")
+def experiment_command(
+    figure: str = typer.Argument(
+        ..., help="Which experiment: fig10, fig11 or fig12 (paper section V), execution (Fig. 10's plans executed in MuJoCo) "
+        "or closed-loop (a task set run whole in MuJoCo, open and closed loop, in every setting: --set)."
+    ),
+    task_set: str = typer.Option(
+        "dev", "--set", help="closed-loop's task set: dev (Fig. 10's objects, to fix failures on) or eval (held out: "
+        "the letters Y, A, L, E, 5 poses per table, its own seed; run once, on one build)."
+    ),
+    out: Path = typer.Option(..., "--out", help="Output directory; results go to OUT/results/ (one Parquet file per task)."),
+    quick: bool = typer.Option(False, "--quick", help="A small subset: 2 objects x 2 poses per cell, 5 s limit."),
+    poses: Optional[int] = typer.Option(
+        None, "--poses", help="Initial poses per cell instead of the paper's (fewer poses, same budget)."
+    ),
+    time_limit: Optional[float] = typer.Option(
+        None, "--time-limit", help="Planning time budget per task (s); default 60 (the paper's), 5 with --quick."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Experiment seed: initial poses and planner seeds derive from it."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local workers (default: all cores)."),
+    threads: bool = typer.Option(False, "--threads", help="Local workers are threads of this process, not processes."),
+    scheduler: Optional[str] = typer.Option(
+        None, "--scheduler", help="Run on a Dask cluster at this scheduler address instead (e.g. tcp://host:8786)."
+    ),
+    param: list[str] = typer.Option(
+        [], "--param", help="NAME=VALUE for any planner parameter, applied to every task after the figure's; repeatable."
+    ),
+    preset: str = typer.Option(
+        "default", "--preset", help="default or paper (every departure from the paper off) for the slideplan tasks; "
+        "the baselines always run as published."
+    ),
+    planner: list[str] = typer.Option(
+        [], "--planner", help="Run only this planner's tasks of the figure (slideplan, cbirrt, cbirrt2); repeatable; "
+        "default: all. Fig. 11's baselines are the same tasks in both presets."
+    ),
+) -> None:
+    """Run the planning tasks of one figure, resuming: tasks with a result in OUT/results/ are skipped.
+
+    Exit codes: 0 every task has a result, 1 some tasks raised or were lost (see the
+    summary; rerun the same command to run lost tasks), 2 bad input.
+    """
+    try:
+        from ..experiments import build_spec, run_experiment
+
+        spec = build_spec(figure, quick=quick, time_limit_s=time_limit, seed=seed, poses=poses, params=_parse_params(param),
+                          preset=preset, planners=tuple(planner) or None, task_set=task_set)
+        executor = _experiment_executor(workers, scheduler, threads)
+        typer.echo(f"{figure}: {len(spec.tasks)} tasks on {executor.description}, results in {out / 'results'}")
+        summary = run_experiment(spec, out, executor)
+    except InputError as error:
+        raise _fail(InputError(error.problem, source=error.source, field=_OPTION_OF_FIELD.get(error.field, error.field))) from None
+    except (ImportError, OSError) as error:
+        raise _fail(error) from None
+    typer.echo(
+        f"{summary.executed} run ({summary.solved} solved, {summary.errors} raised), "
+        f"{summary.skipped} already done, {summary.lost} lost"
+    )
+    if figure == "execution":
+        from ..experiments.execution import load_execution, plot_execution, summarize_execution
+
+        results = load_execution(out)
+        typer.echo(summarize_execution(results).to_string(index=False))
+        for path in plot_execution(results, out):
+            typer.echo(str(path))
+    if figure == "closed-loop":
+        from ..experiments.closed_loop import closed_loop_runs, load_closed_loop, plot_closed_loop, summarize_closed_loop
+
+        runs = closed_loop_runs(load_closed_loop(out))
+        typer.echo(summarize_closed_loop(runs).to_string(index=False))
+        for path in plot_closed_loop(runs, out):
+            typer.echo(str(path))
+    if summary.lost:
+        typer.echo(f"slideplan: {summary.lost} tasks lost, first: {summary.first_loss}; rerun to resume", err=True)
+    if summary.errors or summary.lost:
+        raise typer.Exit(EXIT_NOT_SOLVED)
+
+
+@app.command("plot")
+def plot_command(
+    results: Path = typer.Argument(..., help="An experiment output directory, its results/ directory, or a Parquet file."),
+    out: Path = typer.Option(..., "--out", help="Directory for the figures (PNG and SVG)."),
+) -> None:
+    """Draw Figs. 10-12 from experiment results, each figure whose experiment is present.
+
+    Exit codes: 0 figures written, 2 bad input (no such path, or no results of fig10-12 in it).
+    """
+    try:
+        from ..plots import plot_results
+
+        paths = plot_results(results, out)
+    except (ImportError, OSError, ValueError) as error:  # pyarrow's unreadable-file errors are ValueErrors
+        raise _fail(error) from None
+    if not paths:
+        raise _fail(InputError("no planning results of fig10, fig11 or fig12 (`plot` draws those; "
+                               "`slideplan experiment execution|closed-loop --out DIR` draws its own figures in DIR)", source=str(results)))
+    for path in paths:
+        typer.echo(str(path))
