@@ -33,7 +33,8 @@ from slideplan.objects import load_object  # noqa: E402
 from slideplan.plan.config import PlannerConfig  # noqa: E402
 from slideplan.plan.robot import robot_model
 from slideplan.ros.messages import cloud_message, cloud_points, pose_matrix, seconds, trajectory_arrays, trajectory_message  # noqa: E402,E501
-from slideplan.ros.serve import Execution, Refused, Task, cloud_in_world, tracking_camera  # noqa: E402
+from slideplan.ros.execution import Execution, tracking_camera  # noqa: E402
+from slideplan.ros.task import Refused, Task, cloud_in_world  # noqa: E402
 from slideplan.ros.sim import Sim, camera_pose_of  # noqa: E402
 from slideplan.scenes import load_scene  # noqa: E402
 from slideplan.geometry import overhang  # noqa: E402
@@ -196,6 +197,7 @@ def _lifted_over_the_edge(client: Client) -> tuple[bool, float]:
     return final[2, 3] > scene.table.height + at_rest.thickness / 2 + 0.025, float(overhang(scene.table, moved)[0])
 
 
+@pytest.mark.physics
 def test_execute_over_dds_drives_the_arm_with_controller_messages_and_answers_truly():
     """The whole loop between three processes: perceive, plan, reach, slide (watched), approach, close,
     lift; the messages are what a JointTrajectoryController and RViz take, and the answer is true:
@@ -232,6 +234,7 @@ def test_execute_over_dds_drives_the_arm_with_controller_messages_and_answers_tr
     assert sum(marker.type == Marker.ARROW for marker in markers["grasp_frame"][-3:]) == 3
 
 
+@pytest.mark.physics
 def test_a_push_mid_slide_is_seen_re_planned_for_and_the_answer_is_true():
     """Pushed 3 cm and turned 10 deg 2 s after the finger lands (the open loop then drops or misses the
     object): the node notices the push, each look says what came of it (a new plan from where the arm is or

@@ -23,7 +23,8 @@ from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Header  # noqa: E402
 from slideplan.ros.guards import discovery_notice  # noqa: E402
 from slideplan.ros.messages import cloud_message  # noqa: E402
-from slideplan.ros.serve import PlanningNode, Refused  # noqa: E402
+from slideplan.ros.serve import PlanningNode  # noqa: E402
+from slideplan.ros.task import Refused  # noqa: E402
 from slideplan.scenes import load_scene  # noqa: E402
 from test_ros import _DOMAINS, _environment  # noqa: E402
 
