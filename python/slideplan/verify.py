@@ -5,6 +5,8 @@
 the contact constraint at every waypoint (docs/design.md 3, paper IV-C.3), the path density,
 the object motion of Eq. 2, the graspability of the final object pose (paper IV-C.1) and
 the approach to the grasp.
+The grasp's checks live in :mod:`slideplan.grasp_checks`; what every check shares (the tolerances, the
+plan's world rebuilt from its data) in :mod:`slideplan.checks`.
 
 It is not independent of the planner's code. It shares with the planner:
 
@@ -36,24 +38,18 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiPoint
 
+from .checks import (
+    ANGLE_TOLERANCE_RAD, CONTACT_SLACK_M, DEPTH_TOLERANCE_M, GRASP_ANGLE_TOLERANCE_RAD, GRASP_TOLERANCE_M,
+    MOTION_TOLERANCE, PlanWorld, SPACING_SAMPLE, STEP_SLACK, TIMING_SLACK, collision_violation,
+    density_violations, joint_limit_violations, plan_world, pose_mismatch,
+)
 from .errors import InputError, require_type
 from .geometry import SupportSurface, area_centroid, overhang
-from .plan.schema import check_ends, check_shapes
+from .grasp_checks import check_grasp, check_grasp_pose
 from .plan.result import PlanResult
+from .plan.schema import check_ends, check_shapes
 from .scenes import obstacle_footprint
-from .transforms import contact_angles, move_planar, planar_motion, rotation_angle_between, rotation_vector, row_to_pose, wrap_angle
-
-POSE_TOLERANCE = 1e-6  # m and rad: recorded poses must be the forward kinematics (JSON keeps floats exact)
-DEPTH_TOLERANCE_M = 1e-3  # contact depth band slack (the planner projects to 1e-4)
-ANGLE_TOLERANCE_RAD = 1e-3  # pitch band slack and largest allowed roll
-STEP_SLACK = 1e-9  # rounding slack on the joint and fingertip step bounds
-MOTION_TOLERANCE = 1e-6  # object motion and overhang against their recomputed values (m, rad)
-LIFT_SLACK_M = 1e-3  # the approach switches to free-mode checks once the fingertip is this close to the lift height
-GRASP_TOLERANCE_M = 1e-4  # the grasp frame against H_g recomputed from the cloud (the planner computes it from the same points)
-GRASP_ANGLE_TOLERANCE_RAD = 1e-4
-CONTACT_SLACK_M = 1e-3  # the first contact against contact_radius (IK lands within this of its target)
-SPACING_SAMPLE = 2000  # points whose nearest neighbours give a cloud's point spacing (Eq. 3's tolerance)
-TIMING_SLACK = 1e-6  # relative slack on the timing limits (the parameterization slows to meet them exactly)
+from .transforms import contact_angles, move_planar, planar_motion, row_to_pose, wrap_angle
 
 
 @dataclass
@@ -75,25 +71,6 @@ class Verification:
     def __str__(self) -> str:
         return "ok" if self.ok else f"{len(self.violations)} violations:\n" + "\n".join(self.violations)
 
-
-@dataclass
-class _PlanWorld:
-    """What the checks share: the robot, the table and the collision world, rebuilt from the plan."""
-
-    robot: object
-    collision_world: object
-    table: SupportSurface
-    object_top_z: float  # z_s = table height + object thickness
-    approach_tips: np.ndarray  # (K, 3) fingertip positions along grasp.approach, by forward kinematics
-
-
-def _pose_mismatch(computed: np.ndarray, recorded: np.ndarray) -> str:
-    """Describe how far two 4x4 poses differ, or return "" when within POSE_TOLERANCE."""
-    position_error = float(np.linalg.norm(computed[:3, 3] - recorded[:3, 3]))
-    angle_error = rotation_angle_between(computed, recorded)
-    if position_error > POSE_TOLERANCE or angle_error > POSE_TOLERANCE:
-        return f"{position_error:.3g} m and {angle_error:.3g} rad"
-    return ""
 
 def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_TOLERANCE_M, GRASP_ANGLE_TOLERANCE_RAD)) -> Verification:
     """Re-check every claim of a solved plan from its data.
@@ -127,7 +104,7 @@ def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_
     violations = check_names(result, result.robot_model())
     if violations:
         return Verification(violations)  # the remaining checks look these up
-    world = _rebuild_world(result)
+    world = plan_world(result)
     violations = check_ends(result)
     violations += check_sliding_path(result, world)
     violations += check_object_motion(result)
@@ -139,22 +116,6 @@ def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_
     violations += check_grasp(result, world)
     violations += check_timing(result, world)
     return Verification(violations)
-
-
-def _rebuild_world(result: PlanResult, collisions: bool = True) -> _PlanWorld:
-    """Load the plan's robot and build its table and, with ``collisions``, its collision world (sliding:
-    no object)."""
-    robot = result.robot_model()  # the parsed URDF, shared (immutable): a mesh robot takes 0.5 s to parse
-    polygon = np.asarray(result.table["polygon"], dtype=float)
-    height = float(result.table["height"])
-    collision_world = result.collision_world() if collisions else None
-    return _PlanWorld(
-        robot=robot,
-        collision_world=collision_world,
-        table=SupportSurface.from_vertices(polygon, height, field="table.polygon"),
-        object_top_z=height + float(result.object["thickness"]),
-        approach_tips=np.array([np.asarray(robot.fk(q))[:3, 3] for q in np.asarray(result.grasp["approach"])]).reshape(-1, 3),
-    )
 
 
 def check_motion(result: PlanResult) -> list[str]:
@@ -175,11 +136,11 @@ def check_motion(result: PlanResult) -> list[str]:
     if violations:
         return violations
     violations = check_ends(result)
-    world = _rebuild_world(result, collisions=False)
+    world = plan_world(result, collisions=False)
     for name, path in (("trajectory", np.asarray(result.trajectory)), ("grasp.approach", np.asarray(result.grasp["approach"]))):
         for index, config in enumerate(path):
-            violations += _joint_limit_violations(f"{name}[{index}]", config, world.robot)
-        violations += _density_violations(name, path, result.params["max_joint_step"])
+            violations += joint_limit_violations(f"{name}[{index}]", config, world.robot)
+        violations += density_violations(name, path, result.params["max_joint_step"])
     return violations + check_timing(result, world)
 
 
@@ -210,40 +171,6 @@ def check_names(result: PlanResult, robot) -> list[str]:
     return violations
 
 
-def _joint_limit_violations(name: str, config: np.ndarray, robot) -> list[str]:
-    """One violation per joint of ``config`` outside the robot's limits."""
-    lower, upper = np.asarray(robot.lower_limits), np.asarray(robot.upper_limits)
-    return [
-        f"{name}: joint {joint} = {config[joint]:.6g} rad outside its limits [{lower[joint]:.6f}, {upper[joint]:.6f}]"
-        for joint in np.flatnonzero((config < lower - STEP_SLACK) | (config > upper + STEP_SLACK))
-    ]
-
-
-def _collision_violation(name: str, config: np.ndarray, collision_world, mode) -> list[str]:
-    """A violation naming the colliding pairs if ``config`` collides in ``mode``."""
-    if collision_world.is_valid(config, mode):
-        return []
-    pairs = ", ".join(f"{link}-{other}" for link, other in collision_world.collisions(config, mode))
-    return [f"{name}: collision in {mode.name.lower()} mode ({pairs})"]
-
-
-def _density_violations(name: str, path: np.ndarray, max_joint_step: float, tip_positions=None, max_tip_step=None) -> list[str]:
-    """Violations of the step bounds between consecutive waypoints of ``path`` (named ``name``)."""
-    violations = []
-    joint_steps = np.max(np.abs(np.diff(path, axis=0)), axis=1) if len(path) > 1 else np.zeros(0)
-    for index in np.flatnonzero(joint_steps > max_joint_step + STEP_SLACK):
-        violations.append(
-            f"{name}[{index}]->[{index + 1}]: a joint moves {joint_steps[index]:.6g} rad > max_joint_step {max_joint_step}"
-        )
-    if tip_positions is not None:
-        tip_steps = np.linalg.norm(np.diff(tip_positions, axis=0), axis=1)
-        for index in np.flatnonzero(tip_steps > max_tip_step + STEP_SLACK):
-            violations.append(
-                f"{name}[{index}]->[{index + 1}]: fingertip moves {tip_steps[index]:.6g} m > max_tip_step {max_tip_step}"
-            )
-    return violations
-
-
 def _start_contact_violations(cloud_xy: np.ndarray, tip_xy: np.ndarray) -> list[str]:
     """Eq. 3: the slide starts with the fingertip on the object (within the cloud's own point spacing
     of one of its points), or nothing is pushed."""
@@ -261,7 +188,7 @@ def _start_contact_violations(cloud_xy: np.ndarray, tip_xy: np.ndarray) -> list[
             f"{spacing:.4f} m): the slide does not start on the object"]
 
 
-def check_sliding_path(result: PlanResult, world: _PlanWorld) -> list[str]:
+def check_sliding_path(result: PlanResult, world: PlanWorld) -> list[str]:
     """Check every trajectory waypoint against the contact constraint, and the path density.
 
     Args:
@@ -280,7 +207,7 @@ def check_sliding_path(result: PlanResult, world: _PlanWorld) -> list[str]:
         name = f"trajectory[{index}]"
         pose = np.asarray(world.robot.fk(config))
         tips.append(pose[:3, 3])
-        mismatch = _pose_mismatch(pose, row_to_pose(result.fingertip_poses[index]))
+        mismatch = pose_mismatch(pose, row_to_pose(result.fingertip_poses[index]))
         if mismatch:
             violations.append(f"{name}: forward kinematics differs from fingertip_poses[{index}] by {mismatch}")
         depth = world.object_top_z - pose[2, 3]
@@ -297,9 +224,9 @@ def check_sliding_path(result: PlanResult, world: _PlanWorld) -> list[str]:
             violations.append(f"{name}: roll {roll:.6f} rad, expected 0 (+- {ANGLE_TOLERANCE_RAD})")
         if not world.table.contains(pose[:2, 3]):
             violations.append(f"{name}: fingertip ({pose[0, 3]:.4f}, {pose[1, 3]:.4f}) is not over the table")
-        violations += _joint_limit_violations(name, config, world.robot)
-        violations += _collision_violation(name, config, world.collision_world, _core.ContactMode.SLIDING)
-    violations += _density_violations(
+        violations += joint_limit_violations(name, config, world.robot)
+        violations += collision_violation(name, config, world.collision_world, _core.ContactMode.SLIDING)
+    violations += density_violations(
         "trajectory", np.asarray(result.trajectory), params["max_joint_step"], np.array(tips), params["max_tip_step"]
     )
     if tips:
@@ -315,7 +242,7 @@ def obstacle_footprints(result: PlanResult):
     return shapely.union_all(shapes) if shapes else None
 
 
-def check_clutter(result: PlanResult, world: _PlanWorld) -> list[str]:
+def check_clutter(result: PlanResult, world: PlanWorld) -> list[str]:
     """Check that the object, carried by Eq. 2 from its start, overlaps no obstacle at any waypoint,
     and that the arm meets it only through the contact links (sliding mode).
 
@@ -469,81 +396,7 @@ def check_turning(result: PlanResult) -> list[str]:
     return violations
 
 
-def _holding_shift(reached: np.ndarray, hold: float) -> float | None:
-    """``grasp_hold``: how far along the edge from the paper's ``H_g`` the nearest strip ``hold`` wide lies
-    in which the object extends ``hold`` along the approach; None if none does.
-
-    Args:
-        reached: (N, 2) the overhanging points within the fingers' reach, as (along the edge from ``H_g``,
-            beyond it along the outward normal).
-        hold: ``grasp_hold`` (m).
-    """
-    def holds(shift: float) -> bool:
-        strip = reached[np.abs(reached[:, 0] - shift) <= 0.5 * hold, 1]
-        return strip.size > 0 and float(strip.max() - strip.min()) >= hold
-
-    if holds(0.0):
-        return 0.0
-    return next((float(shift) for shift in sorted(reached[:, 0], key=lambda value: (abs(value), value)) if holds(shift)), None)
-
-
-def check_grasp_pose(result: PlanResult, world: _PlanWorld,
-                     tolerance: tuple[float, float] = (GRASP_TOLERANCE_M, GRASP_ANGLE_TOLERANCE_RAD)) -> list[str]:
-    """Check the grasp frame against ``H_g`` of IV-C.1, recomputed from the object's points at their
-    final pose: at the centroid of ``P_out`` (moved outward along the closest edge's normal until it is
-    ``grasp_standoff`` beyond the edge, then along the edge to the nearest place where the fingers close
-    on ``grasp_hold`` of the object), at mid-thickness, approaching perpendicular to that edge in
-    the table plane, the fingers closing vertically (``y`` up; down too when ``grasp_flip``).
-
-    Returns:
-        Violations naming ``grasp.pose`` and the numbers.
-    """
-    moved = result.moved_object_xy()
-    _, outside, edge = overhang(world.table, moved)
-    if edge is None:
-        return []  # check_graspability reports it
-    start, normal = edge
-    centroid = moved[outside].mean(axis=0)
-    beyond = float((centroid - start) @ normal)
-    standoff, hold = result.params.get("grasp_standoff", 0.0), result.params.get("grasp_hold", 0.0)
-    xy = centroid + (max(beyond, standoff) - beyond) * normal
-    where = "the centroid of the overhanging points (IV-C.1)"
-    if hold > 0.0:
-        along = np.array([-normal[1], normal[0]])
-        relative = moved[outside] - xy
-        reached = np.column_stack([relative @ along, relative @ normal])
-        shift = _holding_shift(reached[reached[:, 1] >= -max(standoff, hold)], hold)
-        if shift is None:
-            return [f"grasp.pose: no place along the table edge puts grasp_hold = {hold} m of the object between "
-                    f"the fingers, yet the plan grasps it"]
-        xy = xy + shift * along
-        if shift != 0.0:
-            where = f"the centroid of the overhanging points (IV-C.1) moved {shift:+.4f} m along the edge onto the object"
-    expected = np.array([*xy, float(result.table["height"]) + 0.5 * float(result.object["thickness"])])
-    pose = row_to_pose(result.grasp["pose"])
-    violations = []
-    offset = float(np.linalg.norm(pose[:3, 3] - expected))
-    if offset > tolerance[0]:
-        violations.append(f"grasp.pose: {offset:.4f} m from H_g at ({expected[0]:.4f}, {expected[1]:.4f}, "
-                          f"{expected[2]:.4f}), {where}")
-    # H_g's orientation (x along the edge, y up: the closing axis, z the approach), or rolled by pi about
-    # z (grasp_flip); the hand may turn from it within the tolerated rotation about these axes, as the
-    # planner's grasp IK allows (a dead zone on each component of the rotation between the two).
-    approach = np.array([-normal[0], -normal[1], 0.0])
-    nominal = np.column_stack([np.cross([0.0, 0.0, 1.0], approach), [0.0, 0.0, 1.0], approach])
-    frames = [nominal] + ([nominal @ np.diag([-1.0, -1.0, 1.0])] if result.params.get("grasp_flip", True) else [])
-    allowed = np.array([result.params.get(f"grasp_{axis}_tolerance", 0.0) for axis in ("tilt", "yaw", "roll")])
-    turns = [rotation_vector(frame.T @ pose[:3, :3]) for frame in frames]
-    turn = min(turns, key=lambda rotation: float(np.max(np.abs(rotation) - allowed)))
-    if np.any(np.abs(turn) > allowed + tolerance[1]):
-        violations.append(f"grasp.pose: turned ({turn[0]:.4f}, {turn[1]:.4f}, {turn[2]:.4f}) rad from H_g about its x "
-                          f"(along the edge), y (up) and z (the approach), beyond the tolerated "
-                          f"({allowed[0]:g}, {allowed[1]:g}, {allowed[2]:g})"
-                          + (" (or rolled by pi: grasp_flip)" if len(frames) > 1 else ""))
-    return violations
-
-
-def check_timing(result: PlanResult, world: _PlanWorld) -> list[str]:
+def check_timing(result: PlanResult, world: PlanWorld) -> list[str]:
     """Check the timing block against its own limits: times from 0, strictly increasing, rest at both
     ends, recorded velocities and accelerations and the finite differences of positions within the
     joint limits, and the fingertip speed within its cap while sliding and near the object's top.
@@ -595,49 +448,3 @@ def check_timing(result: PlanResult, world: _PlanWorld) -> list[str]:
     return violations
 
 
-def check_grasp(result: PlanResult, world: _PlanWorld) -> list[str]:
-    """Check the grasp and the approach motion to it.
-
-    The grasp link's forward kinematics at ``grasp.config`` must equal ``grasp.pose``; the
-    approach must start at the goal configuration, end at the grasp configuration, respect
-    the joint limits, ``max_joint_step`` and ``max_tip_step``, and be collision-free against the
-    object at its final pose: in sliding mode (the contact links may touch) while the fingertip
-    lifts off, until it first reaches ``z_s + grasp_lift``, then in free mode with the hand's full
-    collision model, down to the grasp.
-
-    Args:
-        result: the plan (array shapes already checked).
-        world: the rebuilt robot, table and collision world (its object is set and cleared here).
-
-    Returns:
-        Violations naming ``grasp`` or ``approach[i]``.
-    """
-    from . import _core
-
-    violations = []
-    config = np.asarray(result.grasp["config"])
-    approach = np.asarray(result.grasp["approach"])
-    grasp_link = result.robot["grasp_link"]
-    pose = np.asarray(world.robot.frame_pose(config, grasp_link, np.asarray(result.robot["grasp_offset"])))
-    mismatch = _pose_mismatch(pose, row_to_pose(result.grasp["pose"]))
-    if mismatch:
-        violations.append(f"grasp.pose: forward kinematics of {grasp_link} at grasp.config differs by {mismatch}")
-    violations += _joint_limit_violations("grasp.config", config, world.robot)
-    tips = world.approach_tips
-    violations += _density_violations("approach", approach, result.params["max_joint_step"], tips, result.params["max_tip_step"])
-    reached = np.flatnonzero(tips[:, 2] >= world.object_top_z + result.params["grasp_lift"] - LIFT_SLACK_M)
-    lift_end = int(reached[0]) if reached.size else len(approach)  # from here on the hand is free of the object
-    collision_world = world.collision_world
-    hull = MultiPoint(result.moved_object_xy()).convex_hull
-    collision_world.set_object(shapely.get_coordinates(hull.exterior)[:-1], world.object_top_z)
-    try:
-        for index, waypoint in enumerate(approach):
-            violations += _joint_limit_violations(f"approach[{index}]", waypoint, world.robot)
-            mode = _core.ContactMode.SLIDING if index < lift_end else _core.ContactMode.FREE
-            violations += _collision_violation(f"approach[{index}]", waypoint, collision_world, mode)
-    finally:
-        collision_world.clear_object()
-    if lift_end == len(approach):
-        violations.append(f"grasp.approach: the fingertip never rises to grasp_lift ({result.params['grasp_lift']} m) "
-                          "above the object before the grasp")
-    return violations
