@@ -10,7 +10,7 @@ APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev lib
 # chromium: the 3D view's browser test; the last three: Mesa's software EGL, for MuJoCo's headless renderer.
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps install test test-cpp test-python test-sanitize fuzz demo view bench clean
+.PHONY: all deps install test test-cpp test-python test-physics test-sanitize fuzz demo view bench clean
 
 all: install
 
@@ -36,9 +36,19 @@ test-cpp: install
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2
 
 test-python: install
-	$(PYTHON) -m pytest -q tests/python
+	$(PYTHON) -m pytest -q -m "not physics" tests/python
 
-test: test-cpp test-python
+# The C++ tests and every Python test but the whole MuJoCo episodes, timed (set-up excluded).
+test: install
+	@start=$$(date +%s); \
+	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2 && $(PYTHON) -m pytest -q -m "not physics" tests/python; \
+	status=$$?; echo "make test: $$(( $$(date +%s) - start )) s (set-up excluded)"; exit $$status
+
+# The whole MuJoCo episodes (tests marked physics): executions, closed-loop runs, the calibrated facts.
+test-physics: install
+	@start=$$(date +%s); \
+	$(PYTHON) -m pytest -q -m physics tests/python; \
+	status=$$?; echo "make test-physics: $$(( $$(date +%s) - start )) s (set-up excluded)"; exit $$status
 
 # The core and the C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (no Python module:
 # the sanitizer runtimes would have to be preloaded into Python).

@@ -81,6 +81,7 @@ def test_the_object_rests_on_contacts_spread_over_its_footprint():
     assert set(touching) <= set(feet) and len(touching) == len(set(touching))
 
 
+@pytest.mark.physics
 def test_the_demo_slide_needs_noslip_and_the_pads_torsional_friction(demo_plan, monkeypatch):
     """With noslip and condim 6 at the pad the demo's slide ends within 5 mm / 3 deg of Eq. 2; without
     noslip the object creeps under the finger, and with condim 3 at the pad it does not turn enough."""

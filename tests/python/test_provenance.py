@@ -16,7 +16,9 @@ import pytest
 
 import slideplan
 from slideplan.experiments import ROW_SCHEMA, build_spec, load_results, run_task
-from slideplan.experiments.closed_loop import CLOSED_LOOP_ROW_SCHEMA, closed_loop_runs, load_closed_loop, run_closed_loop_task
+from slideplan.experiments.closed_loop import (
+    CLOSED_LOOP_ROW_SCHEMA, MODES, SETTINGS, closed_loop_runs, load_closed_loop, run_closed_loop_task,
+)
 from slideplan.experiments.execution import EXECUTION_ROW_SCHEMA, load_execution, run_execution_task
 from slideplan.experiments.results import write_row
 from slideplan.provenance import PROVENANCE_COLUMNS, cpu_model, run_provenance
@@ -86,9 +88,11 @@ def test_a_row_written_by_each_experiment_records_its_build(run, schema, tmp_pat
 
 
 def test_each_closed_loop_run_keeps_its_task_provenance():
-    row = {field.name: None for field in CLOSED_LOOP_ROW_SCHEMA} | {"task_id": "t", "solved": True} | run_provenance()
+    outcomes = {f"{setting}_{mode}_success": True for setting in SETTINGS for mode in MODES}
+    row = {field.name: None for field in CLOSED_LOOP_ROW_SCHEMA} | {"task_id": "t", "solved": True} | outcomes | run_provenance()
     runs = closed_loop_runs(pd.DataFrame([row]))
-    assert len(runs) == 6 and (runs["build"] == row["build"]).all() and (runs["date"] == row["date"]).all()
+    assert len(runs) == len(SETTINGS) * len(MODES)
+    assert (runs["build"] == row["build"]).all() and (runs["date"] == row["date"]).all()
     assert list(runs.columns[-len(PROVENANCE_COLUMNS):]) == list(PROVENANCE_COLUMNS)
 
 
