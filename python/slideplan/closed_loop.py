@@ -227,7 +227,8 @@ class ClosedLoopRun:
         stop = f"; slide stopped: {self.slide_stop}" if self.slide_stop else ""
         latency = "" if self.replan_latency_s is None else f", median latency {1000 * self.replan_latency_s:.0f} ms"
         return (f"{verdict} ({self.mode} loop, {self.setting}){seen}{true}{stop}; {self.replans} re-plans{latency}; "
-                f"lifted {'yes' if self.lifted else 'no'} ({self.sim_time_s:.1f} s simulated in {self.wall_time_s:.1f} s)")
+                f"lifted {'yes' if self.lifted else 'no'} ({self.sim_time_s:.1f} s simulated in {self.wall_time_s:.1f} s, "
+                f"{self.sim_time_s / max(self.wall_time_s, 1e-9):.1f}x real time)")
 
 
 def default_camera(scene: Scene) -> Camera:
