@@ -35,7 +35,7 @@ namespace slideplan
         options.maxAttempts = attempts;
         options.abandonAfter = abandonAfter;
         // Asked of every solution, so that the restarts look for another posture rather than give up.
-        // The lift as the execution makes it (slideplan.execute.runner.straight_line): straight up a
+        // The lift as the execution makes it (slideplan.motions.straight_line): straight up a
         // centimetre at a time, each IK seeded by the last, no joint turning more than kLiftJointStep
         // per step. One IK for the whole lift landed on another branch: a WAM grasp with its wrist at
         // its limit "lifted" by turning it a full turn, and the execution found no lift (closed-loop sweep).

@@ -28,7 +28,7 @@ frame rate.
 A re-plan that is refused (the arm's state is not on the object as seen) or finds no plan within
 ``replan_time_limit`` is reported as such, and the loop goes on with the plan it has. After a slide,
 a refused look (the object pushed from under the finger) asks for a whole new slide instead, reached
-from where the finger is (lifted off first, every link checked: :mod:`slideplan.execute.reach`).
+from where the finger is (lifted off first, every link checked: :mod:`slideplan.motions`).
 
 Open loop (``closed=False``): the first plan is executed as planned, its own grasp included; the
 camera only watches: after the slide it looks as the closed loop looks at the end of a slide
@@ -59,8 +59,7 @@ from .closed_loop_settings import (  # noqa: F401 - SETTINGS, RANDOM_RANGES, DEP
     push_candidates, setting_draws)
 from .errors import InputError
 from .execute.model import DEPTH_CAMERA, build_model
-from .execute.reach import Unreachable, collision_world, dense, reach_path
-from .execute.runner import SETTLE_S, Runner, Unstable, straight_line, straight_up, timed_way, timing_of, timing_options
+from .execute.runner import SETTLE_S, Runner, Unstable, timing_options
 from .execute.settings import ExecutionSettings
 from .bounds import MAX_REPLANS, MAX_SLIDE_S, Progress
 from .execute.video import Recorder, plan_points
@@ -76,6 +75,7 @@ from .tracking import NOT_UNDER_TIP, Tracker
 from .verdict import Hold, judge
 from .transforms import compose_planar, move_planar, pose_to_row, row_to_pose, wrap_angle
 from .geometry import overhang
+from .motions import Unreachable, collision_world, dense, reach_path, straight_line, straight_up, timed_way, timing_of
 from .transforms import planar_motion
 
 CLOSED_LOOP_SCHEMA = "slideplan.closed_loop/1"

@@ -516,7 +516,7 @@ def test_the_planners_grasp_lifts_straight_up_where_its_wrist_sits_at_a_limit():
     # limit; one IK 5 cm higher "lifted" by turning that joint a full turn, so the planner's lift check
     # passed and the execution found no straight lift (2-3 runs per setting of the closed-loop sweep).
     from slideplan import load_object, load_scene, plan
-    from slideplan.execute.runner import straight_up
+    from slideplan.motions import straight_up
     from slideplan.experiments.tasks import build_spec
 
     scene = load_scene("long")
@@ -533,7 +533,7 @@ def test_a_move_straight_up_stays_on_the_vertical_and_on_the_arms_branch():
     # branch (a joint turned by 3.4 rad), and the joint-linear move there swept the hand 25 cm down
     # through the table and dragged the object. Solved a centimetre at a time, the way rises straight.
     from slideplan import load_object, load_scene, plan
-    from slideplan.execute.runner import MAX_JOINT_STEP_RAD, straight_up
+    from slideplan.motions import MAX_JOINT_STEP_RAD, straight_up
     from slideplan.experiments.tasks import build_spec
 
     scene = load_scene("square")

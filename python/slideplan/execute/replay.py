@@ -18,10 +18,11 @@ from ..plan.result import PlanResult
 from ..timing import parameterize, resolve_limits
 from ..transforms import move_planar, rotation_2d, wrap_angle
 from ..geometry import overhang
+from ..motions import timing_of
 from ..verify import require_motion
 from .model import build_model
 from .report import Execution, path_features
-from .runner import SETTLE_S, Runner, Unstable, timing_of, timing_options
+from .runner import SETTLE_S, Runner, Unstable, timing_options
 from .settings import ExecutionSettings
 from .video import Recorder, plan_points
 

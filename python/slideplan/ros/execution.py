@@ -10,7 +10,7 @@ from typing import Callable
 import numpy as np
 
 from ..closed_loop import SlideLoop, Stop, Watch
-from ..execute.runner import reference
+from ..motions import reference
 from ..plan.robot import base_pose_matrix
 from ..plan.result import PlanResult
 from ..rendering import Camera

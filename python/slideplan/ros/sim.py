@@ -32,7 +32,8 @@ import numpy as np
 from ..closed_loop import DEPTH_DROPOUT, Disturbance, execution_settings, default_camera, setting_draws
 from ..errors import InputError
 from ..execute.model import DEPTH_CAMERA, Rig, build_model, enable_hand_collisions, set_servo_gains
-from ..execute.runner import instability, reference
+from ..execute.runner import instability
+from ..motions import reference
 from ..objects import load_object
 from ..plan.config import PlannerConfig
 from ..plan.robot import build_robot, robot_description

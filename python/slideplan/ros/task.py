@@ -10,8 +10,7 @@ import numpy as np
 
 from .. import jsontext
 from ..errors import InputError
-from ..execute.reach import Unreachable, reach_path
-from ..execute.runner import straight_up
+from ..motions import Unreachable, reach_path, straight_up
 from ..objects import ThinObject
 from ..plan.config import PlannerConfig
 from ..plan.robot import base_pose_matrix
@@ -69,7 +68,7 @@ def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: in
 
 
 def lift_path(result: PlanResult) -> np.ndarray:
-    """From the grasp straight up LIFT_M, a centimetre at a time (:func:`slideplan.execute.runner.straight_up`).
+    """From the grasp straight up LIFT_M, a centimetre at a time (:func:`slideplan.motions.straight_up`).
 
     Raises:
         Refused: (``lift``) no IK for the lifted grasp.

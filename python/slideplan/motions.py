@@ -1,17 +1,102 @@
-"""The reach to a slide's first contact: a move the plan does not hold (the arm starts wherever it is),
-checked for collisions with the table, clutter and object (the ROS node's reach, and the closed loop's
-move to a new contact when a push took the object from under the finger)."""
+"""Kinematic motions, no physics: straight fingertip lines solved a centimetre at a time, ways timed from
+rest to rest, joint references read off timed paths, a plan's segment times, and the reach to a slide's
+first contact (a move the plan does not hold: the arm starts wherever it is), checked for collisions with
+the table, clutter and object. The MuJoCo runner (:mod:`slideplan.execute.runner`), the closed loop
+(:mod:`slideplan.loop`) and the ROS node (:mod:`slideplan.ros.task`, :mod:`slideplan.ros.execution`) move
+the arm with them."""
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+import shapely
 
-from .. import _core
-from ..objects import ThinObject
-from ..plan.result import PlanResult
-from .runner import straight_up
+from . import _core
+from .errors import InputError
+from .objects import ThinObject
+from .plan.result import PlanResult
+from .timing import time_path
+
+# A straight move (up, or aside to look) is solved a centimetre at a time; a step turning a joint further
+# than MAX_JOINT_STEP_RAD has left the arm's branch. The planner's lift check (lift_check) uses the same.
+UP_STEP_M = _core.LIFT_STEP_M
+MAX_JOINT_STEP_RAD = _core.LIFT_JOINT_STEP_RAD
+
+
+def straight_up(robot, config: np.ndarray, height: float) -> np.ndarray | None:
+    """Configurations taking the fingertip from where it is at ``config`` ``height`` straight up:
+    :func:`straight_line` by (0, 0, ``height``)."""
+    return straight_line(robot, config, (0.0, 0.0, height))
+
+
+def straight_line(robot, config: np.ndarray, offset) -> np.ndarray | None:
+    """Configurations taking the fingertip from where it is at ``config`` along the straight line to
+    ``offset`` (m, world frame) from there, its orientation kept (its yaw free for an arm with fewer than
+    six joints, as the planner's contact), ``UP_STEP_M`` apart, each IK seeded by the one before; None
+    where a step has no IK or turns a joint more than ``MAX_JOINT_STEP_RAD``. One IK call for the whole
+    move may land on another branch of the arm, and the joint-linear move there swings the hand through
+    the table and the object."""
+    start = np.asarray(robot.fk(config))
+    offset = np.asarray(offset, dtype=float)
+    steps = max(1, math.ceil(float(np.linalg.norm(offset)) / UP_STEP_M - 1e-9))
+    path = [np.asarray(config, dtype=float)]
+    for step in range(1, steps + 1):
+        target = start.copy()
+        target[:3, 3] += offset * step / steps
+        found = robot.ik(target, seed=path[-1], rng_seed=0, options=_core.contact_ik_options(robot))
+        if found is None or np.max(np.abs(np.asarray(found) - path[-1])) > MAX_JOINT_STEP_RAD:
+            return None
+        path.append(np.asarray(found, dtype=float))
+    return np.array(path)
+
+
+def timed_way(robot, path: np.ndarray, limits: dict[str, Any], name: str, *, capped: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """A way through ``path``'s configurations and its times from rest to rest, the fingertip speed
+    capped all the way unless ``capped`` is False: the moves a plan does not hold (the lift after the
+    grasp, the closed loop's look from clear, its reach to a new contact). ``name`` names it in a
+    timing error."""
+    tips = np.array([np.asarray(robot.fk(config))[:3, 3] for config in path])
+    return path, time_path(path, tips, np.full(len(path), capped), limits, name)["time_from_start"]
+
+
+def reference(path: np.ndarray, times: np.ndarray, t: float) -> np.ndarray:
+    """Joint reference at time ``t`` by linear interpolation (held at the ends)."""
+    if t >= times[-1]:
+        return path[-1]
+    index = int(np.searchsorted(times, t, side="right")) - 1
+    index = max(0, min(index, len(times) - 2))
+    span = times[index + 1] - times[index]
+    fraction = 0.0 if span <= 0 else (t - times[index]) / span
+    return path[index] + fraction * (path[index + 1] - path[index])
+
+
+def references(path: np.ndarray, times: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """:func:`reference` at each of the times ``at`` (s), as one (len(at), dof) array."""
+    path, times, at = np.asarray(path, dtype=float), np.asarray(times, dtype=float), np.asarray(at, dtype=float)
+    if len(times) < 2:
+        return np.repeat(path[-1:], len(at), axis=0)
+    index = np.clip(np.searchsorted(times, at, side="right") - 1, 0, len(times) - 2)
+    span = times[index + 1] - times[index]
+    fraction = np.where(span <= 0, 0.0, (at - times[index]) / np.where(span <= 0, 1.0, span))
+    out = path[index] + fraction[:, None] * (path[index + 1] - path[index])
+    out[at >= times[-1]] = path[-1]
+    return out
+
+
+
+def timing_of(timing: dict[str, Any] | None, key: str, length: int) -> np.ndarray | None:
+    """``timing[key].time_from_start`` of a ``slideplan.plan/2`` timing block, if it fits the path."""
+    if not timing or key not in timing:
+        return None
+    times = np.asarray(timing[key].get("time_from_start", []), dtype=float)
+    if times.shape != (length,) or not np.all(np.isfinite(times)) or np.any(np.diff(times) < 0):
+        raise InputError(f"expected {length} non-decreasing times", field=f"timing.{key}.time_from_start")
+    return times - times[0]
+
+
+# ----------------------------------------------------------------------------- the reach to a first contact
 
 HOVER_M = 0.03  # the reach comes down onto the first contact from this far above the object
 REACH_CLEARANCE_M = 0.15  # or by way of this much higher, where the direct move collides
@@ -24,8 +109,6 @@ class Unreachable(Exception):
 
 def collision_world(result: PlanResult, obj: ThinObject):
     """The plan's robot, table, clutter and object (a prism over its cloud's hull) for collision checks."""
-    import shapely
-
     world = result.collision_world()
     hull = np.asarray(shapely.MultiPoint(obj.points[:, :2]).convex_hull.exterior.coords)[:-1]
     world.set_object(hull, float(result.table["height"]) + obj.thickness)
