@@ -123,7 +123,8 @@ def perceive_command(
     2 bad input (including no table, a tilted table, no object), 3 plan fails verification.
     """
     from ..objects import load_point_cloud
-    from ..perception import perceive, write_perception
+    from ..perception import perceive
+    from ..perception_files import write_perception
     try:
         json_out, png_out = _output_file(json_out, "--json"), _output_file(png_out, "--png", PICTURE_SUFFIXES)
         if plan_target is not None and plan_target < 0:
