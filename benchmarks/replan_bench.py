@@ -26,7 +26,8 @@ import numpy as np
 from plan_bench import write_report  # benchmarks/ is the script's directory, hence on sys.path
 from slideplan import InputError, PlannerConfig, load_object, load_scene, plan, verify
 from slideplan.objects import load_outline, sample_pose_on_table
-from slideplan.rendering import Box, Camera, PlacedObject, depth_image, noisy_depth, scene_mjcf
+from slideplan.camera import Camera
+from slideplan.rendering import Box, PlacedObject, depth_image, noisy_depth, scene_mjcf
 from slideplan.tracking import Tracker
 from slideplan.transforms import rotation_2d, row_to_pose
 from slideplan.transforms import planar_motion

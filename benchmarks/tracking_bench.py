@@ -32,7 +32,8 @@ import numpy as np
 
 from plan_bench import write_report  # benchmarks/ is the script's directory, hence on sys.path
 from slideplan import load_object, load_scene
-from slideplan.rendering import Box, Camera, depth_image, noisy_depth, place_objects, scene_mjcf
+from slideplan.camera import Camera
+from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_mjcf
 from slideplan.tracking import Tracker
 from slideplan.transforms import wrap_angle
 

@@ -54,6 +54,7 @@ import shapely
 
 from . import _core, jsontext
 from ._fields import as_numbers
+from .camera import Camera, back_project
 from .closed_loop_settings import (  # noqa: F401 - SETTINGS, RANDOM_RANGES, DEPTH_NOISE_AT_1M re-exported
     DEPTH_NOISE_AT_1M, RANDOM_RANGES, SETTINGS, Disturbance, camera_as_mounted, execution_settings, hard_push,
     push_candidates, setting_draws)
@@ -68,7 +69,7 @@ from .plan.config import PlannerConfig
 from .plan.robot import build_robot
 from .plan.result import PlanResult
 from .plan.planner import plan
-from .rendering import Camera, back_project, camera_depth, depth_image, noisy_depth, place_objects, scene_mjcf
+from .rendering import camera_depth, depth_image, noisy_depth, place_objects, scene_mjcf
 from .scenes import Scene, load_scene
 from .timing import resolve_limits, time_path
 from .tracking import NOT_UNDER_TIP, Tracker

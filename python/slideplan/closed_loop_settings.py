@@ -19,7 +19,7 @@ import numpy as np
 
 from .errors import InputError
 from .execute.settings import ExecutionSettings, stress_settings
-from .rendering import Camera
+from .camera import Camera
 
 SETTINGS = ("nominal", "stress", "random", "hard")
 RANDOM_RANGES = {  # the random setting draws each uniformly in its range, per run

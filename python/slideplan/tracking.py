@@ -41,7 +41,7 @@ from . import _core
 from ._fields import as_number, as_numbers
 from .errors import InputError
 from .objects import ThinObject
-from .rendering import Camera, pixel_points
+from .camera import Camera, pixel_points
 from .transforms import move_planar, rotation_2d, wrap_angle
 
 OUTLINE_SPACING_M = 0.0005  # the outline is matched as points this far apart

@@ -203,7 +203,7 @@ def test_when_the_arm_hides_the_object_at_the_end_the_finger_rises_clear_to_look
     # finger rises clear, the look from there finds the object, and the loop goes on from what it saw.
     # (No blind stops, so that the end look alone is tested.)
     from slideplan import closed_loop
-    from slideplan.rendering import Camera
+    from slideplan.camera import Camera
 
     monkeypatch.setattr(closed_loop, "BLIND_S", math.inf)
     height = load_scene("square").table.height
@@ -220,7 +220,7 @@ def test_with_a_camera_behind_the_arm_the_finger_moves_aside_to_look(monkeypatch
     # Behind the arm and above its shoulder, the camera sees the object past the hand, but at the slide's
     # end the forearm hides it, also from 10 cm higher: only a move across clears its lines of sight.
     from slideplan import closed_loop
-    from slideplan.rendering import Camera
+    from slideplan.camera import Camera
 
     monkeypatch.setattr(closed_loop, "BLIND_S", math.inf)
     height = load_scene("square").table.height

@@ -23,7 +23,8 @@ def user_files(tmp_path_factory) -> Path:
     """What the examples expect a user to have at hand: a plan written by ``slideplan plan --json``
     and a depth camera's scene cloud (a rendered one) as ``scene.ply``."""
     from slideplan import load_scene
-    from slideplan.rendering import Camera, place_objects, render_scene
+    from slideplan.camera import Camera
+    from slideplan.rendering import place_objects, render_scene
 
     folder = tmp_path_factory.mktemp("user")
     result = CliRunner().invoke(app, ["plan", "--scene", "square", "--object", "crescent", "--pose", "0.55", "-0.08", "0.4",

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from slideplan import InputError, load_object, load_scene
-from slideplan.rendering import Box, Camera, depth_image, noisy_depth, place_objects, scene_mjcf
+from slideplan.camera import Camera
+from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_mjcf
 from slideplan.tracking import Tracker
 from slideplan.transforms import wrap_angle
 

@@ -15,7 +15,7 @@ from slideplan.bounds import NO_PROGRESS_MOVE_M, NO_PROGRESS_TRAVEL_M, Progress
 from slideplan.closed_loop_settings import (HARD_PUSH_COM_INSIDE_M, HARD_RANGES, Disturbance, camera_as_mounted,
                                             execution_settings, hard_push, push_candidates, setting_draws)
 from slideplan.execute.settings import ExecutionSettings
-from slideplan.rendering import Camera
+from slideplan.camera import Camera
 from slideplan.verdict import HOLD_HEIGHT_M, Hold, held, judge
 
 TABLE_TOP = 0.75

@@ -141,7 +141,7 @@ LOST_LOOKS_SHARE = 0.5  # beyond this share of looks without the object, the cam
 def _run_camera(scene, camera: tuple | None):
     """``run``'s depth camera: the closed loop's default for the scene, or (X, Y, Z, TX, TY, TZ) as given."""
     from ..closed_loop import default_camera
-    from ..rendering import Camera
+    from ..camera import Camera
 
     if camera is None:
         return default_camera(scene)

@@ -10,10 +10,10 @@ from typing import Callable
 import numpy as np
 
 from ..closed_loop import SlideLoop, Stop, Watch
+from ..camera import Camera
 from ..motions import reference
 from ..plan.robot import base_pose_matrix
 from ..plan.result import PlanResult
-from ..rendering import Camera
 from .task import Refused, Task, cloud_in_world, lift_path, timed
 
 # The closed loop, as slideplan run's defaults: a drift is 3 mm / 2 deg off the prediction; each re-plan has 1 s.

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..camera import Camera
 from ..closed_loop import DEPTH_DROPOUT, Disturbance, execution_settings, default_camera, setting_draws
 from ..errors import InputError
 from ..execute.model import DEPTH_CAMERA, Rig, build_model, enable_hand_collisions, set_servo_gains
@@ -37,7 +38,7 @@ from ..motions import reference
 from ..objects import load_object
 from ..plan.config import PlannerConfig
 from ..plan.robot import build_robot, robot_description
-from ..rendering import Camera, camera_depth, noisy_depth
+from ..rendering import camera_depth, noisy_depth
 from ..scenes import Scene
 from ..transforms import homogeneous
 
