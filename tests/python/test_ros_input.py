@@ -223,3 +223,40 @@ def test_the_discovery_range_is_said_and_an_open_unsecured_one_warned_of():
     assert "ROS_SECURITY_STRATEGY is not Enforce" in permissive[1]
     enclave_only = discovery_notice({"ROS_SECURITY_ENCLAVE_OVERRIDE": "/slideplan"}, [])
     assert "ROS_SECURITY_ENABLE is not true" in enclave_only[1]
+
+
+def test_a_plan_older_than_max_plan_age_is_made_again_before_it_is_executed(planning, monkeypatch):
+    from types import SimpleNamespace
+
+    from std_srvs.srv import Trigger
+
+    from slideplan.ros import serve
+
+    executed, made = [], []
+
+    class Executed:  # stands in for the robot's motions: records which plan was run
+        def __init__(self, node, task) -> None:
+            executed.append(task.name)
+
+        def run(self) -> dict:
+            return {"status": "done"}
+
+    def plan_again():
+        made.append(planning.now())
+        return SimpleNamespace(name="fresh", planned_at=planning.now())
+
+    monkeypatch.setattr(serve, "Execution", Executed)
+    monkeypatch.setattr(planning, "_plan", plan_again)
+    planning.node.set_parameters([Parameter("max_plan_age", value=5.0)])
+    _at(planning, 200.0)
+    planning.task = SimpleNamespace(name="served", planned_at=196.0)  # 4 s old: run as served
+    assert planning._execute_service(Trigger.Request(), Trigger.Response()).success
+    assert executed == ["served"] and made == []
+    _at(planning, 300.0)
+    planning.task = SimpleNamespace(name="served", planned_at=294.0)  # 6 s old: the object may have moved
+    assert planning._execute_service(Trigger.Request(), Trigger.Response()).success
+    assert executed == ["served", "fresh"] and made == [300.0]
+    assert {"phase": "replan", "trigger": "old_plan", "age_s": 6.0} in planning.status.lines
+    result, = planning.node.set_parameters([Parameter("max_plan_age", value=0.0)])
+    assert not result.successful and "must be a number of seconds in (0, 3600]" in result.reason
+    assert planning.parameter("max_plan_age") == 5.0

@@ -74,7 +74,7 @@ def parameter_problem(name: str, value, running: bool) -> str | None:
             return f"must be 6 numbers within {POSE_BOUND:g} (x y z roll pitch yaw, m and rad), got {list(pose)}"
     elif name == "time_limit" and not 0.0 < value <= MAX_TIME_LIMIT_S:
         return f"must be a number of seconds in (0, {MAX_TIME_LIMIT_S:g}], got {value}"
-    elif name == "max_sensor_age" and not 0.0 < value <= MAX_SENSOR_AGE_S:
+    elif name in ("max_sensor_age", "max_plan_age") and not 0.0 < value <= MAX_SENSOR_AGE_S:
         return f"must be a number of seconds in (0, {MAX_SENSOR_AGE_S:g}], got {value}"
     elif name in ("seed", "target") and value < 0:
         return f"must be an integer >= 0, got {value}"

@@ -37,8 +37,10 @@ GOAL_TOLERANCE_RAD = 0.05
 CLOCK_STALL_S = 5.0
 # The node's ROS parameters (docs/ros2.md). max_sensor_age: ten frames of the simulator's 5 Hz camera, so
 # a few lost clouds do not refuse a plan, while a camera or arm driver that died is noticed within 2 s.
+# max_plan_age: a plan served by /slideplan/plan longer ago than this is made again before it is executed
+# (the object, the arm or the camera may have moved since); 10 s is a call to plan and one to execute.
 DEFAULTS = {"camera_pose": [0.0] * 6, "target": 0, "controller": "joint_trajectory_controller", "closed_loop": True,
-            "time_limit": 5.0, "seed": 0, "max_sensor_age": 2.0}
+            "time_limit": 5.0, "seed": 0, "max_sensor_age": 2.0, "max_plan_age": 10.0}
 SENSORS = {"/camera/points": "cloud", "/joint_states": "message"}  # what max_sensor_age applies to
 
 
@@ -169,9 +171,19 @@ class PlanningNode:
                          target=int(self.parameter("target")), seed=int(self.parameter("seed")),
                          time_limit=float(self.parameter("time_limit")), table_plane=known)
         self._plane = (camera_pose, task.table_plane)
+        task.planned_at = self.now()
         self._publish_markers(task.result)
         self.publish_status("planned", **task.summary)
         return task
+
+    def _fresh(self, task: Task) -> bool:
+        """Whether a served plan may still be executed: made at most ``max_plan_age`` ago (ROS time); an
+        older one is said on /slideplan/status and made again from the latest cloud."""
+        age = self.now() - task.planned_at
+        if age <= float(self.parameter("max_plan_age")):
+            return True
+        self.publish_status("replan", trigger="old_plan", age_s=round(age, 3))
+        return False
 
     def _publish_markers(self, result: PlanResult) -> None:
         from std_msgs.msg import Header
@@ -196,7 +208,7 @@ class PlanningNode:
 
     def _execute_service(self, request, response):
         try:
-            task = self.task or self._plan()
+            task = self.task if self.task is not None and self._fresh(self.task) else self._plan()
             self.task = None  # a plan is executed once: the object has moved
             summary = Execution(self, task).run()
             response.success, response.message = True, one_line(summary)

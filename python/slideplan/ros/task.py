@@ -97,6 +97,7 @@ class Task:
     config: PlannerConfig
     summary: dict = field(default_factory=dict)
     table_plane: tuple | None = None
+    planned_at: float = 0.0  # the node's (ROS) time when the plan was made
 
 
 def plan_task(scene: Scene, points: np.ndarray, joints: np.ndarray | None, *, camera_pose, target: int, seed: int,
