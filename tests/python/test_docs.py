@@ -49,3 +49,76 @@ def test_every_python_example_runs_as_written(document, user_files, tmp_path, mo
     namespace: dict = {}  # a document's examples build on each other, as a reader runs them
     for index, block in enumerate(EXAMPLE.findall(document.read_text())):
         exec(compile(block, f"{document.name} example {index + 1}", "exec"), namespace)
+
+
+FENCE = re.compile(r"```(\w*)\n(.*?)```", re.S)
+PLACEHOLDER = re.compile(r"\[|\||\b[A-Z]{2,}\b")  # a synopsis: [--option], a|b, SCENE, X Y Z
+
+
+def shell_commands(path: Path) -> list[list[str]]:
+    """The ``slideplan`` command lines of a document's shell blocks (continuations joined, comments cut),
+    as argument lists without the program; synopses with placeholders are left out."""
+    import shlex
+
+    commands = []
+    for language, body in FENCE.findall(path.read_text()):
+        if language == "python":
+            continue
+        for line in body.replace("\\\n", " ").splitlines():
+            words = shlex.split(line.split("  #")[0])
+            if words and words[0] in ("slideplan", ".venv/bin/slideplan") and not PLACEHOLDER.search(line.split("  #")[0]):
+                commands.append(words[1:])
+    return commands
+
+
+COMMANDS = [(path.name, words) for path in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+            for words in shell_commands(path)]
+
+
+def parse(words: list[str]) -> None:
+    """Parse a command line as `slideplan` would, down to its (sub)command, without running it."""
+    import typer
+
+    command, context = typer.main.get_command(app), None
+    while True:
+        context = command.make_context(context.info_name if context else "slideplan", list(words), parent=context)
+        if not hasattr(command, "resolve_command"):
+            return
+        protected = getattr(context, "_protected_args", None) or getattr(context, "protected_args", [])  # click >= 8.2 or older
+        name, command, words = command.resolve_command(context, [*protected, *context.args])
+
+
+def test_the_documents_have_commands():
+    assert len(COMMANDS) >= 20 and {"README.md", "perception.md", "ros2.md", "execution.md"} <= {name for name, _ in COMMANDS}
+
+
+@pytest.mark.parametrize("document, words", COMMANDS, ids=[f"{name}:{' '.join(words)[:60]}" for name, words in COMMANDS])
+def test_every_command_in_the_documents_parses_as_written(document, words):
+    parse(words)  # an unknown option, a missing value or a wrong type raises click's usage error
+
+
+def test_a_mistyped_command_does_not_parse():
+    from slideplan.cli.common import click_errors  # typer's own copy of click, or click
+
+    with pytest.raises(click_errors.UsageError):
+        parse(["plan", "--scene", "square", "--objekt", "crescent"])
+    with pytest.raises(click_errors.UsageError):
+        parse(["ros", "serve", "--camera-pose", "1", "2"])
+
+
+LONG_RUNNING = ("experiment", "plot", "ros")  # hours of sweeps, their plots, nodes that serve until stopped
+
+
+@pytest.mark.physics
+def test_the_readme_commands_run_in_order_after_make_demo(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    runner = CliRunner()
+    assert runner.invoke(app, ["demo", "--out", "out"]).exit_code == 0  # what `make demo` leaves
+    ran = 0
+    for words in shell_commands(ROOT / "README.md"):
+        if words[0] in LONG_RUNNING:
+            continue
+        result = runner.invoke(app, words)
+        assert result.exit_code == 0, (words, result.output)
+        ran += 1
+    assert ran >= 7 and Path("execution.mp4").stat().st_size > 0 and Path("perceived/scene.toml").exists()
