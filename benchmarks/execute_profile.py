@@ -26,10 +26,13 @@ import numpy as np  # noqa: E402
 
 import slideplan.closed_loop as closed_loop  # noqa: E402
 import slideplan.execute.replay as replay  # noqa: E402
+import slideplan.loop as loop  # noqa: E402
+import slideplan.watch as watch  # noqa: E402
 from slideplan import PlannerConfig, load_scene, plan  # noqa: E402
 from slideplan.execute import contacts  # noqa: E402
 from slideplan.execute import runner as runner_module  # noqa: E402
 from slideplan.objects import load_object, load_outline, sample_pose_on_table  # noqa: E402
+from slideplan.tracking import Tracker  # noqa: E402
 
 def demo_pose():
     """The pose ``slideplan demo`` puts the crescent at on the square table (seed 0)."""
@@ -148,9 +151,10 @@ def install() -> None:
 
     closed_loop.camera_depth = outside("depth frame rendering", closed_loop.camera_depth)
     closed_loop.noisy_depth = outside("depth frame noise", closed_loop.noisy_depth)
-    closed_loop.plan = outside("planning", closed_loop.plan)
-    closed_loop.Tracker.track = outside("tracking", closed_loop.Tracker.track)
-    closed_loop.Tracker.locate = outside("tracking", closed_loop.Tracker.locate)
+    for module in (closed_loop, watch, loop):  # the first plan, the re-plans, a new contact's plan
+        module.plan = outside("planning", module.plan)
+    Tracker.track = outside("tracking", Tracker.track)
+    Tracker.locate = outside("tracking", Tracker.locate)
 
 
 def report(title: str, profile: Profile, total_wall: float, sim_time: float) -> list[str]:

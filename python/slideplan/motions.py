@@ -96,6 +96,18 @@ def timing_of(timing: dict[str, Any] | None, key: str, length: int) -> np.ndarra
     return times - times[0]
 
 
+def plan_times(result: PlanResult, key: str, length: int) -> np.ndarray:
+    """:func:`timing_of` a plan that must be timed: its ``key`` segment's times from its start.
+
+    Raises:
+        InputError: the plan has no timing block, or its times do not fit the path.
+    """
+    times = timing_of(result.timing, key, length)
+    if times is None:
+        raise InputError("the plan has no timing block", field="timing")
+    return times
+
+
 # ----------------------------------------------------------------------------- the reach to a first contact
 
 HOVER_M = 0.03  # the reach comes down onto the first contact from this far above the object

@@ -1,5 +1,6 @@
-"""The closed loop (slideplan.closed_loop and ``slideplan run``): tracking with the arm in view, recovery
-from a disturbance that the open loop cannot recover from, determinism, bad input."""
+"""The closed loop (its decisions, slideplan.loop and slideplan.watch; its MuJoCo harness,
+slideplan.closed_loop; and ``slideplan run``): tracking with the arm in view, recovery from a disturbance
+that the open loop cannot recover from, determinism, bad input."""
 
 import math
 import os
@@ -11,12 +12,13 @@ from typer.testing import CliRunner
 
 from slideplan import InputError, PlannerConfig, load_scene, plan
 from slideplan.cli import app
-from slideplan.closed_loop import Disturbance, Watch, default_camera, run
+from slideplan.closed_loop import Disturbance, default_camera, run
 from slideplan.objects import load_object
 from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_mjcf
 from slideplan.tracking import Tracker
 from slideplan.transforms import row_to_pose, wrap_angle
 from slideplan.transforms import planar_motion
+from slideplan.watch import Watch
 
 DEMO = ("square", "crescent", (0.55, -0.08, 0.4))
 PUSHED = Disturbance(0.0, -0.03, 0.17, 2.0)  # 3 cm and 10 degrees, 2 s into the slide
@@ -114,7 +116,7 @@ def test_cli_bad_input_is_exit_2_with_one_line():
 
 def _demo_segment():
     """The demo task's scene, object, planner settings, plan, and that plan as a slide to follow."""
-    from slideplan.closed_loop import slide_segment
+    from slideplan.watch import slide_segment
 
     scene_name, name, pose = DEMO
     scene = load_scene(scene_name)
@@ -143,7 +145,6 @@ def test_a_push_is_confirmed_by_two_looks_while_the_finger_carries_the_object_on
     # by the finger a centimetre or more between them; they are one drift, seen twice.
     from types import SimpleNamespace
 
-    from slideplan.closed_loop import Watch
     from slideplan.transforms import compose_planar
 
     scene, obj, config, result, segment = _demo_segment()
@@ -165,8 +166,6 @@ def test_a_push_is_confirmed_by_two_looks_while_the_finger_carries_the_object_on
 
 
 def test_a_turn_that_leaves_the_footprint_as_it_was_is_no_pose_error():
-    from slideplan.closed_loop import Watch
-
     scene = load_scene("square")
     for name, turn, seen_turn in (("circle", 0.4, 0.0), ("square", math.pi / 2 + 0.01, 0.01), ("crescent", 0.4, 0.4)):
         obj = load_object(name, table_height=scene.table.height, pose=(0.5, 0.0, 0.0))
@@ -202,10 +201,10 @@ def test_when_the_arm_hides_the_object_at_the_end_the_finger_rises_clear_to_look
     # A camera beside the slide's end: at the end of the slide the hand hides the object from it. The
     # finger rises clear, the look from there finds the object, and the loop goes on from what it saw.
     # (No blind stops, so that the end look alone is tested.)
-    from slideplan import closed_loop
+    from slideplan import loop
     from slideplan.camera import Camera
 
-    monkeypatch.setattr(closed_loop, "BLIND_S", math.inf)
+    monkeypatch.setattr(loop, "BLIND_S", math.inf)
     height = load_scene("square").table.height
     report = run(*DEMO, seed=1, closed=True, camera=Camera((0.5, -0.35, height + 0.7), (0.55, -0.15, height)))
     hidden = [index for index, event in enumerate(report.events) if event.trigger == "end" and event.outcome == "lost"]
@@ -219,10 +218,10 @@ def test_when_the_arm_hides_the_object_at_the_end_the_finger_rises_clear_to_look
 def test_with_a_camera_behind_the_arm_the_finger_moves_aside_to_look(monkeypatch):
     # Behind the arm and above its shoulder, the camera sees the object past the hand, but at the slide's
     # end the forearm hides it, also from 10 cm higher: only a move across clears its lines of sight.
-    from slideplan import closed_loop
+    from slideplan import loop
     from slideplan.camera import Camera
 
-    monkeypatch.setattr(closed_loop, "BLIND_S", math.inf)
+    monkeypatch.setattr(loop, "BLIND_S", math.inf)
     height = load_scene("square").table.height
     report = run(*DEMO, seed=1, closed=True, camera=Camera((-0.1, 0.05, height + 0.6), (0.4, -0.15, height)))
     triggers = [(event.trigger, event.outcome) for event in report.events]
@@ -237,7 +236,7 @@ def test_a_slide_hidden_from_the_camera_stops_to_look_from_above_and_recovers_fr
     # push goes unseen until the slide stops, the finger rises clear and looks from there.
     import dataclasses
 
-    from slideplan.closed_loop import BLIND_S
+    from slideplan.loop import BLIND_S
     from slideplan.tracking import Tracker
 
     real_track = Tracker.track
@@ -353,7 +352,7 @@ def test_an_object_seen_over_the_edge_with_the_finger_off_it_is_grasped_from_a_t
     """The object slid on ahead of the finger to where it already overhangs (a heavy object on a slippery
     table): the planner takes an object over an edge only from a state, so a new contact puts the finger
     down on it where it is seen, and plans from there, rather than grasping where Eq. 2 put the object."""
-    from slideplan.closed_loop import SlideLoop
+    from slideplan.loop import SlideLoop
     from slideplan.plan.robot import build_robot
     from slideplan.verify import verify
 
@@ -431,9 +430,9 @@ def test_a_run_seen_short_whose_object_was_held_succeeds_and_a_lost_look_is_repo
 def test_a_capped_closed_loop_re_plans_no_more_and_says_so(monkeypatch):
     # The disturbed demo with the re-plan cap at 0: the push is not chased, the slide runs to its end and the
     # row says why the loop stopped deciding.
-    import slideplan.closed_loop as closed_loop
+    import slideplan.loop as loop
 
-    monkeypatch.setattr(closed_loop, "MAX_REPLANS", 0)
+    monkeypatch.setattr(loop, "MAX_REPLANS", 0)
     report = run(*DEMO, seed=1, closed=True, disturbance=PUSHED)
     assert report.replans == 0 and report.slide_stop == "replan_cap", report.summary()
     assert report.seen_frames and report.slide_s > 0

@@ -242,7 +242,7 @@ def test_the_experiment_s_set_option_refuses_what_it_does_not_know_naming_the_op
 
 
 def test_every_bound_a_closed_loop_meets_is_recorded_and_a_cap_holds_after_a_no_progress_stop():
-    import slideplan.closed_loop as closed_loop
+    from slideplan.loop import SlideLoop
     from slideplan.bounds import MAX_REPLANS, MAX_SLIDE_S
 
     class Clock:
@@ -252,7 +252,7 @@ def test_every_bound_a_closed_loop_meets_is_recorded_and_a_cap_holds_after_a_no_
             return self.now
 
     arm = Clock()
-    loop = closed_loop.SlideLoop(None, None, 0.0, 3, arm)
+    loop = SlideLoop(None, None, 0.0, 3, arm)
     assert not loop.capped() and loop.stopped == ""
     loop._met("no_progress")
     loop.replans = MAX_REPLANS

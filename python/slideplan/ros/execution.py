@@ -1,5 +1,5 @@
 """One ``/slideplan/execute`` of the planning node (:class:`Execution`): reach, slide (watched and
-re-planned with ``closed_loop``: the loop's decisions of :mod:`slideplan.closed_loop` over the node's
+re-planned with ``closed_loop``: the loop's decisions of :mod:`slideplan.loop` over the node's
 controller and clouds, :class:`_Controlled`), approach, close, lift."""
 
 from __future__ import annotations
@@ -9,11 +9,12 @@ from typing import Callable
 
 import numpy as np
 
-from ..closed_loop import SlideLoop, Stop, Watch
 from ..camera import Camera
+from ..loop import SlideLoop, Stop
 from ..motions import reference
 from ..plan.robot import base_pose_matrix
 from ..plan.result import PlanResult
+from ..watch import Watch
 from .task import Refused, Task, cloud_in_world, lift_path, timed
 
 # The closed loop, as slideplan run's defaults: a drift is 3 mm / 2 deg off the prediction; each re-plan has 1 s.
@@ -31,7 +32,7 @@ class Execution:
 
     def __init__(self, node, task: Task) -> None:
         self.node, self.task = node, task
-        self.events: list = []  # the closed loop's looks that asked for a plan (slideplan.closed_loop.Replan)
+        self.events: list = []  # the closed loop's looks that asked for a plan (slideplan.watch.Replan)
         self.lookahead_s = LOOKAHEAD_S
         self.judge: Watch | None = None
 
@@ -60,7 +61,7 @@ class Execution:
 
     def slide(self, result: PlanResult) -> tuple[PlanResult, int, tuple]:
         """Follow the slide; with ``closed_loop``, watch the object in each new cloud and re-plan as
-        :func:`slideplan.closed_loop.run` does (:class:`~slideplan.closed_loop.SlideLoop`). Return the plan
+        :func:`slideplan.closed_loop.run` does (:class:`~slideplan.loop.SlideLoop`). Return the plan
         whose grasp is made, the re-plans followed, and where the object is expected at the grasp (motion
         from its perceived pose: as last seen, or as Eq. 2 puts it)."""
         node, task = self.node, self.task
@@ -113,7 +114,7 @@ class Execution:
     def check_lifted(self, expected) -> bool:
         """After the lift, look for the object on the table: where it was grasped, then (from an organized
         cloud) anywhere on the table, as the closed loop searches for a lost object
-        (:meth:`~slideplan.closed_loop.Watch.locate`, then a fit there). Seen on the table, the grasp
+        (:meth:`~slideplan.watch.Watch.locate`, then a fit there). Seen on the table, the grasp
         missed it, let it go or knocked it away. Return False when too little of the place where it was
         grasped is in view to tell.
 
@@ -171,7 +172,7 @@ def _hold(config: np.ndarray) -> dict[str, np.ndarray]:
 
 
 class _Controlled:
-    """The :class:`~slideplan.closed_loop.Arm` of an execution: trajectories on the controller's topic, a
+    """The :class:`~slideplan.loop.Arm` of an execution: trajectories on the controller's topic, a
     look at each new cloud; a new plan starts where the arm will be ``lookahead_s`` after the frame (it
     goes on moving while the loop plans)."""
 

@@ -6,7 +6,8 @@ contact from the arm's current joint state, verifies the plan and publishes its 
 ``/slideplan/execute`` plans if there is no plan yet, then drives the robot: opens the hand, publishes
 the reach, the slide and the approach on ``/<controller>/joint_trajectory`` (each when the last has
 arrived), closes the hand through ``/gripper/set`` and lifts. With ``closed_loop`` it watches the object
-in the clouds while sliding and re-plans as ``slideplan run`` does (:class:`slideplan.closed_loop.Watch`).
+in the clouds while sliding and re-plans as ``slideplan run`` does (:class:`slideplan.loop.SlideLoop`,
+:class:`slideplan.watch.Watch`).
 
 Every response's ``message`` is one line of JSON: ``status`` (``solved``, ``done`` or what failed) and
 the numbers, or the ``reason`` it failed.
