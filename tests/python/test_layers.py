@@ -1,6 +1,7 @@
 """The package's import layers (docs/design.md, "The Python modules, by layer"): every import of every
 module, function-level and TYPE_CHECKING ones included, goes to a module listed above it in the table,
-so no two modules import each other, and the table names every module."""
+so no two modules import each other, and the table names every module. The ROS node for a real robot
+and the closed loop's decisions load no simulation module, however indirectly."""
 
 from __future__ import annotations
 
@@ -14,6 +15,11 @@ ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "python" / "slideplan"
 DESIGN = ROOT / "docs" / "design.md"
 GENERATED = {"slideplan._core", "slideplan._build"}  # built, not in the source tree
+# What a real robot's node must not load: MuJoCo, the execution package (its __init__ builds on the MuJoCo
+# model) and the closed loop's MuJoCo harness. ros.sim is the simulator, so not in REAL_ROBOT.
+SIMULATION = ("mujoco", "slideplan.execute", "slideplan.closed_loop")
+REAL_ROBOT = ("slideplan.ros.task", "slideplan.ros.execution", "slideplan.ros.serve", "slideplan.ros.guards",
+              "slideplan.ros.messages", "slideplan.ros.call", "slideplan.watch", "slideplan.loop", "slideplan.motions")
 
 
 def documented_order(text: str) -> list[str]:
@@ -27,8 +33,9 @@ def module_name(path: Path, package: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-def imports(path: Path, name: str, known: set[str]) -> list[tuple[int, str]]:
-    """``(line, module)`` of every import of a slideplan module in the file, anywhere in it."""
+def imports(path: Path, name: str, known: set[str], outside: tuple[str, ...] = ()) -> list[tuple[int, str]]:
+    """``(line, module)`` of every import of a slideplan module in the file, anywhere in it, and of the
+    packages named in ``outside`` (as their top-level name: ``mujoco`` for ``mujoco.viewer``)."""
     found = []
     package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
@@ -45,7 +52,7 @@ def imports(path: Path, name: str, known: set[str]) -> list[tuple[int, str]]:
         else:
             continue
         for target in targets:
-            if target == "slideplan" or target.startswith("slideplan."):
+            if target.split(".")[0] in ("slideplan", *outside):
                 while target not in known and "." in target:
                     target = target.rsplit(".", 1)[0]
                 if target != name:
@@ -68,6 +75,37 @@ def violations(package: Path, order: list[str]) -> list[str]:
                 problems.append(f"{path.relative_to(package.parent)}:{line}: {name} imports {target}, "
                                 "which the layer table of docs/design.md puts at or below it")
     return problems
+
+
+def simulation_chains(package: Path, roots) -> list[str]:
+    """How each of ``roots`` loads a module of :data:`SIMULATION`, one chain of imports per module it
+    reaches (``a -> b -> mujoco``): every import followed through the package, function-level ones
+    included, and importing ``a.b.c`` runs ``a`` and ``a.b`` as well."""
+    files = {module_name(path, package): path for path in sorted(package.rglob("*.py"))}
+    known = set(files) | GENERATED
+
+    def simulated(name: str) -> bool:
+        return any(name == module or name.startswith(module + ".") for module in SIMULATION)
+
+    def loaded(name: str) -> list[str]:
+        parts = name.split(".")
+        return [".".join(parts[:count]) for count in range(1, len(parts) + 1)]
+
+    chains = []
+    for root in roots:
+        via = {name: [root] if name == root else [root, name] for name in loaded(root)}
+        queue = list(via)
+        while queue:
+            name = queue.pop(0)
+            if simulated(name):
+                chains.append(" -> ".join(via[name]))
+            elif name in files:
+                for _, target in imports(files[name], name, known, outside=("mujoco",)):
+                    for step in loaded(target):
+                        if step not in via:
+                            via[step] = via[name] + [step]
+                            queue.append(step)
+    return chains
 
 
 def test_every_import_goes_up_the_layer_table():
@@ -98,3 +136,30 @@ def test_a_module_without_a_row_is_named(tmp_path, missing):
     order = [name for name in ("slideplan.a", "slideplan.b", "slideplan") if name != missing]
     assert violations(package, order) == [f"{missing} (slideplan/{missing[10:]}.py) has no row in the layer table "
                                           "of docs/design.md"]
+
+
+def test_the_real_robots_node_and_the_loops_decisions_load_no_simulation():
+    assert simulation_chains(PACKAGE, REAL_ROBOT) == []
+
+
+def test_a_simulation_import_is_found_however_deep_and_its_chain_named(tmp_path):
+    # A scratch package: ros.task imports the decisions, whose function imports the harness; ros.call's
+    # helper imports mujoco in a function; ros.messages imports a module whose package's __init__ imports
+    # the harness; ros.guards is clean.
+    package = tmp_path / "slideplan"
+    (package / "ros").mkdir(parents=True)
+    (package / "pkg").mkdir()
+    for name in ("__init__", "ros/__init__", "closed_loop", "helper", "pkg/leaf"):
+        (package / f"{name}.py").write_text("")
+    (package / "pkg" / "__init__.py").write_text("from .. import closed_loop\n")
+    (package / "ros" / "messages.py").write_text("from ..pkg.leaf import thing\n")
+    (package / "ros" / "task.py").write_text("from ..loop import SlideLoop\n")
+    (package / "loop.py").write_text("def later():\n    from . import closed_loop\n")
+    (package / "ros" / "call.py").write_text("from .. import helper\n")
+    (package / "helper.py").write_text("def render():\n    import mujoco.renderer\n")
+    (package / "ros" / "guards.py").write_text("import numpy\n")
+    chains = simulation_chains(package, ["slideplan.ros.task", "slideplan.ros.call", "slideplan.ros.messages",
+                                         "slideplan.ros.guards"])
+    assert chains == ["slideplan.ros.task -> slideplan.loop -> slideplan.closed_loop",
+                      "slideplan.ros.call -> slideplan.helper -> mujoco",
+                      "slideplan.ros.messages -> slideplan.pkg -> slideplan.closed_loop"]
