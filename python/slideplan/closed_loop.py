@@ -191,10 +191,11 @@ def default_camera(scene: Scene) -> Camera:
 
 
 def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: float, seed: int,
-                      mounted: Camera | None = None) -> ThinObject:
+                      mounted: Camera | None = None) -> tuple[ThinObject, tuple[float, float, float]]:
     """The object as the camera sees it before the slide: its known outline registered to the object
-    :func:`~slideplan.perception.perceive` finds in a rendered frame (the table is the scene's). The frame
-    is taken from where the camera is ``mounted`` (default: ``camera``) and read as if from ``camera``."""
+    :func:`~slideplan.perception.perceive` finds in a rendered frame (the table is the scene's), and the
+    table plane perceive fitted (what the tracker measures heights from). The frame is taken from where
+    the camera is ``mounted`` (default: ``camera``) and read as if from ``camera``."""
     from .perception import perceive, register_outline
 
     placed = place_objects([(object_name, pose)])[0]
@@ -206,7 +207,8 @@ def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: fl
         raise InputError("the camera does not see the object", field="--pose")
     outline, thickness, _ = load_outline(object_name)
     seen_pose, _ = register_outline(perception.objects[0].points, outline)
-    return load_object(object_name, table_height=scene.table.height, pose=_on_table(scene.table.polygon, outline, seen_pose))
+    obj = load_object(object_name, table_height=scene.table.height, pose=_on_table(scene.table.polygon, outline, seen_pose))
+    return obj, perception.plane
 
 
 def _on_table(table, outline, pose) -> tuple[float, float, float]:
@@ -376,7 +378,7 @@ def run(
         raise InputError(f"the object at {pose} is not wholly on the table", field="--pose")
     os.environ.setdefault("MUJOCO_GL", "egl")
     mounted = camera_as_mounted(camera, draws)
-    perceived = _perceived_object(scene, object_name, camera, pose, draws["depth_noise_at_1m"], seed, mounted)
+    perceived, table_plane = _perceived_object(scene, object_name, camera, pose, draws["depth_noise_at_1m"], seed, mounted)
 
     mode = "closed" if closed else "open"
     report: dict[str, Any] = dict(
@@ -407,7 +409,7 @@ def run(
     recorder = Recorder(model, data, video, video_fps, (480, 640), plan_points(first, robot), progress=progress)
     runner = Runner(built, settings, recorder.after_step if recorder.active else None)
 
-    watch = Watch(scene, perceived, config, camera, threshold, replan_time_limit)
+    watch = Watch(scene, perceived, config, camera, threshold, replan_time_limit, table_plane=table_plane)
 
     def frames() -> tuple[np.ndarray, np.ndarray]:
         """A new depth frame and the fingertip's measured pose."""

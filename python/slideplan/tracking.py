@@ -85,6 +85,11 @@ class Tracker:
         obj: the object as perceived at the start (its pose is the reference of every motion).
         camera: the fixed camera that takes the frames.
         table_height: z of the table top (m).
+        table_plane: the table top as this camera sees it, ``z = a x + b y + c`` as ``(a, b, c)``
+            (:attr:`slideplan.perception.Perception.plane`), or None for the level ``table_height``.
+            Heights are measured from it: a camera mounted a few millimetres or a fraction of a degree
+            off where it is believed to be sees the table that far off ``table_height``, and a thin
+            object is only millimetres high.
         hand_clearance: pixels higher than the object's top by more than this are not the object
             (the finger, hand and arm over it), m.
         window_margin: pixels further than this from the object's expected footprint are ignored, m.
@@ -92,18 +97,19 @@ class Tracker:
 
     Raises:
         InputError: a clearance or margin that is not a positive number, an iteration count that is
-            not a positive integer, a table height that is not a number, or an object known only as a
+            not a positive integer, a table height or plane that is not numbers, or an object known only as a
             cloud whose concave hull has no area.
     """
 
-    def __init__(self, obj: ThinObject, camera: Camera, *, table_height: float, hand_clearance: float = 0.01,
-                 window_margin: float = 0.05, iterations: int = 40) -> None:
+    def __init__(self, obj: ThinObject, camera: Camera, *, table_height: float, table_plane=None,
+                 hand_clearance: float = 0.01, window_margin: float = 0.05, iterations: int = 40) -> None:
         self.hand_clearance = as_number(hand_clearance, source="", field="hand_clearance", positive=True)
         self.window_margin = as_number(window_margin, source="", field="window_margin", positive=True)
         if not isinstance(iterations, int) or isinstance(iterations, bool) or iterations <= 0:
             raise InputError(f"expected a positive integer, got {iterations!r}", field="iterations")
         self.obj, self.camera, self.iterations = obj, camera, iterations
         self.table_height = as_number(table_height, source="", field="table_height")
+        self.table_plane = None if table_plane is None else as_numbers(table_plane, 3, source="", field="table_plane")
         outline = obj.outline if obj.outline is not None else _cloud_outline(obj.points[:, :2])
         self._hull = outline.convex_hull  # where a start contact may be (the planner's test)
         interior = outline.buffer(-INLIER_M)
@@ -139,7 +145,7 @@ class Tracker:
         window = depth[low[0]:high[0], low[1]:high[1]]
         filled = np.where(np.isfinite(window), window, np.inf)  # a dropout never wins the median unless most are
         world = pixel_points(median_filter(filled, size=3, mode="nearest"), self.camera, (int(low[0]), int(low[1])))
-        height = world[..., 2] - self.table_height
+        height = self._height(world)
         with np.errstate(invalid="ignore"):
             near = np.linalg.norm(world[..., :2] - centre, axis=-1) <= reach
             half = 0.5 * self.obj.thickness
@@ -148,6 +154,13 @@ class Tracker:
         cross = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
         edge = (is_object & binary_dilation(is_table, cross)) | (is_table & binary_dilation(is_object, cross))
         return world[edge][:, :2], world[is_object][:, :2], world[is_table][:, :2]
+
+    def _height(self, world: np.ndarray) -> np.ndarray:
+        """Each back-projected point's height above the table top (m)."""
+        if self.table_plane is None:
+            return world[..., 2] - self.table_height
+        a, b, c = self.table_plane
+        return world[..., 2] - (a * world[..., 0] + b * world[..., 1] + c)
 
     def locate(self, depth: np.ndarray, guess, region: Polygon):
         """Where to start tracking an object that is nowhere near ``guess``: ``guess`` shifted so that the
@@ -165,7 +178,7 @@ class Tracker:
 
         filled = np.where(np.isfinite(depth), depth, np.inf)
         world = pixel_points(median_filter(filled, size=3, mode="nearest"), self.camera)
-        height = world[..., 2] - self.table_height
+        height = self._height(world)
         with np.errstate(invalid="ignore"):
             level = (height > 0.5 * self.obj.thickness) & (height < self.obj.thickness + self.hand_clearance)
         level &= np.isfinite(world[..., 0])

@@ -149,6 +149,8 @@ class Watch:
         camera: the fixed depth camera the frames come from.
         threshold: (m, rad) a seen pose further than this from the predicted one is off it.
         replan_time_limit: planning time limit of each re-plan (s).
+        table_plane: the table top as the camera sees it (``z = a x + b y + c``, from the perception before
+            the slide), or None for the scene's level table (:class:`slideplan.tracking.Tracker`).
 
     Attributes:
         looks, lost_looks: frames tracked, and of them those that did not show the object.
@@ -156,10 +158,10 @@ class Watch:
     """
 
     def __init__(self, scene: Scene, perceived: ThinObject, config: PlannerConfig, camera: Camera,
-                 threshold, replan_time_limit: float) -> None:
+                 threshold, replan_time_limit: float, table_plane=None) -> None:
         self.scene, self.perceived, self.threshold = scene, perceived, threshold
         self.replan_config = dataclasses.replace(config, time_limit_s=replan_time_limit)
-        self.tracker = Tracker(perceived, camera, table_height=scene.table.height)
+        self.tracker = Tracker(perceived, camera, table_height=scene.table.height, table_plane=table_plane)
         # The sides of an obstacle rise through the object's height: a search of the table leaves them out.
         obstacles = scene.footprints(scene.table.height + perceived.thickness + self.tracker.hand_clearance)
         self.free_table = scene.table.polygon if obstacles is None else scene.table.polygon.difference(

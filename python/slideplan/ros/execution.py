@@ -163,7 +163,7 @@ class Execution:
         """
         node, task = self.node, self.task
         camera = tracking_camera(node.latest_points(), node.parameter("camera_pose"))
-        return Watch(task.scene, task.obj, task.config, camera, THRESHOLD, REPLAN_TIME_LIMIT_S)
+        return Watch(task.scene, task.obj, task.config, camera, THRESHOLD, REPLAN_TIME_LIMIT_S, table_plane=task.table_plane)
 
 
 def _hold(config: np.ndarray) -> dict[str, np.ndarray]:
