@@ -57,9 +57,8 @@ import shapely
 from . import jsontext
 from ._fields import as_numbers
 from .camera import Camera, back_project
-from .closed_loop_settings import (  # noqa: F401 - SETTINGS, RANDOM_RANGES, DEPTH_NOISE_AT_1M re-exported
-    DEPTH_NOISE_AT_1M, RANDOM_RANGES, SETTINGS, Disturbance, camera_as_mounted, execution_settings, hard_push,
-    push_candidates, setting_draws)
+from .closed_loop_settings import (
+    Disturbance, camera_as_mounted, execution_settings, hard_push, push_candidates, setting_draws)
 from .errors import InputError
 from .execute.model import DEPTH_CAMERA, build_model
 from .execute.runner import SETTLE_S, Runner, Unstable, timing_options

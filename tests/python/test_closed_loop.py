@@ -12,7 +12,8 @@ from typer.testing import CliRunner
 
 from slideplan import InputError, PlannerConfig, load_scene, plan
 from slideplan.cli import app
-from slideplan.closed_loop import Disturbance, default_camera, run
+from slideplan.closed_loop import default_camera, run
+from slideplan.closed_loop_settings import Disturbance
 from slideplan.objects import load_object
 from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_mjcf
 from slideplan.tracking import Tracker

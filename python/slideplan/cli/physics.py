@@ -108,7 +108,8 @@ def run_command(
     ``perception`` extras.
     """
     try:
-        from ..closed_loop import Disturbance, run
+        from ..closed_loop import run
+        from ..closed_loop_settings import Disturbance
 
         json_out, video = _output_file(json_out, "--json"), _output_file(video, "--video", VIDEO_SUFFIXES)
         scene = load_scene(scene_name)

@@ -136,7 +136,7 @@ def ros_sim_command(
     ros_args = _ros_args(context)
     sim = _ros_import("sim")
     try:
-        from ..closed_loop import Disturbance
+        from ..closed_loop_settings import Disturbance
 
         scene = load_scene(scene_name)
         if pose is None:

@@ -26,7 +26,8 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from ..closed_loop import SETTINGS, run
+from ..closed_loop import run
+from ..closed_loop_settings import SETTINGS
 from ..provenance import PROVENANCE_COLUMNS, run_provenance
 from .execution import TASK_COLUMNS
 from .results import PROVENANCE_FIELDS, load_results

@@ -30,7 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from ..camera import Camera
-from ..closed_loop import DEPTH_DROPOUT, Disturbance, execution_settings, default_camera, setting_draws
+from ..closed_loop import DEPTH_DROPOUT, default_camera
+from ..closed_loop_settings import Disturbance, execution_settings, setting_draws
 from ..errors import InputError
 from ..execute.model import DEPTH_CAMERA, Rig, build_model, enable_hand_collisions, set_servo_gains
 from ..execute.runner import instability
