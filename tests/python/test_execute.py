@@ -437,6 +437,7 @@ def test_a_parallel_gripper_lifts_the_object_with_its_own_prismatic_jaws(scene_n
     assert execution.failed_stage != "release" and execution.lifted, execution.failure
 
 
+@pytest.mark.physics  # CoACD decomposes both jaw meshes anew: 20-25 s
 def test_the_z1_jaw_meshes_become_convex_parts_that_leave_the_gap_between_the_jaws_open(grasp_map_store):
     """MuJoCo collides a mesh as its hull; the hull of the Z1's gripperStator (housing and fixed jaw)
     fills the gap where the grasp frame lies. Its convex parts (CoACD) leave the grasp frame free."""
