@@ -470,6 +470,7 @@ def test_the_z1_jaw_meshes_become_convex_parts_that_leave_the_gap_between_the_ja
     assert len(list((grasp_map_store / "convex-parts").glob("*.npz"))) == 2  # both jaw meshes' parts, stored
 
 
+@pytest.mark.physics  # decomposes first unless the test above did
 def test_convex_parts_are_read_back_from_the_cache_without_decomposing_again(monkeypatch):
     import coacd
 
