@@ -83,16 +83,17 @@ def as_number(value: Any, *, source: str, field: str, positive: bool = False, bo
     return float(value)
 
 
-def as_numbers(value: Any, length: int, *, source: str, field: str, bound: float = math.inf) -> np.ndarray:
-    """Check that ``value`` is a list of ``length`` finite numbers within ``bound`` in magnitude and
-    return it as a float array.
+def as_numbers(value: Any, length: int, *, source: str, field: str, positive: bool = False,
+               bound: float = math.inf) -> np.ndarray:
+    """Check that ``value`` is a list of ``length`` finite numbers within ``bound`` in magnitude (each > 0 if
+    ``positive``) and return it as a float array.
 
     Raises:
         InputError: naming ``source`` and ``field``.
     """
     if not isinstance(value, (list, tuple, np.ndarray)) or len(value) != length:
         raise InputError(f"expected a list of {length} numbers, got {value!r}", source=source, field=field)
-    return np.array([as_number(item, source=source, field=field, bound=bound) for item in value])
+    return np.array([as_number(item, source=source, field=field, positive=positive, bound=bound) for item in value])
 
 
 def as_xy_points(value: Any, *, source: str, field: str, bound: float = math.inf) -> np.ndarray:
@@ -178,9 +179,10 @@ class Fields:
         """Return ``key`` as a finite float (> 0 if ``positive``); see :func:`as_number`."""
         return as_number(self.raw(key, default), source=self.source, field=self.field(key), positive=positive, bound=self.bound)
 
-    def numbers(self, key: str, length: int, default: Any = _REQUIRED) -> np.ndarray:
-        """Return ``key`` as an array of ``length`` finite floats; see :func:`as_numbers`."""
-        return as_numbers(self.raw(key, default), length, source=self.source, field=self.field(key), bound=self.bound)
+    def numbers(self, key: str, length: int, default: Any = _REQUIRED, *, positive: bool = False) -> np.ndarray:
+        """Return ``key`` as an array of ``length`` finite floats (each > 0 if ``positive``); see :func:`as_numbers`."""
+        return as_numbers(self.raw(key, default), length, source=self.source, field=self.field(key), positive=positive,
+                          bound=self.bound)
 
     def xy_points(self, key: str) -> np.ndarray:
         """Return the required ``key`` as an (n, 2) array; see :func:`as_xy_points`."""

@@ -55,7 +55,7 @@ import numpy as np
 import shapely
 
 from . import jsontext
-from ._fields import as_numbers
+from ._fields import as_number, as_numbers
 from .camera import Camera, back_project
 from .closed_loop_settings import (
     Disturbance, camera_as_mounted, execution_settings, hard_push, push_candidates, setting_draws)
@@ -360,11 +360,8 @@ def run(
     draws = setting_draws(setting, seed)
     pose = tuple(float(value) for value in as_numbers(pose, 3, source="", field="--pose"))
     for name, value in (("replan_period", replan_period), ("replan_time_limit", replan_time_limit)):
-        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-            raise InputError(f"must be a positive number of seconds, got {value!r}", field=name)
-    threshold = as_numbers(threshold, 2, source="", field="threshold")
-    if not np.all(threshold > 0):
-        raise InputError(f"expected (m, rad), both > 0, got {tuple(threshold)}", field="threshold")
+        as_number(value, source="", field=name, positive=True)
+    threshold = as_numbers(threshold, 2, source="", field="threshold", positive=True)
     if disturbance is not None:
         as_numbers([disturbance.dx, disturbance.dy, disturbance.dyaw, disturbance.after_s], 4, source="", field="--disturb")
         if disturbance.after_s < 0:

@@ -273,9 +273,7 @@ def _read_obstacle(obstacle: Fields, table: SupportSurface, scene_dir: Path) -> 
     shape = obstacle.string("shape", "box")
     if shape == "box":
         obstacle.only({"shape", "center", "size", "yaw"})
-        size = obstacle.numbers("size", 3)
-        if np.any(size <= 0):
-            raise InputError(f"extents must be > 0, got {size.tolist()}", source=obstacle.source, field=obstacle.field("size"))
+        size = obstacle.numbers("size", 3, positive=True)
         return BoxObstacle(obstacle.numbers("center", 3), size, obstacle.number("yaw", 0.0))
     if shape == "cylinder":
         obstacle.only({"shape", "center", "radius", "height"})

@@ -12,9 +12,12 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from slideplan._fields import as_numbers
 from slideplan._limits import MAX_MAGNITUDE, MAX_PLAN_BYTES, MAX_ROBOT_FILE_BYTES, MAX_SCENE_MAGNITUDE, MAX_WAYPOINTS
 from slideplan.cli import app
 from slideplan.errors import InputError
+from slideplan.execute.settings import ExecutionSettings
+from slideplan.plan.config import PlannerConfig
 from slideplan.plan.result import PlanResult
 from slideplan.scenes import load_scene
 
@@ -164,3 +167,25 @@ def test_the_readme_states_the_limits_the_readers_apply():
                    f"beyond {power(MAX_MAGNITUDE)} in magnitude", f"is over {MAX_ROBOT_FILE_BYTES >> 20} MB",
                    f"no length or angle beyond {power(MAX_SCENE_MAGNITUDE)}"):
         assert stated in readme, stated
+
+
+
+@pytest.mark.parametrize("make, field", [
+    (lambda path: ExecutionSettings(press_force=0.0), "press_force"),
+    (lambda path: PlannerConfig(time_limit_s=-1.0), "time_limit_s"),
+    (lambda path: load_scene(path), "obstacles[0].size"),
+])
+def test_every_positive_number_is_checked_by_the_one_check_in_fields(make, field, tmp_path):
+    scene = tmp_path / "scene.toml"
+    scene.write_text(TABLE + "[[obstacles]]\ncenter = [0.6, 0.0, 0.05]\nsize = [0.1, 0.0, 0.1]\n")
+    with pytest.raises(InputError) as error:
+        make(scene)
+    assert error.value.field == field and error.value.problem.startswith("must be > 0, got "), error.value
+
+
+def test_a_list_of_positive_numbers_names_the_first_that_is_not():
+    assert as_numbers([0.5, 2], 2, source="s", field="f", positive=True).tolist() == [0.5, 2.0]
+    with pytest.raises(InputError) as error:
+        as_numbers([0.5, -1], 2, source="s", field="f", positive=True)
+    assert (error.value.field, error.value.problem) == ("f", "must be > 0, got -1")
+    assert as_numbers([0.5, -1], 2, source="s", field="f").tolist() == [0.5, -1.0]

@@ -8,6 +8,7 @@ from typing import Optional, Tuple
 import numpy as np
 import typer
 
+from .._fields import as_number
 from ..errors import InputError
 from ..objects import load_outline, sample_pose_on_table
 from ..scenes import load_scene
@@ -77,8 +78,7 @@ def ros_call_command(
     name = f"/slideplan/{service}" if service in ("plan", "execute") else service
     try:
         for value, option in ((timeout, "--timeout"), (wait, "--wait")):
-            if not (math.isfinite(value) and value > 0):
-                raise InputError(f"must be a finite number > 0, got {value}", field=option)
+            as_number(value, source="", field=option, positive=True)
         success, message = call.call_trigger(name, wait_s=wait, answer_s=timeout, ros_args=ros_args[1:])
     except InputError as error:
         raise _fail(InputError(error.problem, field={"timeout": "--timeout", "service": "SERVICE"}.get(error.field, error.field))) from None

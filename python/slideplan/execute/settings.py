@@ -6,6 +6,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+from .._fields import as_number
 from ..errors import InputError
 
 
@@ -81,10 +82,7 @@ class ExecutionSettings:
             value = getattr(self, item.name)
             if item.name in _OPTIONAL and value is None:
                 continue
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-                raise InputError(f"expected a finite number, got {value!r}", field=item.name)
-            if item.name not in _NON_NEGATIVE and value <= 0:
-                raise InputError(f"must be > 0, got {value!r}", field=item.name)
+            as_number(value, source="", field=item.name, positive=item.name not in _NON_NEGATIVE)
             if item.name == "reference_lag_s" and value < 0:
                 raise InputError(f"must be >= 0, got {value!r}", field=item.name)
 

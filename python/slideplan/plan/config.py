@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core, parameters
-from .._fields import is_number
+from .._fields import as_number, is_number
 from ..errors import InputError, require_type
 from ..scenes import Scene
 
@@ -40,8 +40,7 @@ class _ConfigMethods:
             raise InputError(f"expected an integer, got {self.seed!r}", field="seed")
         if not 0 <= self.seed < 2**64:  # the core's uint64
             raise InputError(f"must be in [0, {2**64}), got {self.seed!r}", field="seed")
-        if not is_number(self.time_limit_s) or not math.isfinite(self.time_limit_s) or self.time_limit_s <= 0:
-            raise InputError(f"must be > 0 and finite, got {self.time_limit_s!r}", field="time_limit_s")
+        as_number(self.time_limit_s, source="", field="time_limit_s", positive=True)
         try:
             self.to_params().validate(given)
         except ValueError as error:

@@ -120,9 +120,7 @@ def _obstacle_entry(entry: Any, index: int) -> dict[str, Any]:
             if len(entry[key]) < 3:
                 raise InputError(f"expected at least 3 [x, y] vertices, got {len(entry[key])}", field=name)
         elif count:
-            entry[key] = as_numbers(entry[key], count, source="", field=name)
-            if positive and not np.all(entry[key] > 0):
-                raise InputError(f"must be > 0, got {entry[key].tolist()}", field=name)
+            entry[key] = as_numbers(entry[key], count, source="", field=name, positive=positive)
         else:
             entry[key] = as_number(entry[key], source="", field=name, positive=positive)
     return entry
