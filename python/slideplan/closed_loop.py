@@ -66,7 +66,7 @@ from .execute.settings import ExecutionSettings
 from .execute.video import Recorder, plan_points
 from .geometry import overhang
 from .loop import SlideLoop, Stop
-from .motions import plan_times, timed_way
+from .motions import plan_times, rest_to_rest
 from .objects import ThinObject, load_object, load_outline, place_outline
 from .plan.config import PlannerConfig
 from .plan.planner import plan
@@ -289,10 +289,11 @@ class _Simulated:
 
     def move(self, result: PlanResult, path: np.ndarray, phase: str) -> None:
         if phase == "reach":  # under the new plan's own limits, as a reach to a first contact
-            way = timed_way(self.robot, path, result.timing["limits"], phase, capped=False)
+            timing = rest_to_rest(self.robot, path, result.timing["limits"], phase, capped=False)
         else:
-            way = timed_way(self.robot, path, resolve_limits(result, timing_options(self.settings, self.robot.velocity_limits)), phase)
-        self.runner.follow(*way, SETTLE_S)
+            limits = resolve_limits(result, timing_options(self.settings, self.robot.velocity_limits))
+            timing = rest_to_rest(self.robot, path, limits, phase)
+        self.runner.follow(path, timing["time_from_start"], SETTLE_S)
 
     def frames(self):
         return self._frames

@@ -1,5 +1,5 @@
 """Kinematic motions, no physics: straight fingertip lines solved a centimetre at a time, ways timed from
-rest to rest, joint references read off timed paths, a plan's segment times, and the reach to a slide's
+rest to rest (:func:`rest_to_rest`), joint references read off timed paths, a plan's segment times, and the reach to a slide's
 first contact (a move the plan does not hold: the arm starts wherever it is), checked for collisions with
 the table, clutter and object. The MuJoCo runner (:mod:`slideplan.execute.runner`), the closed loop
 (:mod:`slideplan.loop`) and the ROS node (:mod:`slideplan.ros.task`, :mod:`slideplan.ros.execution`) move
@@ -52,13 +52,18 @@ def straight_line(robot, config: np.ndarray, offset) -> np.ndarray | None:
     return np.array(path)
 
 
-def timed_way(robot, path: np.ndarray, limits: dict[str, Any], name: str, *, capped: bool = True) -> tuple[np.ndarray, np.ndarray]:
-    """A way through ``path``'s configurations and its times from rest to rest, the fingertip speed
-    capped all the way unless ``capped`` is False: the moves a plan does not hold (the lift after the
-    grasp, the closed loop's look from clear, its reach to a new contact). ``name`` names it in a
-    timing error."""
+def rest_to_rest(robot, path: np.ndarray, limits: dict[str, Any], name: str, *, capped: bool = True) -> dict[str, np.ndarray]:
+    """The timing of ``path``'s configurations from rest to rest under ``limits``
+    (:func:`slideplan.timing.time_path`, the fingertip where ``robot`` puts it), its speed capped all the
+    way unless ``capped`` is False: the moves a plan does not hold (the lift after the grasp, the closed
+    loop's look from clear, its reach to a new contact, a slide re-timed from where it stopped). ``name``
+    names it in a timing error.
+
+    Returns:
+        ``{"time_from_start": (M,), "velocities": (M, dof), "accelerations": (M, dof)}``.
+    """
     tips = np.array([np.asarray(robot.fk(config))[:3, 3] for config in path])
-    return path, time_path(path, tips, np.full(len(path), capped), limits, name)["time_from_start"]
+    return time_path(path, tips, np.full(len(path), capped), limits, name)
 
 
 def reference(path: np.ndarray, times: np.ndarray, t: float) -> np.ndarray:

@@ -22,13 +22,12 @@ import shapely
 from .camera import Camera
 from .errors import InputError
 from .geometry import overhang
-from .motions import plan_times
+from .motions import plan_times, rest_to_rest
 from .objects import ThinObject
 from .plan.config import PlannerConfig
 from .plan.planner import plan
 from .plan.result import PlanResult
 from .scenes import Scene
-from .timing import time_path
 from .tracking import NOT_UNDER_TIP, Tracker
 from .transforms import compose_planar, move_planar, planar_motion, pose_to_row, row_to_pose, wrap_angle
 
@@ -100,11 +99,9 @@ class Segment:
         waypoints after it, timed from rest under the plan's limits (its grasp, at the same end, stays)."""
         after = self.times > stop_s
         configs = np.vstack([np.asarray(config, dtype=float)[None, :], np.asarray(self.result.trajectory, dtype=float)[after]])
-        poses = [np.asarray(robot.fk(joints)) for joints in configs]
         timing = dict(self.result.timing)
-        timing["trajectory"] = time_path(configs, np.array([pose[:3, 3] for pose in poses]), np.ones(len(configs), dtype=bool),
-                                         timing["limits"], "trajectory")
-        rows = np.vstack([pose_to_row(poses[0])[None, :], np.asarray(self.result.fingertip_poses)[after]])
+        timing["trajectory"] = rest_to_rest(robot, configs, timing["limits"], "trajectory")
+        rows = np.vstack([pose_to_row(np.asarray(robot.fk(configs[0])))[None, :], np.asarray(self.result.fingertip_poses)[after]])
         return dataclasses.replace(self.result, trajectory=configs, fingertip_poses=rows, start_config=configs[0], timing=timing)
 
     def still_works(self, perceived: ThinObject, table, config: PlannerConfig, tip: np.ndarray, seen, slack: float) -> bool:

@@ -19,6 +19,7 @@ from handmade_plan import build_plan
 from slideplan import _core
 from slideplan.cli import app
 from slideplan.errors import InputError
+from slideplan.motions import rest_to_rest
 from slideplan.objects import load_object
 from slideplan.plan.config import PlannerConfig
 from slideplan.plan.result import PlanResult
@@ -99,6 +100,24 @@ def test_timed_plan_respects_every_limit(which, request):
     near_table = approach_tips[:, 2] < result.table["height"] + result.object["thickness"] + NEAR_TABLE_M
     assert near_table[0]  # the approach starts with the fingertip on the object
     check_segment(approach, timing["approach"], vmax, amax, approach_tips, near_table, DEFAULT_FINGERTIP_SPEED)
+
+
+def test_rest_to_rest_times_a_path_the_plan_does_not_hold_as_the_plan_times_its_slide(handmade):
+    robot = handmade.robot_model()
+    path, limits = np.asarray(handmade.trajectory), handmade.timing["limits"]
+    capped = rest_to_rest(robot, path, limits, "lift")
+    for key in ("time_from_start", "velocities", "accelerations"):  # the slide is capped all along too
+        assert np.allclose(capped[key], handmade.timing["trajectory"][key], rtol=1e-9, atol=1e-12), key
+    tips = fingertip_positions(handmade, path)
+    fastest = check_segment(path, capped, URDF_VELOCITY, DEFAULT_JOINT_ACCELERATION, tips, np.ones(len(path), bool),
+                            DEFAULT_FINGERTIP_SPEED)
+    free = rest_to_rest(robot, path, limits, "reach", capped=False)
+    check_segment(path, free, URDF_VELOCITY, DEFAULT_JOINT_ACCELERATION)
+    assert fastest > 0.9 * DEFAULT_FINGERTIP_SPEED  # the cap binds, so without it the move is quicker
+    assert free["time_from_start"][-1] < 0.9 * capped["time_from_start"][-1]
+    with pytest.raises(InputError) as error:
+        rest_to_rest(robot, path, dict(limits, joint_velocity=-limits["joint_velocity"]), "lift")
+    assert error.value.field.startswith("timing")
 
 
 def test_limits_can_be_overridden(handmade):

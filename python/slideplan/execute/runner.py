@@ -8,7 +8,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..motions import reference, references, straight_up, timed_way
+from ..motions import reference, references, rest_to_rest, straight_up
 from ..timing import TimingOptions
 from .model import Model, enable_hand_collisions
 from .settings import ExecutionSettings
@@ -220,7 +220,7 @@ class Runner:
         if lift_way is None:
             return failure or ("grasp", f"no inverse kinematics for the {100 * settings.lift_height:.0f} cm lift")
         # The lift is not in the plan: timed here, the fingertip capped all the way (it holds the object).
-        lift_path, lift_times = timed_way(robot, lift_way, limits, "lift")
+        lift_path, lift_times = lift_way, rest_to_rest(robot, lift_way, limits, "lift")["time_from_start"]
         lift_s = float(lift_times[-1])
 
         def holding(elapsed: float, step: int) -> None:

@@ -11,11 +11,11 @@ import numpy as np
 
 from ..camera import Camera
 from ..loop import SlideLoop, Stop
-from ..motions import reference
+from ..motions import reference, rest_to_rest
 from ..plan.robot import base_pose_matrix
 from ..plan.result import PlanResult
 from ..watch import Watch
-from .task import Refused, Task, cloud_in_world, lift_path, timed
+from .task import Refused, Task, cloud_in_world, lift_path
 
 # The closed loop, as slideplan run's defaults: a drift is 3 mm / 2 deg off the prediction; each re-plan has 1 s.
 THRESHOLD = (0.003, math.radians(2.0))
@@ -41,7 +41,7 @@ class Execution:
         result = task.result
         node.set_gripper(False)
         names = result.joint_names
-        node.move(names, task.reach, timed(result, task.reach, "reach", capped=False), "reach")
+        node.move(names, task.reach, rest_to_rest(result.robot_model(), task.reach, result.timing["limits"], "reach", capped=False), "reach")
         result, replans, expected = self.slide(result)
         approach = np.asarray(result.grasp["approach"], dtype=float)
         if len(approach):
@@ -50,7 +50,7 @@ class Execution:
         node.publish_status("close")
         node.set_gripper(True)
         lift = lift_path(result)
-        node.move(names, lift, timed(result, lift, "lift", capped=True), "lift")
+        node.move(names, lift, rest_to_rest(result.robot_model(), lift, result.timing["limits"], "lift"), "lift")
         checked = self.check_lifted(expected)
         latencies = [event.latency_s for event in self.events if event.outcome in ("slide", "grasp", "refused", "timeout")]
         return {"status": "done", "closed_loop": bool(node.parameter("closed_loop")), "replans": replans,
@@ -238,7 +238,7 @@ class _Controlled:
             self.node.move(self.names, stop.config[None, :], _hold(stop.config), "slide", self.delay)
 
     def move(self, result: PlanResult, path: np.ndarray, phase: str) -> None:
-        self.node.move(self.names, path, timed(result, path, phase, capped=phase != "reach"), phase)
+        self.node.move(self.names, path, rest_to_rest(result.robot_model(), path, result.timing["limits"], phase, capped=phase != "reach"), phase)
 
     def record(self, event) -> None:
         self.execution.record(event)

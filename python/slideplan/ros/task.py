@@ -16,7 +16,6 @@ from ..plan.config import PlannerConfig
 from ..plan.robot import base_pose_matrix
 from ..plan.result import PlanResult
 from ..scenes import Scene
-from ..timing import time_path
 
 
 LIFT_M = 0.05  # the lift after the grasp
@@ -77,13 +76,6 @@ def lift_path(result: PlanResult) -> np.ndarray:
     if lifted is None:
         raise Refused("lift", f"no inverse kinematics for the {100 * LIFT_M:.0f} cm lift")
     return lifted
-
-
-def timed(result: PlanResult, path: np.ndarray, name: str, capped: bool) -> dict[str, np.ndarray]:
-    """Rest-to-rest timing of ``path`` under the plan's limits (the fingertip capped all along if ``capped``)."""
-    robot = result.robot_model()
-    tips = np.array([np.asarray(robot.fk(config))[:3, 3] for config in path])
-    return time_path(path, tips, np.full(len(path), capped), result.timing["limits"], name)
 
 
 @dataclass
