@@ -64,7 +64,7 @@ from .execute.model import DEPTH_CAMERA, build_model
 from .execute.runner import SETTLE_S, Runner, Unstable, timing_options
 from .execute.settings import ExecutionSettings
 from .execute.video import Recorder, plan_points
-from .geometry import overhang
+from .geometry import Ending
 from .loop import SlideLoop, Stop
 from .motions import plan_times, rest_to_rest
 from .objects import ThinObject, load_object, load_outline, place_outline
@@ -239,12 +239,12 @@ def _diagnose(report: dict[str, Any], table, perceived: ThinObject, truth: ThinO
     if seen:
         moved = perceived.moved(seen_motion)
         report["seen_motion"] = dict(zip(("x", "y", "yaw"), map(float, seen_motion)))
-        report["seen_overhang_m"] = float(overhang(table, moved.points[:, :2])[0])
-        report["seen_com_margin_m"] = float(table.edge_margin(moved.centroid_xy))
+        seen_end = Ending.at(table, moved.points[:, :2], moved.centroid_xy)
+        report["seen_overhang_m"], report["seen_com_margin_m"] = map(float, seen_end)
     com, yaw, _ = runner.object_pose()  # the object's body starts unturned, its origin at the centre of mass
     motion = (*(com - move_planar(np.asarray(truth.centroid_xy, dtype=float), (0.0, 0.0, yaw))), yaw)
-    report["true_overhang_m"] = float(overhang(table, move_planar(truth.points[:, :2], motion))[0])
-    report["true_com_margin_m"] = float(table.edge_margin(com))
+    true_end = Ending.at(table, move_planar(truth.points[:, :2], motion), com)
+    report["true_overhang_m"], report["true_com_margin_m"] = map(float, true_end)
 
 
 class _Simulated:

@@ -1,9 +1,11 @@
-"""The support surface (table top, a simple polygon at a height) and the area centroid of a cloud."""
+"""The support surface (table top, a simple polygon at a height), the area centroid of a cloud, and how a slide
+leaves an object for the grasp (its overhang and centre-of-mass margin: :class:`Ending`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 import shapely
@@ -244,3 +246,32 @@ def overhang(table: SupportSurface, moved_xy: np.ndarray) -> tuple[float, np.nda
     out_points = moved_xy[outside]
     start, normal = _closest_edge(table, out_points.mean(axis=0))
     return float(np.max((out_points - start) @ normal)), outside, (start, normal)
+
+
+class Ending(NamedTuple):
+    """How a slide leaves an object for the grasp (paper IV-C.1): the one home of "the slide ends graspable".
+
+    Attributes:
+        overhang: ``u`` (m), :func:`overhang` at the final pose (the verifier gives the part the hand holds).
+        com_margin: the centre of mass's signed distance inside the table edge (m; negative off the table).
+    """
+
+    overhang: float
+    com_margin: float
+
+    @classmethod
+    def at(cls, table: SupportSurface, moved_xy: np.ndarray, moved_com) -> Ending:
+        """The ending of an object whose points are at ``moved_xy`` (N, 2) and centre of mass at ``moved_com``."""
+        return cls(overhang(table, moved_xy)[0], table.edge_margin(moved_com))
+
+    def overhangs(self, u_star: float, slack: float = 0.0) -> bool:
+        """``u >= u*`` (less ``slack``: the verifier's tolerance of the planner's steps)."""
+        return self.overhang >= u_star - slack
+
+    def com_inside(self, com_margin: float, slack: float = 0.0) -> bool:
+        """The centre of mass at least ``com_margin`` inside the table edge (less ``slack``)."""
+        return self.com_margin >= com_margin - slack
+
+    def graspable(self, u_star: float, com_margin: float) -> bool:
+        """Both, exactly: the grasp can hold ``u*`` of the object and the table still bears it."""
+        return self.overhangs(u_star) and self.com_inside(com_margin)

@@ -19,7 +19,8 @@ It is not independent of the planner's code. It shares with the planner:
 - the one collision-world builder (``slideplan.plan.robot.collision_world``: the plan's obstacles as the core's) and
   ``scenes.obstacle_footprint`` (their footprints);
 - the data layer: ``geometry.SupportSurface`` (the table polygon: ``contains``,
-  ``edge_margin``), ``geometry.area_centroid`` (the core's ``_core.area_centroid``, the one
+  ``edge_margin``), ``geometry.Ending`` (the one "ends graspable" comparison, given the verifier's
+  tolerances), ``geometry.area_centroid`` (the core's ``_core.area_centroid``, the one
   centre-of-mass computation the planner uses too), ``transforms`` and ``timing.NEAR_TABLE_M``.
 
 A bug in any of these can pass both the planner and the verifier. What it computes on its own,
@@ -44,7 +45,7 @@ from .checks import (
     density_violations, joint_limit_violations, plan_world, pose_mismatch,
 )
 from .errors import InputError, require_type
-from .geometry import SupportSurface, area_centroid, overhang
+from .geometry import Ending, SupportSurface, area_centroid, overhang
 from .grasp_checks import check_grasp, check_grasp_pose
 from .plan.result import PlanResult
 from .plan.schema import check_ends, check_shapes
@@ -321,23 +322,23 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
         if beyond < standoff - MOTION_TOLERANCE:
             violations.append(f"grasp.pose: {beyond:.4f} m beyond the table edge, less than grasp_standoff {standoff}")
         held = u - max(0.0, beyond - standoff)
-    if held < result.params["u_star"] - STEP_SLACK:
+    motion = result.object_motion
+    com = np.asarray(result.object["com_xy"], dtype=float)
+    moved_com = move_planar(com, (motion["x"], motion["y"], motion["yaw"]))
+    end = Ending(held, table.edge_margin(moved_com))  # the overhang the hand holds
+    if not end.overhangs(result.params["u_star"], STEP_SLACK):
         violations.append(f"final object pose: overhang held by the hand {held:.6f} m < u_star {result.params['u_star']}")
     if abs(u - result.overhang_m) > MOTION_TOLERANCE:
         violations.append(f"overhang_m: recorded {result.overhang_m:.6f} m, recomputed {u:.6f} m")
-    motion = result.object_motion
-    com = np.asarray(result.object["com_xy"], dtype=float)
     # The data layer's centroid (the planner receives it from there too); recomputed, not trusted.
     centroid = area_centroid(np.asarray(result.object["points"], dtype=float)[:, :2])
     if float(np.linalg.norm(com - centroid)) > MOTION_TOLERANCE:
         violations.append(f"object.com_xy: ({com[0]:.4f}, {com[1]:.4f}) is not the area centroid of the object's "
                           f"points ({centroid[0]:.4f}, {centroid[1]:.4f})")
-    moved_com = move_planar(com, (motion["x"], motion["y"], motion["yaw"]))
-    margin = table.edge_margin(moved_com)
-    if margin <= 0.0:
+    if end.com_margin <= 0.0:
         violations.append(f"final object pose: centre of mass ({moved_com[0]:.4f}, {moved_com[1]:.4f}) is off the table")
-    elif margin < result.params.get("com_margin", 0.0) - MOTION_TOLERANCE:
-        violations.append(f"final object pose: centre of mass {margin:.4f} m inside the table edge, "
+    elif not end.com_inside(result.params.get("com_margin", 0.0), MOTION_TOLERANCE):
+        violations.append(f"final object pose: centre of mass {end.com_margin:.4f} m inside the table edge, "
                           f"less than com_margin {result.params['com_margin']}")
     return violations
 

@@ -21,7 +21,7 @@ import shapely
 
 from .camera import Camera
 from .errors import InputError
-from .geometry import overhang
+from .geometry import Ending
 from .motions import plan_times, rest_to_rest
 from .objects import ThinObject
 from .plan.config import PlannerConfig
@@ -113,8 +113,7 @@ class Segment:
         if not shapely.MultiPoint(now.points[:, :2]).convex_hull.buffer(-slack).contains(shapely.Point(tip[:2, 3])):
             return False
         end = perceived.moved(compose_planar(seen, planar_motion(tip, row_to_pose(self.result.fingertip_poses[-1]))))
-        return (overhang(table, end.points[:, :2])[0] >= config.u_star
-                and table.edge_margin(end.centroid_xy) >= config.com_margin)
+        return Ending.at(table, end.points[:, :2], end.centroid_xy).graspable(config.u_star, config.com_margin)
 
 
 def slide_segment(result: PlanResult, top: float, base) -> Segment:

@@ -8,7 +8,7 @@ from shapely.geometry import Polygon
 
 from slideplan import _core
 from slideplan.errors import InputError
-from slideplan.geometry import SupportSurface
+from slideplan.geometry import Ending, SupportSurface
 
 SQUARE = [[0.35, -0.25], [0.85, -0.25], [0.85, 0.25], [0.35, 0.25]]
 L_SHAPE = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.4], [0.4, 0.4], [0.4, 1.0], [0.0, 1.0]]
@@ -104,3 +104,18 @@ def test_the_core_accepts_every_fine_table_shapely_accepts_and_both_bound_the_ve
         SupportSurface.from_vertices(vertices, field="table.polygon")
     with pytest.raises(ValueError, match=f"at most {limit}"):
         _core.SupportSurface(vertices, 0.0)
+
+
+def test_ending_is_the_overhang_and_centre_of_mass_margin_and_graspable_needs_both():
+    table = SupportSurface.from_vertices(SQUARE)
+    # A 10 cm square whose right 3 cm overhang the x = 0.85 edge; its centre 2 cm inside it.
+    xs, ys = np.meshgrid(np.linspace(0.78, 0.88, 11), np.linspace(-0.05, 0.05, 11))
+    points = np.column_stack([xs.ravel(), ys.ravel()])
+    end = Ending.at(table, points, (0.83, 0.0))
+    assert end.overhang == pytest.approx(0.03) and end.com_margin == pytest.approx(0.02)
+    assert end.graspable(0.03 - 1e-9, 0.02 - 1e-9)
+    assert not end.graspable(0.031, 0.0) and not end.graspable(0.0, 0.021)  # either one short is not graspable
+    assert end.overhangs(0.031, slack=0.002) and end.com_inside(0.021, slack=0.002)  # the verifier's tolerance
+    off = Ending.at(table, points + [0.05, 0.0], (0.88, 0.0))
+    assert off.com_margin == pytest.approx(-0.03) and not off.graspable(0.0, 0.0)
+    assert Ending.at(table, points - [0.1, 0.0], (0.73, 0.0)).overhang == 0.0

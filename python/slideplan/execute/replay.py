@@ -12,12 +12,11 @@ from typing import Any, Callable
 import numpy as np
 
 from ..errors import InputError, require_type
-from ..geometry import SupportSurface
+from ..geometry import Ending, SupportSurface
 from ..plan.robot import build_robot
 from ..plan.result import PlanResult
 from ..timing import parameterize, resolve_limits
 from ..transforms import move_planar, rotation_2d, wrap_angle
-from ..geometry import overhang
 from ..motions import timing_of
 from ..verify import require_motion
 from .model import build_model
@@ -121,8 +120,8 @@ def execute(
         report["actual_motion"] = dict(zip(("x", "y", "yaw"), map(float, actual)))
         report["position_error_m"] = float(np.linalg.norm(com1 - planned_com))
         report["yaw_error_deg"] = math.degrees(wrap_angle(yaw1 - predicted[2]))
-        report["overhang_m"] = overhang(table, move_planar(np.asarray(result.object["points"])[:, :2], actual))[0]
-        report["com_margin_m"] = table.edge_margin(com1)
+        moved = move_planar(np.asarray(result.object["points"])[:, :2], actual)
+        report["overhang_m"], report["com_margin_m"] = Ending.at(table, moved, com1)
         if report["normal_force_n"]["mean"] < _NO_FORCE_N:
             fail("slide", f"no normal force at the fingertip (mean {report['normal_force_n']['mean']:.2f} N): "
                           "the finger does not press, the object does not follow")
