@@ -142,6 +142,7 @@ class ThinObject:
         [0, 2 pi) (rad; 0 always, 4 for a square, all 360 for a disc): a turn a camera cannot see, so
         neither a tracking error nor a drift. Within ``SYMMETRY_TOLERANCE_M`` of the outline (the convex
         hull of a cloud without one)."""
+        # Convex, unlike the tracker's concave outline: its jags at the points' spacing leave a disc's cloud 1 turn of 360.
         outline = self.outline if self.outline is not None else shapely.MultiPoint(self.points[:, :2]).convex_hull
         boundary = outline.boundary
         samples = shapely.get_coordinates(shapely.segmentize(boundary, 0.005))

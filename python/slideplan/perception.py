@@ -446,7 +446,9 @@ def _smoothed_heights(grid: _Grid, cells: np.ndarray, heights: np.ndarray, sigma
 
 def _convex_hull(xy: np.ndarray) -> Polygon:
     """The convex hull of many points (a table's tens of thousands): from qhull's vertices, since
-    shapely would first build one geometry per point (most of a perceive call's time)."""
+    shapely would first build one geometry per point (most of a perceive call's time). Not used for an
+    object's few hundred points (ThinObject.symmetry_turns): qhull drops vertices shapely keeps on nearly
+    straight edges, and those hulls' samples, hence the turns found, would move."""
     from scipy.spatial import ConvexHull, QhullError
 
     try:

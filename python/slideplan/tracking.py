@@ -110,6 +110,7 @@ class Tracker:
         self.obj, self.camera, self.iterations = obj, camera, iterations
         self.table_height = as_number(table_height, source="", field="table_height")
         self.table_plane = None if table_plane is None else as_numbers(table_plane, 3, source="", field="table_plane")
+        # Concave, unlike symmetry_turns' convex hull: a crescent's convex hull covers its bite, where the camera sees table.
         outline = obj.outline if obj.outline is not None else _cloud_outline(obj.points[:, :2])
         self._hull = outline.convex_hull  # where a start contact may be (the planner's test)
         interior = outline.buffer(-INLIER_M)
