@@ -34,27 +34,16 @@ namespace slideplan
         IkOptions options = graspIkOptions(params);
         options.maxAttempts = attempts;
         options.abandonAfter = abandonAfter;
-        // Asked of every solution, so that the restarts look for another posture rather than give up.
-        // The lift as the execution makes it (slideplan.motions.straight_line): straight up a
-        // centimetre at a time, each IK seeded by the last, no joint turning more than kLiftJointStep
-        // per step. One IK for the whole lift landed on another branch: a WAM grasp with its wrist at
-        // its limit "lifted" by turning it a full turn, and the execution found no lift (closed-loop sweep).
+        // Asked of every solution, so that the restarts look for another posture rather than give up: the
+        // lift as the execution makes it (slideplan.motions.straight_line calls straightLine too), from the
+        // seed only (one attempt: a restart would jump branches).
         if (params.liftCheck)
             options.accept = [&](const Eigen::VectorXd &q) {
                 IkOptions near = graspIkOptions(params);
                 near.maxAttempts = 1;
-                const int steps = std::max(1, static_cast<int>(std::ceil(params.graspLift / kLiftStep - 1e-9)));
-                Eigen::VectorXd from = q, raised;
-                for (int step = 1; step <= steps; ++step)
-                {
-                    Eigen::Isometry3d target = grasp;
-                    target.translation().z() += params.graspLift * step / steps;
-                    if (!robot.ikForLink(task.graspLink, target, from, rng, raised, near, task.graspOffset) ||
-                        (raised - from).cwiseAbs().maxCoeff() > kLiftJointStep)
-                        return false;
-                    from = raised;
-                }
-                return true;
+                return straightLine(robot, q, grasp, Eigen::Vector3d(0.0, 0.0, params.graspLift), near, 0, task.graspLink,
+                                    task.graspOffset)
+                    .has_value();
             };
         return robot.ikForLink(task.graspLink, grasp, seed, rng, solution, options, task.graspOffset);
     }

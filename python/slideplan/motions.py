@@ -19,12 +19,6 @@ from .objects import ThinObject
 from .plan.result import PlanResult
 from .timing import time_path
 
-# A straight move (up, or aside to look) is solved a centimetre at a time; a step turning a joint further
-# than MAX_JOINT_STEP_RAD has left the arm's branch. The planner's lift check (lift_check) uses the same.
-UP_STEP_M = _core.LIFT_STEP_M
-MAX_JOINT_STEP_RAD = _core.LIFT_JOINT_STEP_RAD
-
-
 def straight_up(robot, config: np.ndarray, height: float) -> np.ndarray | None:
     """Configurations taking the fingertip from where it is at ``config`` ``height`` straight up:
     :func:`straight_line` by (0, 0, ``height``)."""
@@ -34,22 +28,13 @@ def straight_up(robot, config: np.ndarray, height: float) -> np.ndarray | None:
 def straight_line(robot, config: np.ndarray, offset) -> np.ndarray | None:
     """Configurations taking the fingertip from where it is at ``config`` along the straight line to
     ``offset`` (m, world frame) from there, its orientation kept (its yaw free for an arm with fewer than
-    six joints, as the planner's contact), ``UP_STEP_M`` apart, each IK seeded by the one before; None
-    where a step has no IK or turns a joint more than ``MAX_JOINT_STEP_RAD``. One IK call for the whole
-    move may land on another branch of the arm, and the joint-linear move there swings the hand through
-    the table and the object."""
-    start = np.asarray(robot.fk(config))
-    offset = np.asarray(offset, dtype=float)
-    steps = max(1, math.ceil(float(np.linalg.norm(offset)) / UP_STEP_M - 1e-9))
-    path = [np.asarray(config, dtype=float)]
-    for step in range(1, steps + 1):
-        target = start.copy()
-        target[:3, 3] += offset * step / steps
-        found = robot.ik(target, seed=path[-1], rng_seed=0, options=_core.contact_ik_options(robot))
-        if found is None or np.max(np.abs(np.asarray(found) - path[-1])) > MAX_JOINT_STEP_RAD:
-            return None
-        path.append(np.asarray(found, dtype=float))
-    return np.array(path)
+    six joints, as the planner's contact), ``_core.LIFT_STEP_M`` apart, each IK seeded by the one before;
+    None where a step has no IK or turns a joint more than ``_core.LIFT_JOINT_STEP_RAD``. The core's
+    ``straight_line``, the one the planner's lift check makes with the grasp frame: one IK call for the
+    whole move may land on another branch of the arm, and the joint-linear move there swings the hand
+    through the table and the object."""
+    return _core.straight_line(robot, np.asarray(config, dtype=float), np.asarray(offset, dtype=float),
+                               options=_core.contact_ik_options(robot), rng_seed=0)
 
 
 def rest_to_rest(robot, path: np.ndarray, limits: dict[str, Any], name: str, *, capped: bool = True) -> dict[str, np.ndarray]:

@@ -535,7 +535,8 @@ def test_a_move_straight_up_stays_on_the_vertical_and_on_the_arms_branch():
     # branch (a joint turned by 3.4 rad), and the joint-linear move there swept the hand 25 cm down
     # through the table and dragged the object. Solved a centimetre at a time, the way rises straight.
     from slideplan import load_object, load_scene, plan
-    from slideplan.motions import MAX_JOINT_STEP_RAD, straight_up
+    from slideplan import _core
+    from slideplan.motions import straight_up
     from slideplan.experiments.tasks import build_spec
 
     scene = load_scene("square")
@@ -554,7 +555,7 @@ def test_a_move_straight_up_stays_on_the_vertical_and_on_the_arms_branch():
         for points in (tips, between):
             assert np.linalg.norm(points[:, :2] - tips[0, :2], axis=1).max() < 0.001
         assert np.all(np.diff(tips[:, 2]) > 0) and tips[-1, 2] - tips[0, 2] == pytest.approx(0.1, abs=1e-4)
-        assert np.abs(np.diff(way, axis=0)).max() <= MAX_JOINT_STEP_RAD
+        assert np.abs(np.diff(way, axis=0)).max() <= _core.LIFT_JOINT_STEP_RAD
 
 
 def test_a_state_mujoco_resets_silently_is_named_as_the_cause():

@@ -384,3 +384,45 @@ def test_a_hand_with_several_concave_meshes_gives_one_warning_naming_them_all():
     meshes = [warning for warning in caught if issubclass(warning.category, MeshWarning)]
     assert len(meshes) == 1, [str(warning.message) for warning in meshes]
     assert all(f"'{link}'" in str(meshes[0].message) for link in exact)
+
+
+def _stepped_by_ik(robot, config, offset):
+    """The straight line as motions.straight_line computed it in Python before the core's straightLine: IK a
+    centimetre at a time (a generator seeded 0 each step), each seeded by the last, no joint turning more
+    than 0.3 rad."""
+    start, offset = np.asarray(robot.fk(config)), np.asarray(offset, dtype=float)
+    steps = max(1, math.ceil(float(np.linalg.norm(offset)) / 0.01 - 1e-9))
+    path = [np.asarray(config, dtype=float)]
+    for step in range(1, steps + 1):
+        target = start.copy()
+        target[:3, 3] += offset * step / steps
+        found = robot.ik(target, seed=path[-1], rng_seed=0, options=_core.contact_ik_options(robot))
+        if found is None or np.max(np.abs(np.asarray(found) - path[-1])) > 0.3:
+            return None
+        path.append(np.asarray(found, dtype=float))
+    return np.array(path)
+
+
+@pytest.mark.parametrize("scene_name", ["square", "so101_square"])
+def test_the_straight_line_is_the_cores_and_moves_as_ik_stepped_a_centimetre_at_a_time(scene_name):
+    from slideplan.motions import straight_line, straight_up
+
+    robot = robot_model(load_scene(scene_name))
+    rng = np.random.default_rng(3)
+    lines = 0
+    for index in range(12):
+        config = np.asarray(robot.random_configuration(index))
+        offset = rng.uniform(-0.04, 0.04, 3)
+        path, reference = straight_line(robot, config, offset), _stepped_by_ik(robot, config, offset)
+        assert (path is None) == (reference is None)
+        if path is not None:
+            lines += 1
+            assert np.array_equal(path, reference)  # bit for bit: executions unchanged
+            tips = np.array([np.asarray(robot.fk(q))[:3, 3] for q in path])
+            assert np.abs(tips[-1] - tips[0] - offset).max() < 1e-6
+    assert lines >= 6
+    assert (_core.LIFT_STEP_M, _core.LIFT_JOINT_STEP_RAD) == (0.01, 0.3)
+    up = straight_up(robot, config, 0.025)
+    assert up is None or len(up) == 4  # 3 steps of at most a centimetre
+    with pytest.raises(ValueError, match="finite"):
+        _core.straight_line(robot, np.full(robot.dof, np.nan), np.zeros(3))

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "slideplan/params.hpp"
+#include "slideplan/straight_line.hpp"
 #include "slideplan/task.hpp"
 
 #include <cmath>
@@ -22,14 +23,9 @@ namespace slideplan
     /// The grasp IK's options: H_g's orientation within the hand's tolerated rotation (params).
     IkOptions graspIkOptions(const PlannerParams &params);
 
-    /// The lift after the grasp, as the execution makes it (slideplan.execute.runner: UP_STEP_M,
-    /// MAX_JOINT_STEP_RAD): solved this often per metre, each step turning no joint further than this.
-    constexpr double kLiftStep = 0.01;        // m
-    constexpr double kLiftJointStep = 0.3;    // rad
-
     /// IK for the grasp frame `grasp` (task.graspLink x task.graspOffset) from `seed`, then random
     /// restarts up to `attempts`, within the tolerated rotation; with params.liftCheck, only a solution from which H_g rises
-    /// params.graspLift straight up, kLiftStep at a time without a joint turning more than kLiftJointStep: at the edge of the workspace a joint may sit at its limit. `abandonAfter`: as
+    /// params.graspLift straight up (straightLine, as the execution lifts): at the edge of the workspace a joint may sit at its limit. `abandonAfter`: as
     /// IkOptions::abandonAfter.
     bool liftableGraspIk(const SlidingTask &task, const PlannerParams &params, const Eigen::Isometry3d &grasp,
                          const Eigen::VectorXd &seed, int attempts, std::mt19937_64 &rng, Eigen::VectorXd &solution,

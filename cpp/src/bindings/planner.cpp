@@ -340,9 +340,6 @@ namespace slideplan::bindings
             .def_readonly("joint_acceleration", &TimingLimits::jointAcceleration, "(dof,) rad/s^2.")
             .def_readonly("fingertip_speed", &TimingLimits::fingertipSpeed, "m/s.");
         module.attr("NEAR_TABLE_M") = kNearTableM;
-        // The lift after the grasp: the planner's lift check and the execution's straight moves share these.
-        module.attr("LIFT_STEP_M") = kLiftStep;
-        module.attr("LIFT_JOINT_STEP_RAD") = kLiftJointStep;
         module.def(
             "time_path",
             [](const Eigen::MatrixXd &path, const Eigen::MatrixXd &tips, const std::vector<bool> &capped, const TimingLimits &limits) {

@@ -3,11 +3,16 @@
 #include "slideplan/contact_frame.hpp"
 #include "slideplan/mesh.hpp"
 #include "slideplan/robot_model.hpp"
+#include "slideplan/straight_line.hpp"
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
+#include <stdexcept>
+#include <string>
 #include <tuple>
+#include <vector>
 
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
@@ -160,6 +165,51 @@ namespace slideplan::bindings
                     return robot.randomConfiguration(rng);
                 },
                 py::arg("rng_seed"), "A uniformly random configuration within the joint limits.");
+
+        // One straight line for the planner's lift check and the execution's straight moves.
+        module.attr("LIFT_STEP_M") = kLiftStep;
+        module.attr("LIFT_JOINT_STEP_RAD") = kLiftJointStep;
+        module.def(
+            "straight_line",
+            [](const RobotModel &robot, const Eigen::VectorXd &q, const Eigen::Vector3d &offset, const IkOptions &options,
+               std::uint64_t rngSeed, const std::string &link, const Eigen::Matrix4d &frame) -> std::optional<Eigen::MatrixXd> {
+                if (q.size() != static_cast<long>(robot.dof()) || !q.allFinite() || !offset.allFinite())
+                    throw std::invalid_argument("q must be " + std::to_string(robot.dof()) +
+                                                " finite joint values and offset 3 finite numbers");
+                const Eigen::Isometry3d pose = toIsometry(frame);
+                std::optional<std::vector<Eigen::VectorXd>> path;
+                {
+                    py::gil_scoped_release release;
+                    const Eigen::Isometry3d start = link.empty() ? robot.fk(q) : robot.framePose(q, link, pose);
+                    path = straightLine(robot, q, start, offset, options, rngSeed, link, pose);
+                }
+                if (!path)
+                    return std::nullopt;
+                Eigen::MatrixXd rows(static_cast<long>(path->size()), q.size());
+                for (std::size_t i = 0; i < path->size(); ++i)
+                    rows.row(static_cast<long>(i)) = (*path)[i].transpose();
+                return rows;
+            },
+            py::arg("robot"), py::arg("q"), py::arg("offset"), py::arg("options") = IkOptions(), py::arg("rng_seed") = 0,
+            py::arg("link") = "", py::arg("frame") = Eigen::Matrix4d::Identity(),
+            "The configurations moving a frame of the arm in a straight line from where it is, its orientation kept "
+            "(straight_line.hpp): the lift after the grasp and the fingertip's straight moves, as the planner's lift "
+            "check makes them. Releases the GIL.\n\n"
+            "Args:\n"
+            "    robot: the RobotModel.\n"
+            "    q: (dof,) the configuration the move starts from.\n"
+            "    offset: (3,) where the frame goes from its pose at q (m, world frame).\n"
+            "    options: the IkOptions of each step (contact_ik_options(robot) for the fingertip: its yaw free on "
+            "an arm with fewer than six joints).\n"
+            "    rng_seed: seeds each step's IK restarts afresh (deterministic for a given seed).\n"
+            "    link: the link whose frame moves; empty (the default) for the tip frame.\n"
+            "    frame: 4x4 offset of the moving frame on link (e.g. the grasp frame); ignored for the tip.\n\n"
+            "Returns:\n"
+            "    (M, dof) array: q, then one configuration per step of at most LIFT_STEP_M, each IK seeded by the one "
+            "before; None where a step has no IK or turns a joint more than LIFT_JOINT_STEP_RAD.\n\n"
+            "Raises:\n"
+            "    ValueError: q is not dof finite numbers, offset not 3, frame not a pose, or link not a link moved by "
+            "every chain joint.");
 
         module.def(
             "resolve_uri",
