@@ -3,7 +3,7 @@
 before issue 52 (``contacts.LEGACY``) and with today's (``contacts.CURRENT``).
 
     python benchmarks/execute_fidelity.py run [--start 0] [--stride 5] [--count 40] [--out docs/benchmarks/execution_fidelity.parquet]
-    python benchmarks/execute_fidelity.py compare [docs/benchmarks/execution_fidelity*.parquet]
+    python benchmarks/execute_fidelity.py compare [--model current] [docs/benchmarks/execution_fidelity*.parquet]
 
 ``run`` plans each task of ``build_spec("execution").tasks[start::stride][:count]`` (as the execution
 experiment does: planned, verified) and writes one row per task and model: the slide's final planar
@@ -92,11 +92,12 @@ def tree_commit() -> str:
     return commit + ("+dirty" if dirty else "")
 
 
-def compare_rows(rows: pd.DataFrame) -> bool:
-    """Print the checks; True if both hold."""
+def compare_rows(rows: pd.DataFrame, model: str = "current") -> bool:
+    """Print the checks of ``model``'s rows against the legacy model's (a task's first row of each); True if
+    both hold."""
     executed = rows[rows["model"].notna()]
-    legacy = executed[executed["model"] == "legacy"].set_index("task_index")
-    current = executed[executed["model"] == "current"].set_index("task_index")
+    legacy = executed[executed["model"] == "legacy"].drop_duplicates("task_index").set_index("task_index")
+    current = executed[executed["model"] == model].drop_duplicates("task_index").set_index("task_index")
     both = legacy.index.intersection(current.index)
     legacy, current = legacy.loc[both], current.loc[both]
     valid = legacy["com_x"].notna() & current["com_x"].notna()
@@ -106,8 +107,8 @@ def compare_rows(rows: pd.DataFrame) -> bool:
     same_lift = legacy["lifted"] == current["lifted"]
     n = len(both)
     pose_share, lift_share = close.sum() / max(n, 1), same_lift.sum() / max(n, 1)
-    wall = {name: frame["wall_time_s"].to_numpy() for name, frame in (("legacy", legacy), ("current", current))}
-    factor = {name: frame["sim_time_s"].to_numpy() / frame["wall_time_s"].to_numpy() for name, frame in (("legacy", legacy), ("current", current))}
+    wall = {name: frame["wall_time_s"].to_numpy() for name, frame in (("legacy", legacy), (model, current))}
+    factor = {name: frame["sim_time_s"].to_numpy() / frame["wall_time_s"].to_numpy() for name, frame in (("legacy", legacy), (model, current))}
     print(f"{len(rows['task_index'].unique())} tasks, {n} executed by both models "
           f"({(~rows.drop_duplicates('task_index')['solved']).sum()} not solved)")
     print(f"final pose within {1000 * POSITION_M:.0f} mm and {YAW_DEG:.0f} deg of the old model's: {close.sum()}/{n} = "
@@ -117,7 +118,7 @@ def compare_rows(rows: pd.DataFrame) -> bool:
           f"p90 {np.nanpercentile(turn, 90):.2f} deg, max {np.nanmax(turn):.2f} deg")
     print(f"lifted the same: {same_lift.sum()}/{n} = {100 * lift_share:.1f}% (needs >= {100 * LIFTED_SHARE:.0f}%): "
           f"{'holds' if lift_share >= LIFTED_SHARE else 'FAILS'}")
-    for name in ("legacy", "current"):
+    for name in ("legacy", model):
         frame = legacy if name == "legacy" else current
         within = ((frame["position_error_m"] <= 0.005) & (frame["yaw_error_deg"].abs() <= 3.0)).sum()
         print(f"{name}: within 5 mm / 3 deg of Eq. 2 {within}/{n}, lifted {int(frame['lifted'].sum())}/{n}, "
@@ -139,11 +140,12 @@ def main() -> None:
                         help="';'-separated: legacy, current, or label=ContactModel(...) (a candidate)")
     comparer = commands.add_parser("compare")
     comparer.add_argument("rows", type=Path, nargs="*", default=[DEFAULT_OUT], help="row files, compared together")
+    comparer.add_argument("--model", default="current", help="the model compared with the legacy one (a run's label)")
     args = parser.parse_args()
     if args.command == "run":
         run(args)
     else:
-        sys.exit(0 if compare_rows(pd.concat([pd.read_parquet(path) for path in args.rows], ignore_index=True)) else 1)
+        sys.exit(0 if compare_rows(pd.concat([pd.read_parquet(path) for path in args.rows], ignore_index=True), args.model) else 1)
 
 
 if __name__ == "__main__":
