@@ -115,6 +115,13 @@ def test_cli_bad_input_is_exit_2_with_one_line():
     assert "--pose" in result.output and "not wholly on the table" in result.output
 
 
+@pytest.mark.parametrize("disturb, problem", [(["nan", "0", "0", "1"], "DX nan is not a finite number"),
+                                               (["0", "5", "0", "1"], "DY 5 is beyond 1 m in magnitude")])
+def test_cli_run_checks_the_disturbance_as_ros_sim_does(disturb, problem):
+    result = CliRunner().invoke(app, ["run", "--disturb", *disturb])
+    assert result.exit_code == 2 and "--disturb" in result.output and problem in result.output, result.output
+
+
 def _demo_segment():
     """The demo task's scene, object, planner settings, plan, and that plan as a slide to follow."""
     from slideplan.watch import slide_segment

@@ -16,7 +16,7 @@ from ..objects import load_outline, sample_pose_on_table
 from ..plan.result import PlanResult
 from ..scenes import load_scene
 from .common import (
-    EXIT_NOT_SOLVED, EXIT_SOLVED, VIDEO_SUFFIXES, _OPTION_OF_FIELD, _fail, _output_file, _write_text, app,
+    EXIT_NOT_SOLVED, EXIT_SOLVED, VIDEO_SUFFIXES, _OPTION_OF_FIELD, _disturb_values, _fail, _output_file, _write_text, app,
 )
 
 
@@ -116,7 +116,7 @@ def run_command(
         if pose is None:
             outline, _, _ = load_outline(object_name)
             pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(seed))
-        disturbance = None if disturb is None else Disturbance(*disturb)
+        disturbance = None if disturb is None else Disturbance(*_disturb_values(disturb))
         view = _run_camera(scene, camera)
         with _progress_line(f"running ({'closed' if closed else 'open'} loop)") as progress:
             report = run(scene, object_name, pose, seed=seed, closed=closed, setting=setting, disturbance=disturbance,

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Optional, Tuple
 
 import numpy as np
@@ -12,7 +11,7 @@ from .._fields import as_number
 from ..errors import InputError
 from ..objects import load_outline, sample_pose_on_table
 from ..scenes import load_scene
-from .common import EXIT_NOT_SOLVED, _OPTION_OF_FIELD, _OneLineErrors, _fail, app
+from .common import EXIT_NOT_SOLVED, _OPTION_OF_FIELD, _OneLineErrors, _disturb_values, _fail, _numbers, app
 
 
 ros_app = typer.Typer(cls=_OneLineErrors, no_args_is_help=True, help="slideplan on a ROS 2 robot (docs/ros2.md; the ros extra).")
@@ -85,35 +84,6 @@ def ros_call_command(
     typer.echo(f"{name}: {'success' if success else 'failure'}: {message}")
     if not success:
         raise typer.Exit(EXIT_NOT_SOLVED)
-
-
-def _numbers(text: str, option: str, unit: str) -> list[float]:
-    """The comma-separated numbers of ``option`` (in ``unit``, for the message).
-
-    Raises:
-        InputError: one is not a number (field ``option``).
-    """
-    try:
-        return [float(value) for value in text.split(",")]
-    except ValueError:
-        raise InputError(f"expected comma-separated numbers ({unit}), got {text!r}", field=option) from None
-
-
-def _disturb_values(disturb: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
-    """``--disturb DX DY DYAW T`` checked: a push within a metre and a turn, T in [0, 600] s (MuJoCo resets
-    an object moved beyond any table, and a NaN poisons the simulation).
-
-    Raises:
-        InputError: (``--disturb``) naming the value.
-    """
-    for name, value, bound, unit in zip(("DX", "DY", "DYAW"), disturb, (1.0, 1.0, 2 * math.pi), ("m", "m", "rad")):
-        if not math.isfinite(value):
-            raise InputError(f"{name} {value} is not a finite number", field="--disturb")
-        if abs(value) > bound:
-            raise InputError(f"{name} {value:g} is beyond {bound:g} {unit} in magnitude", field="--disturb")
-    if not 0.0 <= disturb[3] <= 600.0:
-        raise InputError(f"T must be in [0, 600] s, got {disturb[3]:g}", field="--disturb")
-    return disturb
 
 
 @ros_app.command("sim", context_settings=_ROS_ARGS)
