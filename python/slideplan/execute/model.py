@@ -170,7 +170,7 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         settings: physical parameters.
         world_object: the object as it really is (a :class:`~slideplan.objects.ThinObject`), when the
             plan's is a perception of it; None: the plan's.
-        camera: a :class:`~slideplan.rendering.Camera` to add as the fixed camera ``slideplan_depth``
+        camera: a :class:`~slideplan.camera.Camera` to add as the fixed camera ``slideplan_depth``
             (the closed loop's depth camera), or None.
         contacts: the contact geometry and solver options (:mod:`.contacts`); None: ``contacts.ACTIVE``.
 
