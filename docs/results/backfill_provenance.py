@@ -38,8 +38,9 @@ FILES = {
     "fig11_paper.parquet": (UNRECORDED, UNRECORDED, UNRECORDED),
     "fig12.parquet": ("a37807a", AMD, "2026-12-02"),
     "fig12_paper.parquet": ("a37807a", AMD, "2026-12-02"),
-    "execution.parquet": ("d3e2f75", AMD, UNRECORDED),  # execution.md: no date
-    # execution.md: "run at commit 03f2c70"; its machine line describes the default planner's run.
+    # The execution files' rows record their own build since their rerun at b30da0b (2026-12-06); these
+    # are what the page said of the rows before, used only for a row that recorded none.
+    "execution.parquet": ("d3e2f75", AMD, UNRECORDED),
     "execution_paper.parquet": ("03f2c70", UNRECORDED, UNRECORDED),
     "closed_loop.parquet": ("49efcf6", AMD, "2026-12-05"),  # closed_loop.md, "The sweep"
     "closed_loop_e0328a8.parquet": ("e0328a8", AMD, "2026-12-05"),
