@@ -258,56 +258,116 @@ def perceive(
             the table.
     """
     try:
+        import scipy.ndimage  # noqa: F401
         import sklearn  # noqa: F401  (imported here so a missing extra is named before any work)
-        from scipy import ndimage
     except ImportError as error:
         raise ImportError(f"perceive needs the perception extra (pip install 'slideplan[perception]'): {error}") from None
 
-    settings = {"max_tilt_deg": max_tilt_deg, "plane_tolerance": plane_tolerance, "min_table_area": min_table_area,
-                "min_height": min_height, "max_thickness": max_thickness, "min_object_area": min_object_area}
-    for name, value in settings.items():
-        as_number(value, source="", field=name, positive=True)
-    if cell_size is not None:
-        as_number(cell_size, source="", field="cell_size", positive=True)
-    if max_thickness <= min_height:
-        raise InputError(f"must be > min_height ({min_height:g}), got {max_thickness!r}", field="max_thickness")
+    _check_settings({"max_tilt_deg": max_tilt_deg, "plane_tolerance": plane_tolerance, "min_table_area": min_table_area,
+                     "min_height": min_height, "max_thickness": max_thickness, "min_object_area": min_object_area},
+                    cell_size)
     cloud = checked_cloud(points, source=source)
     problem = _Problem(source)
-    plane = None
-    if table_plane is not None:
-        known = as_numbers(table_plane, 3, source="", field="table_plane")
-        on_known = np.abs(cloud[:, 2] - cloud[:, :2] @ known[:2] - known[2]) < plane_tolerance
-        if on_known.mean() >= _MIN_PLANE_FRACTION:  # as much as a plane found by RANSAC must hold
-            plane = _Plane(known, cloud[on_known])
+    plane = _known_plane(cloud, table_plane, plane_tolerance)
     if plane is None:
         plane = _table_plane(cloud, plane_tolerance, min_table_area, max_tilt_deg, seed, problem)
     a, b, c = plane.coefficients
     heights = cloud[:, 2] - (a * cloud[:, 0] + b * cloud[:, 1] + c)
     on_plane = np.abs(heights) < plane_tolerance
     grid = _Grid(cloud[on_plane, :2], cell_size or _cell_size(cloud[on_plane, :2]), problem)
+    table_mask, skipped = _table_top(grid, cloud, heights, on_plane, min_height, max_thickness, min_table_area,
+                                     min_object_area)
+    over = _OverTable(grid, cloud, heights, table_mask, plane_tolerance)
+    thin, obstacles, occupied = _clusters(grid, over, table_mask, plane.coefficients, min_height, max_thickness,
+                                          min_object_area)
+    if not thin:
+        clutter = f" ({len(obstacles)} clutter clusters thicker than {max_thickness:g} m)" if obstacles else ""
+        raise problem(f"no object on the table: nothing between {min_height:g} and {max_thickness:g} m above the table plane{clutter}")
+    table, offset = _table_surface(grid, cloud, heights, on_plane & over.mask, occupied, over.xy, plane.coefficients)
+    warnings = [f"{skipped} larger table patch(es) at the same height with no object on them were passed over"] \
+        if skipped else []
+    objects = _thin_objects(thin, over, offset, table.height, min_height, grid, warnings)
+    if not objects:
+        raise problem(f"no object on the table: nothing between {min_height:g} and {max_thickness:g} m above the table plane")
+    return Perception(table, plane.tilt_deg, objects, obstacles, warnings, grid.cell,
+                      tuple(float(value) for value in plane.coefficients))
+
+
+def _check_settings(settings: dict[str, float], cell_size: float | None) -> None:
+    """Raise InputError for a perceive() setting that is not a positive number, or max_thickness <= min_height."""
+    for name, value in settings.items():
+        as_number(value, source="", field=name, positive=True)
+    if cell_size is not None:
+        as_number(cell_size, source="", field="cell_size", positive=True)
+    if settings["max_thickness"] <= settings["min_height"]:
+        raise InputError(f"must be > min_height ({settings['min_height']:g}), got {settings['max_thickness']!r}",
+                         field="max_thickness")
+
+
+def _known_plane(cloud: np.ndarray, table_plane, tolerance: float) -> _Plane | None:
+    """The table plane given by the caller, or None when there is none or it holds too few points (the camera moved)."""
+    if table_plane is None:
+        return None
+    known = as_numbers(table_plane, 3, source="", field="table_plane")
+    on_known = np.abs(cloud[:, 2] - cloud[:, :2] @ known[:2] - known[2]) < tolerance
+    if on_known.mean() >= _MIN_PLANE_FRACTION:  # as much as a plane found by RANSAC must hold
+        return _Plane(known, cloud[on_known])
+    return None
+
+
+def _table_top(grid: _Grid, cloud: np.ndarray, heights: np.ndarray, on_plane: np.ndarray, min_height: float,
+               max_thickness: float, min_table_area: float, min_object_area: float) -> tuple[np.ndarray, int]:
+    """The cells of the table top, and how many larger patches of the plane were passed over.
+
+    Two tables at one height are one plane: the table is the largest of its patches with something thin on it.
+    """
     in_grid = grid.covers(cloud[:, :2])
     thin_cells = grid.accumulate(grid.index(cloud[in_grid & (heights > min_height) & (heights <= max_thickness), :2])) > 0
-    # Two tables at one height are one plane: the largest of its patches with something thin on it.
     tables = _table_masks(grid, cloud[on_plane, :2], min_table_area)
     skipped = next((i for i, mask in enumerate(tables) if _holds_an_object(mask & thin_cells, grid.cell, min_object_area)), 0)
-    table_mask = tables[skipped]
+    return tables[skipped], skipped
 
-    # Everything at or above the plane over the table: the table top, the objects, the clutter.
-    over = in_grid & (heights > -plane_tolerance)
-    over[over] = table_mask[tuple(grid.index(cloud[over, :2]).T)]
-    xy, heights_over = cloud[over, :2], heights[over]
-    cells = grid.index(xy)
-    smoothed = _smoothed_heights(grid, cells, heights_over, _DETECTION_SIGMA)
-    # The edges from a less smoothed field: more noise, but thin parts (a crescent's tips) survive.
-    edge_field = _smoothed_heights(grid, cells, heights_over, _EDGE_SIGMA)
-    edge_at_point = ndimage.map_coordinates(edge_field, ((xy - grid.origin) / grid.cell - 0.5).T, order=1)
 
-    clusters, count = ndimage.label(table_mask & (smoothed > min_height), structure=np.ones((3, 3)))
+class _OverTable:
+    """Everything at or above the plane over the table: the table top, the objects, the clutter.
+
+    Attributes:
+        mask: (N,) which of the cloud's points these are.
+        xy, heights, cells: their xy, heights above the plane and grid cells.
+        smoothed: the detection field, the heights smoothed per cell.
+        edge_field: a less smoothed field (more noise, but thin parts such as a crescent's tips survive)
+            for the edges; ``edge_at_point`` is it at each point.
+    """
+
+    def __init__(self, grid: _Grid, cloud: np.ndarray, heights: np.ndarray, table_mask: np.ndarray,
+                 plane_tolerance: float) -> None:
+        from scipy import ndimage
+
+        self.mask = grid.covers(cloud[:, :2]) & (heights > -plane_tolerance)
+        self.mask[self.mask] = table_mask[tuple(grid.index(cloud[self.mask, :2]).T)]
+        self.xy, self.heights = cloud[self.mask, :2], heights[self.mask]
+        self.cells = grid.index(self.xy)
+        self.smoothed = _smoothed_heights(grid, self.cells, self.heights, _DETECTION_SIGMA)
+        self.edge_field = _smoothed_heights(grid, self.cells, self.heights, _EDGE_SIGMA)
+        self.edge_at_point = ndimage.map_coordinates(self.edge_field, ((self.xy - grid.origin) / grid.cell - 0.5).T, order=1)
+
+
+def _clusters(grid: _Grid, over: _OverTable, table_mask: np.ndarray, coefficients: np.ndarray, min_height: float,
+              max_thickness: float, min_object_area: float) -> tuple[list[tuple], list[BoxObstacle], np.ndarray]:
+    """The clusters over the table large enough to count.
+
+    Returns:
+        The thin ones as (cells, top, member points, cells near it, inner smoothed heights); the thick
+        ones as box obstacles; the cells they all cover.
+    """
+    from scipy import ndimage
+
+    clusters, count = ndimage.label(table_mask & (over.smoothed > min_height), structure=np.ones((3, 3)))
     # A point belongs to the nearest cluster within 2 cells: the detection blur erodes thin
-    # parts and corners, the edge field (below) decides which of these points are the object's.
+    # parts and corners, the edge field (in _thin_objects) decides which of these points are the object's.
     distance, nearest = ndimage.distance_transform_edt(clusters == 0, return_indices=True)
     near_cluster = np.where(distance <= 2, clusters[tuple(nearest)], 0)
-    cluster_of_point = near_cluster[tuple(cells.T)]
+    cluster_of_point = near_cluster[tuple(over.cells.T)]
     thin, obstacles = [], []
     occupied = np.zeros_like(table_mask)
     for label in range(1, count + 1):
@@ -318,31 +378,39 @@ def perceive(
         inner = ndimage.binary_erosion(mask)
         inner = inner if inner.any() else mask
         members = cluster_of_point == label
-        inner_members = members & inner[tuple(cells.T)]
-        top = float(np.median(heights_over[inner_members if inner_members.any() else members]))
+        inner_members = members & inner[tuple(over.cells.T)]
+        top = float(np.median(over.heights[inner_members if inner_members.any() else members]))
         if top > max_thickness:
-            obstacles.append(_box_obstacle(xy[members], heights_over[members], plane.coefficients, grid.cell))
+            obstacles.append(_box_obstacle(over.xy[members], over.heights[members], coefficients, grid.cell))
         else:
-            thin.append((int(mask.sum()), top, members, near_cluster == label, smoothed[inner]))
-    if not thin:
-        clutter = f" ({len(obstacles)} clutter clusters thicker than {max_thickness:g} m)" if obstacles else ""
-        raise problem(f"no object on the table: nothing between {min_height:g} and {max_thickness:g} m above the table plane{clutter}")
+            thin.append((int(mask.sum()), top, members, near_cluster == label, over.smoothed[inner]))
+    return thin, obstacles, occupied
 
-    # The table height from its bare points (away from anything on it), so the objects do not lift it.
-    bare = on_plane & over
+
+def _table_surface(grid: _Grid, cloud: np.ndarray, heights: np.ndarray, on_table: np.ndarray, occupied: np.ndarray,
+                   over_xy: np.ndarray, coefficients: np.ndarray) -> tuple[SupportSurface, float]:
+    """The table top, and its height above the plane at its bare points (away from anything on it, so the objects do
+    not lift it)."""
+    from scipy import ndimage
+
+    bare = on_table.copy()
     bare[bare] = ~ndimage.binary_dilation(occupied, iterations=2)[tuple(grid.index(cloud[bare, :2]).T)]
     # None bare (the objects cover the table): all its plane points, lifted a little by the objects' edges.
-    offset = float(np.median(heights[bare] if bare.any() else heights[on_plane & over]))
+    offset = float(np.median(heights[bare] if bare.any() else heights[on_table]))
     # Hull of everything over the table: objects and clutter hide the table under them.
-    hull = _convex_hull(xy).simplify(_OUTLINE_TOLERANCE)
+    hull = _convex_hull(over_xy).simplify(_OUTLINE_TOLERANCE)
     center = hull.centroid
+    a, b, c = coefficients
     table = SupportSurface.from_vertices(
         np.asarray(hull.exterior.coords), a * center.x + b * center.y + c + offset, field="table outline"
     )
+    return table, offset
 
+
+def _thin_objects(thin: list[tuple], over: _OverTable, offset: float, table_height: float, min_height: float,
+                  grid: _Grid, warnings: list[str]) -> list[PerceivedObject]:
+    """The thin clusters that are objects, largest first; a warning appended for one that looks like touching objects."""
     objects = []
-    warnings = [f"{skipped} larger table patch(es) at the same height with no object on them were passed over"] \
-        if skipped else []
     for _, top, members, near, inner_heights in sorted(thin, key=lambda item: -item[0]):
         if top - offset < min_height:  # stray points lifted the smoothed field, the cluster is table
             continue
@@ -354,19 +422,16 @@ def perceive(
                 f"object {len(objects)} has parts at different heights ({1000 * low:.1f} to {1000 * high:.1f} mm): "
                 "probably touching objects, reported as one"
             )
-        footprint = grid.polygon(near & (edge_field > half))
+        footprint = grid.polygon(near & (over.edge_field > half))
         # A point of the object lies at its top's height: flying pixels over it do not (within the
         # larger of half the thickness and three times the top's noise, a robust sigma from its MAD).
         band = max(top - half, 3 * 1.4826 * float(np.median(np.abs(inner_heights - np.median(inner_heights)))))
-        own = (heights_over > half) & (heights_over < top + band)
-        kept = xy[members & own & (edge_at_point > half)]
+        own = (over.heights > half) & (over.heights < top + band)
+        kept = over.xy[members & own & (over.edge_at_point > half)]
         if len(kept) < 3 or _convex_hull(kept).area <= 0.0:
             continue  # a cluster with no top of its own (noise lifted the smoothed field): not an object
-        objects.append(_thin_object(kept, top - offset, table.height, footprint))
-    if not objects:
-        raise problem(f"no object on the table: nothing between {min_height:g} and {max_thickness:g} m above the table plane")
-    return Perception(table, plane.tilt_deg, objects, obstacles, warnings, grid.cell,
-                      tuple(float(value) for value in plane.coefficients))
+        objects.append(_thin_object(kept, top - offset, table_height, footprint))
+    return objects
 
 
 class _Problem:
