@@ -20,7 +20,7 @@ from .bounds import MAX_REPLANS, MAX_SLIDE_S, Progress
 from .errors import InputError
 from .motions import Unreachable, collision_world, dense, reach_path, straight_line, straight_up
 from .objects import ThinObject
-from .plan.planner import plan
+from .pipeline import Checked, plan_checked
 from .plan.result import PlanResult
 from .watch import Replan, Segment, Watch, slide_segment
 
@@ -273,8 +273,8 @@ class SlideLoop:
                 best, most = np.vstack([up, aside[1:]]), count
         return best
 
-    def touch(self, seen: ThinObject, config: np.ndarray) -> PlanResult:
-        """A plan for the object ``seen`` partly over an edge, the finger off it (it slid on ahead of the
+    def touch(self, seen: ThinObject, config: np.ndarray) -> Checked:
+        """A verified plan (:class:`~slideplan.pipeline.Checked`) for the object ``seen`` partly over an edge, the finger off it (it slid on ahead of the
         finger): the planner takes such an object only from a state, so the state is the finger set down on
         it, turned and pressed as at ``config``, at the object's point nearest its centre; from there the
         plan is the grasp where the object already overhangs enough, or else the rest of the slide.
@@ -290,30 +290,28 @@ class SlideLoop:
         on = self.robot.ik(target, seed=config, rng_seed=0, options=_core.contact_ik_options(self.robot))
         if on is None:
             raise Unreachable(f"no inverse kinematics puts the finger on the object at ({point[0]:.3f}, {point[1]:.3f})")
-        return plan(self.watch.scene, seen, self.watch.replan_config, start_config=on)
+        return plan_checked(self.watch.scene, seen, self.watch.replan_config, start_config=on)
 
     def new_contact(self, motion, config: np.ndarray) -> PlanResult | None:
         """A whole new slide for the object seen at ``motion`` (verified) and the reach to its first contact
         from ``config`` (the finger lifted off first, every link checked), followed; None when there is none
         (the event says why)."""
-        from .verify import verify
-
         watch, started = self.watch, time.perf_counter()
         event = Replan(self.arm.clock(), "new_contact", 0.0, 0.0, 0.0, 0.0, "refused")
         seen = watch.perceived.moved(motion)
-        fresh = reach = None
+        checked = reach = None
         try:
-            fresh = (plan(watch.scene, seen, watch.replan_config) if watch.scene.table.polygon.contains(seen.outline)
-                     else self.touch(seen, config))
-            checked = verify(fresh) if fresh.solved else None
-            if checked is not None and not checked.ok:
-                event.detail = f"the new plan fails verification: {checked.violations[0]}"
-            elif checked is not None:
-                reach = reach_path(fresh, seen, config, pressed=True)
+            checked = (plan_checked(watch.scene, seen, watch.replan_config) if watch.scene.table.polygon.contains(seen.outline)
+                       else self.touch(seen, config))
+            if checked.verification is not None and not checked.ok:
+                event.detail = f"the new plan fails verification: {checked.verification.violations[0]}"
+            elif checked.ok:
+                reach = reach_path(checked.result, seen, config, pressed=True)
         except (InputError, Unreachable) as error:  # e.g. pushed mostly off the table: no slide from there
             event.detail = error.problem if isinstance(error, InputError) else str(error)
         event.plan_s = time.perf_counter() - started
-        if fresh is not None and not fresh.solved:
+        fresh = None if checked is None else checked.result
+        if checked is not None and checked.verification is None:
             event.outcome = "timeout"
         elif reach is not None:
             event.outcome = "grasp" if len(fresh.trajectory) == 1 else "slide"

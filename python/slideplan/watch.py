@@ -24,8 +24,8 @@ from .errors import InputError
 from .geometry import Ending
 from .motions import plan_times, rest_to_rest
 from .objects import ThinObject
+from .pipeline import plan_checked
 from .plan.config import PlannerConfig
-from .plan.planner import plan
 from .plan.result import PlanResult
 from .scenes import Scene
 from .tracking import NOT_UNDER_TIP, Tracker
@@ -309,14 +309,18 @@ class Watch:
             event.frames = [frame for _, _, frame in self._beyond]
         self._beyond.clear()
         motion = seen.motion if start_tip is None else compose_planar(seen.motion, planar_motion(tip, start_tip))
-        try:
-            again = plan(self.scene, self.perceived.moved(motion), self.replan_config, start_config=start_config)
+        try:  # verified, as every plan the arm runs (slideplan.pipeline)
+            checked = plan_checked(self.scene, self.perceived.moved(motion), self.replan_config, start_config=start_config)
         except InputError as error:
             event.plan_s, event.outcome, event.detail = time.perf_counter() - tracked, "refused", error.problem
             return None, event, seen
         event.plan_s = time.perf_counter() - tracked
-        if not again.solved:
+        again = checked.result
+        if checked.verification is None:
             event.outcome = "timeout"
+            return None, event, seen
+        if not checked.ok:
+            event.outcome, event.detail = "refused", f"the new plan fails verification: {checked.verification.violations[0]}"
             return None, event, seen
         event.outcome, event.detail = ("grasp" if len(again.trajectory) == 1 else "slide"), ""
         return again, event, dataclasses.replace(seen, motion=motion)

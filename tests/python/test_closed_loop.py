@@ -356,10 +356,13 @@ def test_a_search_of_the_table_leaves_out_the_obstacles_whose_sides_rise_through
     assert np.linalg.norm(obj.moved(found).centroid_xy - truth.centroid_xy) < 0.02  # a start for tracking
 
 
-def test_an_object_seen_over_the_edge_with_the_finger_off_it_is_grasped_from_a_touch_where_it_is():
+@pytest.mark.parametrize("verifier_rejects", [False, True])
+def test_an_object_seen_over_the_edge_with_the_finger_off_it_is_grasped_from_a_touch_where_it_is(verifier_rejects, monkeypatch):
     """The object slid on ahead of the finger to where it already overhangs (a heavy object on a slippery
     table): the planner takes an object over an edge only from a state, so a new contact puts the finger
-    down on it where it is seen, and plans from there, rather than grasping where Eq. 2 put the object."""
+    down on it where it is seen, and plans from there, rather than grasping where Eq. 2 put the object.
+    A plan the verifier rejects is not run (the loop plans through slideplan.pipeline)."""
+    from slideplan import pipeline
     from slideplan.loop import SlideLoop
     from slideplan.plan.robot import build_robot
     from slideplan.verify import verify
@@ -389,6 +392,11 @@ def test_an_object_seen_over_the_edge_with_the_finger_off_it_is_grasped_from_a_t
     off = np.asarray(first.trajectory[0])  # the finger where the slide began, 10 cm behind the object now
     assert not seen.outline.buffer(0.005).contains(shapely.Point(np.asarray(robot.fk(off))[:2, 3]))
     loop = SlideLoop(watch, robot, scene.table.height + obj.thickness, 3, Arm())
+    if verifier_rejects:
+        monkeypatch.setattr(pipeline, "verify", lambda result: pipeline.Verification(["trajectory[2]: planted"]))
+        assert loop.new_contact(motion, off) is None and Arm.moves == []
+        assert (Arm.events[-1].outcome, Arm.events[-1].detail) == ("refused", "the new plan fails verification: trajectory[2]: planted")
+        return
     fresh = loop.new_contact(motion, off)
     assert fresh is not None, Arm.events[-1]
     assert Arm.events[-1].outcome in ("grasp", "slide") and Arm.moves == ["reach"]
