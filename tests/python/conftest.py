@@ -1,4 +1,4 @@
-"""Fixtures shared by the timing, export and view tests."""
+"""Fixtures shared by the test modules: the grasp-map store, a planned plan and the hand-made one."""
 
 import os
 
@@ -16,6 +16,15 @@ def grasp_map_store(tmp_path_factory):
     folder = tmp_path_factory.mktemp("cache")
     os.environ["SLIDEPLAN_CACHE_DIR"] = str(folder)
     return folder
+
+
+@pytest.fixture(scope="session")
+def handmade_plan():
+    """The hand-made slide of handmade_plan.build_plan, built once for every module (read it, or copy it
+    before changing it: copy.deepcopy or dataclasses.replace)."""
+    from handmade_plan import build_plan
+
+    return build_plan()
 
 
 @pytest.fixture(scope="session")

@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from handmade_plan import DEPTH_M, build_grasp_plan, build_plan
+from handmade_plan import DEPTH_M, build_grasp_plan
 from slideplan import PlanResult
 from slideplan.cli import app
 from slideplan.execute import ExecutionSettings, execute
 
 
 @pytest.fixture(scope="module")
-def slide_plan():
-    return build_plan()
+def slide_plan(handmade_plan):
+    return handmade_plan
 
 
 def test_short_slide_ends_where_eq2_says(slide_plan):

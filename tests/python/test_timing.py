@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from handmade_plan import build_plan
 from slideplan import _core
 from slideplan.cli import app
 from slideplan.errors import InputError
@@ -40,10 +39,9 @@ RELATIVE_SLACK = 1e-9  # floating-point slack on "<= limit"
 
 
 @pytest.fixture(scope="module")
-def handmade():
+def handmade(handmade_plan):
     """A straight 3.5 cm slide and a 7 cm lift, timed with the defaults."""
-    result = build_plan()
-    return dataclasses.replace(result, timing=parameterize(result))
+    return dataclasses.replace(handmade_plan, timing=parameterize(handmade_plan))
 
 
 def fingertip_positions(result, path):

@@ -4,7 +4,7 @@ import copy
 
 import numpy as np
 import pytest
-from handmade_plan import DEPTH_M, PITCH, THICKNESS, build_grasp_plan, build_plan, contact_target
+from handmade_plan import DEPTH_M, PITCH, THICKNESS, build_grasp_plan, contact_target
 
 from slideplan.plan.robot import robot_model
 from slideplan.scenes import load_scene
@@ -17,9 +17,9 @@ from slideplan.viz import draw_plan
 
 
 @pytest.fixture(scope="module")
-def valid_plan():
+def valid_plan(handmade_plan):
     """The slide of build_plan without a grasp: its corruptions name their own checks."""
-    return build_plan()
+    return handmade_plan
 
 
 @pytest.fixture(scope="module")
