@@ -359,14 +359,7 @@ def run(
     """
     wall_start = time.perf_counter()
     draws = setting_draws(setting, seed)
-    pose = tuple(float(value) for value in as_numbers(pose, 3, source="", field="--pose"))
-    for name, value in (("replan_period", replan_period), ("replan_time_limit", replan_time_limit)):
-        as_number(value, source="", field=name, positive=True)
-    threshold = as_numbers(threshold, 2, source="", field="threshold", positive=True)
-    if disturbance is not None:
-        as_numbers([disturbance.dx, disturbance.dy, disturbance.dyaw, disturbance.after_s], 4, source="", field="--disturb")
-        if disturbance.after_s < 0:
-            raise InputError(f"the time must be >= 0 s after the slide starts, got {disturbance.after_s}", field="--disturb")
+    pose, threshold = _checked_arguments(pose, replan_period, replan_time_limit, threshold, disturbance)
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
     config = config or PlannerConfig.for_scene(scene, seed=seed)
     camera = camera or default_camera(scene)
@@ -377,13 +370,7 @@ def run(
     mounted = camera_as_mounted(camera, draws)
     perceived, table_plane = _perceived_object(scene, object_name, camera, pose, draws["depth_noise_at_1m"], seed, mounted)
 
-    mode = "closed" if closed else "open"
-    report: dict[str, Any] = dict(
-        success=False, mode=mode, setting=setting, failed_stage=None, failure="", replans=0, replan_latency_s=None,
-        kept=0, looks=0, lost_looks=0, events=[], seen_status=None, seen_frames=[], seen_motion=None, seen_overhang_m=None,
-        seen_com_margin_m=None, true_overhang_m=None, true_com_margin_m=None, lifted=False, slide_stop="", slide_s=0.0,
-        draws=draws, disturbance=None if disturbance is None else dataclasses.asdict(disturbance),
-    )
+    report = _new_report("closed" if closed else "open", setting, draws, disturbance)
     first = plan(scene, perceived, config)
     if not first.solved:
         return ClosedLoopRun(**{**report, "failed_stage": "plan", "failure": f"no plan for the object as perceived "
@@ -394,55 +381,113 @@ def run(
     slide_s = float(segment.times[-1])
     if disturbance is not None and disturbance.after_s > slide_s:
         raise InputError(f"{disturbance.after_s} s is after the planned slide ends ({slide_s:.2f} s)", field="--disturb")
-    import mujoco
-
     settings = execution_settings(setting, draws, float(first.params["dz_min"]))
-    built = build_model(first, settings, world_object=truth, camera=mounted)
-    model, data = built.model, built.data
-    depth_renderer = mujoco.Renderer(model, camera.height, camera.width)
-    depth_renderer.enable_depth_rendering()
-    noise_rng = np.random.default_rng([seed, 1])
-    robot = build_robot(first.robot)
-    recorder = Recorder(model, data, video, video_fps, (480, 640), plan_points(first, robot), progress=progress)
-    runner = Runner(built, settings, recorder.after_step if recorder.active else None)
-
+    world = _World(first, settings, truth, camera, mounted, draws["depth_noise_at_1m"], seed, (video, video_fps, progress))
     watch = Watch(scene, perceived, config, camera, threshold, replan_time_limit, table_plane=table_plane)
+    push = _Push(disturbance, draws, slide_s, scene.table, world, report)
 
-    def frames() -> tuple[np.ndarray, np.ndarray]:
+    world.runner.press(first.trajectory[0], segment.depths[0])
+    loop = SlideLoop(watch if closed else None, world.robot, top, end_replans,
+                     _Simulated(world.runner, world.robot, settings, world.frames, report["events"], replan_period, push))
+    _episode(report, first, loop, watch, world, scene.table, perceived, truth, settings, top)
+    world.recorder.write()
+    return ClosedLoopRun(**report, sim_time_s=float(world.built.data.time), wall_time_s=time.perf_counter() - wall_start)
+
+
+def _checked_arguments(pose, replan_period: float, replan_time_limit: float, threshold,
+                       disturbance: Disturbance | None) -> tuple[tuple[float, float, float], np.ndarray]:
+    """The pose and threshold as numbers, the other arguments of :func:`run` checked (InputError naming the field)."""
+    pose = tuple(float(value) for value in as_numbers(pose, 3, source="", field="--pose"))
+    for name, value in (("replan_period", replan_period), ("replan_time_limit", replan_time_limit)):
+        as_number(value, source="", field=name, positive=True)
+    threshold = as_numbers(threshold, 2, source="", field="threshold", positive=True)
+    if disturbance is not None:
+        as_numbers([disturbance.dx, disturbance.dy, disturbance.dyaw, disturbance.after_s], 4, source="", field="--disturb")
+        if disturbance.after_s < 0:
+            raise InputError(f"the time must be >= 0 s after the slide starts, got {disturbance.after_s}", field="--disturb")
+    return pose, threshold
+
+
+def _new_report(mode: str, setting: str, draws: dict[str, float], disturbance: Disturbance | None) -> dict[str, Any]:
+    """A :class:`ClosedLoopRun`'s fields before the run (all but the times): nothing seen, nothing failed yet."""
+    return dict(
+        success=False, mode=mode, setting=setting, failed_stage=None, failure="", replans=0, replan_latency_s=None,
+        kept=0, looks=0, lost_looks=0, events=[], seen_status=None, seen_frames=[], seen_motion=None, seen_overhang_m=None,
+        seen_com_margin_m=None, true_overhang_m=None, true_com_margin_m=None, lifted=False, slide_stop="", slide_s=0.0,
+        draws=draws, disturbance=None if disturbance is None else dataclasses.asdict(disturbance),
+    )
+
+
+class _World:
+    """The simulated world of a run: the first plan's model with the object as it really is and the camera
+    where it is mounted, the servos (:class:`~slideplan.execute.runner.Runner`), the depth renderer and the
+    video recorder (``video`` is run's video, video_fps and progress)."""
+
+    def __init__(self, first: PlanResult, settings: ExecutionSettings, truth: ThinObject, camera: Camera,
+                 mounted: Camera, depth_noise: float, seed: int, video: tuple) -> None:
+        import mujoco
+
+        self.built = build_model(first, settings, world_object=truth, camera=mounted)
+        self.depth_renderer = mujoco.Renderer(self.built.model, camera.height, camera.width)
+        self.depth_renderer.enable_depth_rendering()
+        self.depth_noise, self.noise_rng = depth_noise, np.random.default_rng([seed, 1])
+        self.robot = build_robot(first.robot)
+        path, fps, progress = video
+        self.recorder = Recorder(self.built.model, self.built.data, path, fps, (480, 640), plan_points(first, self.robot),
+                                 progress=progress)
+        self.runner = Runner(self.built, settings, self.recorder.after_step if self.recorder.active else None)
+
+    def frames(self) -> tuple[np.ndarray, np.ndarray]:
         """A new depth frame and the fingertip's measured pose."""
-        frame = noisy_depth(camera_depth(depth_renderer, model, data, DEPTH_CAMERA), draws["depth_noise_at_1m"],
-                            DEPTH_DROPOUT, noise_rng)
-        return frame, np.asarray(robot.fk(data.qpos[built.arm_qpos]))
+        model, data = self.built.model, self.built.data
+        frame = noisy_depth(camera_depth(self.depth_renderer, model, data, DEPTH_CAMERA), self.depth_noise,
+                            DEPTH_DROPOUT, self.noise_rng)
+        return frame, np.asarray(self.robot.fk(data.qpos[self.built.arm_qpos]))
 
-    pending = [disturbance]
-    if disturbance is None and draws.get("push"):
-        pending = [push_candidates(int(draws["push_seed"]), draws["push_fraction"] * slide_s)]
+    def close(self) -> None:
+        self.recorder.close()
+        self.depth_renderer.close()
 
-    def on_step(now: float) -> None:
-        if pending[0] is None:
+
+class _Push:
+    """The run's push, applied at its time (the ``on_step`` of :class:`_Simulated`): ``--disturb``'s, or the
+    hard setting's, drawn when it is due and written into the report."""
+
+    def __init__(self, disturbance: Disturbance | None, draws: dict[str, float], slide_s: float, table,
+                 world: _World, report: dict[str, Any]) -> None:
+        self.pending: Disturbance | list[Disturbance] | None = disturbance
+        if disturbance is None and draws.get("push"):
+            self.pending = push_candidates(int(draws["push_seed"]), draws["push_fraction"] * slide_s)
+        self.table, self.world, self.report = table, world, report
+
+    def __call__(self, now: float) -> None:
+        if self.pending is None:
             return
-        after_s = pending[0][0].after_s if isinstance(pending[0], list) else pending[0].after_s
+        after_s = self.pending[0].after_s if isinstance(self.pending, list) else self.pending.after_s
         if now >= after_s:
-            push = pending[0]
+            push = self.pending
             if isinstance(push, list):  # the hard setting's: redrawn while it would leave the CoM near an edge
-                push = hard_push(push, scene.table, runner.object_pose()[0])
-                report["disturbance"] = None if push is None else dataclasses.asdict(push)
+                push = hard_push(push, self.table, self.world.runner.object_pose()[0])
+                self.report["disturbance"] = None if push is None else dataclasses.asdict(push)
             if push is not None:
-                push.apply(built)
-            pending[0] = None
+                push.apply(self.world.built)
+            self.pending = None
 
-    runner.press(first.trajectory[0], segment.depths[0])
-    loop = SlideLoop(watch if closed else None, robot, top, end_replans,
-                     _Simulated(runner, robot, settings, frames, report["events"], replan_period, on_step))
+
+def _episode(report: dict[str, Any], first: PlanResult, loop: SlideLoop, watch: Watch, world: _World, table,
+             perceived: ThinObject, truth: ThinObject, settings: ExecutionSettings, top: float) -> None:
+    """The slides from ``first``, the look after them, the grasp and the verdict, into the report; the world
+    closed after it."""
+    runner, robot = world.runner, world.robot
     try:
         grasp_plan, seen_motion = loop.run(first)
         report["slide_s"] = loop.arm.clock()
         seen, seen_frames = loop.seen, loop.seen_frames
         if seen is None:  # no look decided (open loop, or a bound): one look for the diagnostics, as the closed loop's end look
             first_frame = watch.looks
-            look = watch.settled(frames, seen_motion)
+            look = watch.settled(world.frames, seen_motion)
             seen, seen_frames, seen_motion = look.ok, list(range(first_frame, watch.looks)), look.motion
-        _diagnose(report, scene.table, perceived, truth, seen_motion, seen, seen_frames, runner)
+        _diagnose(report, table, perceived, truth, seen_motion, seen, seen_frames, runner)
         if loop.abandoned:
             failure = ("slide", "no progress: the finger travelled on and the object did not, and no new plan followed")
         else:
@@ -450,19 +495,17 @@ def run(
                                    plan_times(grasp_plan, "approach", len(grasp_plan.grasp["approach"])),
                                    np.asarray(grasp_plan.grasp["config"], dtype=float), robot,
                                    resolve_limits(grasp_plan, timing_options(settings, robot.velocity_limits)), top,
-                                   scene.table.height + truth.thickness / 2)
+                                   table.height + truth.thickness / 2)
         report["lifted"] = runner.lifted
         hold = Hold.from_samples(runner.hold, settings.hold_s) if runner.hold else None
-        _, report["failed_stage"], report["failure"] = judge(hold, scene.table.height, failure)
+        _, report["failed_stage"], report["failure"] = judge(hold, table.height, failure)
     except Unstable as error:
         report.update(failed_stage="simulation", failure=str(error), lifted=False)
     finally:
         report.update(replans=loop.replans, looks=watch.looks, lost_looks=watch.lost_looks, kept=watch.kept,
                       slide_stop=loop.stopped)
-        recorder.close()
-        depth_renderer.close()
+        world.close()
     planned = [event.latency_s for event in report["events"] if event.outcome in ("slide", "grasp", "refused", "timeout")]
     report["replan_latency_s"] = float(np.median(planned)) if planned else None
     report["success"] = report["failed_stage"] is None
-    recorder.write()
-    return ClosedLoopRun(**report, sim_time_s=float(data.time), wall_time_s=time.perf_counter() - wall_start)
+
