@@ -198,6 +198,183 @@ namespace slideplan
                                             "': collision geometry has a negative or non-finite size");
             shapes.push_back(std::move(shape));
         }
+        /// The URDF parsed by urdfdom, refused on any error it logs: it drops a collision element it cannot
+        /// read (e.g. radius="nan") with only a log line, so that a link would silently lose its geometry.
+        urdf::ModelInterfaceSharedPtr parseUrdf(const RobotSpec &spec)
+        {
+            urdf::ModelInterfaceSharedPtr model;
+            std::string reason;
+            {
+                UrdfdomMessages::Capture capture;
+                try
+                {
+                    model = urdf::parseURDF(spec.urdf);
+                }
+                catch (const std::exception &error)
+                {
+                    throw std::invalid_argument(spec.source + ": malformed URDF: " + error.what());
+                }
+                reason = capture.reason();
+            }
+            if (!reason.empty())
+                throw std::invalid_argument(spec.source + ": malformed URDF: " + reason);
+            if (!model || !model->getRoot())
+                throw std::invalid_argument(spec.source + ": malformed URDF (urdfdom could not parse it)");
+            return model;
+        }
+
+        /// urdfdom accepts a link that is the child of two joints: walking the tree would then not end.
+        void requireOneParent(const std::string &source, const urdf::ModelInterface &model)
+        {
+            std::map<std::string, std::string> parentJoint;
+            for (const auto &[name, joint] : model.joints_)
+                if (const auto [at, fresh] = parentJoint.emplace(joint->child_link_name, name); !fresh)
+                    throw std::invalid_argument(source + ": malformed URDF: link '" + joint->child_link_name +
+                                                "' is the child of two joints ('" + at->second + "', '" + name + "')");
+        }
+
+        /// The links in topological order, parents first, each with its joint and collision shapes.
+        std::vector<RobotLink> readLinks(const RobotSpec &spec, const urdf::ModelInterface &model)
+        {
+            const std::string &source = spec.source;
+            std::vector<RobotLink> links;
+            std::map<std::string, int> index;
+            std::vector<urdf::LinkConstSharedPtr> stack{model.getRoot()};
+            while (!stack.empty())
+            {
+                const urdf::LinkConstSharedPtr link = stack.back();
+                stack.pop_back();
+                RobotLink entry;
+                entry.name = link->name;
+                if (link->parent_joint)
+                {
+                    const urdf::Joint &joint = *link->parent_joint;
+                    entry.parent = index.at(link->getParent()->name);
+                    entry.jointName = joint.name;
+                    entry.segment = KDL::Segment(link->name, toKdlJoint(source, joint), toKdl(joint.parent_to_joint_origin_transform));
+                    entry.origin = toEigen(joint.parent_to_joint_origin_transform);
+                    if (movable(joint))
+                    {
+                        const Eigen::Vector3d axis(joint.axis.x, joint.axis.y, joint.axis.z);
+                        if (!(axis.norm() > 1e-9) || !axis.allFinite())
+                            throw std::invalid_argument(source + ": joint '" + joint.name + "' has a zero or non-finite axis");
+                        entry.axis = axis.normalized();
+                        entry.jointType = joint.type == urdf::Joint::PRISMATIC ? RobotLink::JointType::Prismatic
+                                                                               : RobotLink::JointType::Revolute;
+                    }
+                }
+                else
+                    entry.segment = KDL::Segment(link->name, KDL::Joint(KDL::Joint::None));
+                for (const auto &collision : link->collision_array)
+                    addShape(spec, link->name, *collision, entry.shapes);
+                if (link->collision_array.empty() && link->collision)
+                    addShape(spec, link->name, *link->collision, entry.shapes);
+                index[link->name] = static_cast<int>(links.size());
+                links.push_back(std::move(entry));
+                for (auto it = link->child_links.rbegin(); it != link->child_links.rend(); ++it)
+                    stack.push_back(*it);
+            }
+            if (links.size() != model.links_.size())
+                for (const auto &[name, link] : model.links_)
+                    if (index.count(name) == 0)
+                        throw std::invalid_argument(source + ": malformed URDF: link '" + name +
+                                                    "' is not connected to the root (its joints form a loop)");
+            return links;
+        }
+
+        /// A movable joint's limits; a continuous joint turns one turn each way, which suffices.
+        std::pair<double, double> jointLimits(const std::string &source, const urdf::Joint &joint)
+        {
+            if (joint.type == urdf::Joint::CONTINUOUS)
+                return {-M_PI, M_PI};
+            if (!joint.limits)
+                throw std::invalid_argument(source + ": joint '" + joint.name + "' has no <limit>");
+            const double lower = joint.limits->lower, upper = joint.limits->upper;
+            if (!(lower <= upper) || !std::isfinite(lower) || !std::isfinite(upper))
+                throw std::invalid_argument(source + ": joint '" + joint.name + "' has invalid limits");
+            return {lower, upper};
+        }
+
+        /// The held joints: fixed_joints must name movable joints, not mimics, at values within their limits.
+        std::map<std::string, double> heldJoints(const RobotSpec &spec, const urdf::ModelInterface &model)
+        {
+            std::map<std::string, double> held;
+            for (const auto &[name, value] : spec.fixedJoints)
+            {
+                const urdf::JointConstSharedPtr joint = model.getJoint(name);
+                const std::string key = spec.source + ": [robot] fixed_joints." + name;
+                if (!joint)
+                    throw std::invalid_argument(key + ": no such joint in the URDF");
+                if (!movable(*joint))
+                    throw std::invalid_argument(key + ": the joint is fixed in the URDF");
+                if (joint->mimic)
+                    throw std::invalid_argument(key + ": a mimic joint follows '" + joint->mimic->joint_name + "'; set that joint");
+                const auto [lower, upper] = jointLimits(spec.source, *joint);
+                if (!std::isfinite(value) || value < lower || value > upper)
+                    throw std::invalid_argument(key + ": value " + std::to_string(value) + " is outside the joint limits [" +
+                                                std::to_string(lower) + ", " + std::to_string(upper) + "]");
+                held[name] = value;
+            }
+            return held;
+        }
+
+        /// Every movable joint off the chain: a mimic follows its master; the rest are held (fixed_joints,
+        /// else 0 clamped into the limits, e.g. a closed gripper). `chainJoint`: the chain's joints' indices.
+        void tieJointsOffTheChain(const std::string &source, const urdf::ModelInterface &model,
+                                  const std::map<std::string, double> &held, const std::map<std::string, int> &chainJoint,
+                                  std::vector<RobotLink> &links)
+        {
+            for (RobotLink &link : links)
+            {
+                if (link.jointType == RobotLink::JointType::Fixed)
+                    continue;
+                const urdf::JointConstSharedPtr joint = model.getJoint(link.jointName);
+                const auto heldValue = [&](const std::string &name) {
+                    const auto found = held.find(name);
+                    if (found != held.end())
+                        return found->second;
+                    const auto [lower, upper] = jointLimits(source, *model.getJoint(name));
+                    return std::clamp(0.0, lower, upper);
+                };
+                std::string master = link.jointName;
+                if (joint->mimic)
+                {
+                    master = joint->mimic->joint_name;
+                    if (!model.getJoint(master))
+                        throw std::invalid_argument(source + ": joint '" + link.jointName + "' mimics unknown joint '" + master + "'");
+                    link.multiplier = joint->mimic->multiplier;
+                    link.offset = joint->mimic->offset;
+                }
+                const auto inChain = chainJoint.find(master);
+                if (inChain != chainJoint.end())
+                    link.jointIndex = inChain->second;
+                else
+                {
+                    link.offset += link.multiplier * heldValue(master);
+                    link.multiplier = 1.0;
+                }
+            }
+        }
+
+        /// Collision geometry per shape; a mesh keeps its triangles (`surface`) only in the hand: the object
+        /// enters the hand (between its jaws), while an arm link's hull only adds clearance, and checking its
+        /// triangles slows every plan (the UR5's forearm, hull 1.55 x its volume, more than doubled the
+        /// planning time: docs/benchmarks/robots.md).
+        void prepareShapes(std::vector<RobotLink> &links, int wrist)
+        {
+            for (std::size_t i = 0; i < links.size(); ++i)
+            {
+                bool inHand = false;
+                for (int j = static_cast<int>(i); j >= 0 && !inHand; j = links[j].parent)
+                    inHand = links[j].jointIndex == wrist;
+                for (LinkShape &shape : links[i].shapes)
+                {
+                    if (!inHand)
+                        shape.surface = nullptr;
+                    shape.geometry = linkGeometry(shape);
+                }
+            }
+        }
     }  // namespace
 
     Eigen::Matrix<double, 6, 1> poseError(const Eigen::Isometry3d &current, const Eigen::Isometry3d &target)
@@ -230,79 +407,10 @@ namespace slideplan
             throw std::invalid_argument(source + ": base_pose is not finite");
         if (!spec.tipOffset.matrix().allFinite())
             throw std::invalid_argument(source + ": tip_offset is not finite");
-        // urdfdom logs what it cannot parse and returns null, throws on some bad numbers, and drops a
-        // collision element it cannot read (e.g. radius="nan") with only a log line: any error it
-        // logs refuses the file, so that no link silently loses its collision geometry.
-        urdf::ModelInterfaceSharedPtr model;
-        std::string reason;
-        {
-            UrdfdomMessages::Capture capture;
-            try
-            {
-                model = urdf::parseURDF(spec.urdf);
-            }
-            catch (const std::exception &error)
-            {
-                throw std::invalid_argument(source + ": malformed URDF: " + error.what());
-            }
-            reason = capture.reason();
-        }
-        if (!reason.empty())
-            throw std::invalid_argument(source + ": malformed URDF: " + reason);
-        if (!model || !model->getRoot())
-            throw std::invalid_argument(source + ": malformed URDF (urdfdom could not parse it)");
-        // urdfdom accepts a link that is the child of two joints, and a loop of joints away from the root:
-        // its links then hold each other (a leak), and walking the tree from the root never ends.
-        const TreeRelease release{model};
-        std::map<std::string, std::string> parentJoint;
-        for (const auto &[name, joint] : model->joints_)
-            if (const auto [at, fresh] = parentJoint.emplace(joint->child_link_name, name); !fresh)
-                throw std::invalid_argument(source + ": malformed URDF: link '" + joint->child_link_name +
-                                            "' is the child of two joints ('" + at->second + "', '" + name + "')");
-
-        // Links in topological order, parents first.
-        std::map<std::string, int> index;
-        std::vector<urdf::LinkConstSharedPtr> stack{model->getRoot()};
-        while (!stack.empty())
-        {
-            const urdf::LinkConstSharedPtr link = stack.back();
-            stack.pop_back();
-            RobotLink entry;
-            entry.name = link->name;
-            if (link->parent_joint)
-            {
-                const urdf::Joint &joint = *link->parent_joint;
-                entry.parent = index.at(link->getParent()->name);
-                entry.jointName = joint.name;
-                entry.segment = KDL::Segment(link->name, toKdlJoint(source, joint), toKdl(joint.parent_to_joint_origin_transform));
-                entry.origin = toEigen(joint.parent_to_joint_origin_transform);
-                if (movable(joint))
-                {
-                    const Eigen::Vector3d axis(joint.axis.x, joint.axis.y, joint.axis.z);
-                    if (!(axis.norm() > 1e-9) || !axis.allFinite())
-                        throw std::invalid_argument(source + ": joint '" + joint.name + "' has a zero or non-finite axis");
-                    entry.axis = axis.normalized();
-                    entry.jointType = joint.type == urdf::Joint::PRISMATIC ? RobotLink::JointType::Prismatic
-                                                                           : RobotLink::JointType::Revolute;
-                }
-            }
-            else
-                entry.segment = KDL::Segment(link->name, KDL::Joint(KDL::Joint::None));
-            for (const auto &collision : link->collision_array)
-                addShape(spec, link->name, *collision, entry.shapes);
-            if (link->collision_array.empty() && link->collision)
-                addShape(spec, link->name, *link->collision, entry.shapes);
-            index[link->name] = static_cast<int>(links_.size());
-            links_.push_back(std::move(entry));
-            for (auto it = link->child_links.rbegin(); it != link->child_links.rend(); ++it)
-                stack.push_back(*it);
-        }
-
-        if (links_.size() != model->links_.size())
-            for (const auto &[name, link] : model->links_)
-                if (index.count(name) == 0)
-                    throw std::invalid_argument(source + ": malformed URDF: link '" + name +
-                                                "' is not connected to the root (its joints form a loop)");
+        const urdf::ModelInterfaceSharedPtr model = parseUrdf(spec);
+        const TreeRelease release{model};  // a loop of joints away from the root: links that hold each other
+        requireOneParent(source, *model);
+        links_ = readLinks(spec, *model);
 
         const int tip = linkIndex(spec.tipLink);
         if (tip < 0)
@@ -315,35 +423,7 @@ namespace slideplan
         if (base != 0 && baseOnPath == tipPath.end())
             throw std::invalid_argument(source + ": [hand] tip_link '" + spec.tipLink + "' is not downstream of base_link '" +
                                         spec.baseLink + "'");
-
-        // Held joints: fixed_joints must name movable joints off the chain, within their limits.
-        const auto limits = [&](const urdf::Joint &joint) -> std::pair<double, double> {
-            if (joint.type == urdf::Joint::CONTINUOUS)
-                return {-M_PI, M_PI};  // one turn each way suffices
-            if (!joint.limits)
-                throw std::invalid_argument(source + ": joint '" + joint.name + "' has no <limit>");
-            const double lower = joint.limits->lower, upper = joint.limits->upper;
-            if (!(lower <= upper) || !std::isfinite(lower) || !std::isfinite(upper))
-                throw std::invalid_argument(source + ": joint '" + joint.name + "' has invalid limits");
-            return {lower, upper};
-        };
-        std::map<std::string, double> held;
-        for (const auto &[name, value] : spec.fixedJoints)
-        {
-            const urdf::JointConstSharedPtr joint = model->getJoint(name);
-            const std::string key = source + ": [robot] fixed_joints." + name;
-            if (!joint)
-                throw std::invalid_argument(key + ": no such joint in the URDF");
-            if (!movable(*joint))
-                throw std::invalid_argument(key + ": the joint is fixed in the URDF");
-            if (joint->mimic)
-                throw std::invalid_argument(key + ": a mimic joint follows '" + joint->mimic->joint_name + "'; set that joint");
-            const auto [lower, upper] = limits(*joint);
-            if (!std::isfinite(value) || value < lower || value > upper)
-                throw std::invalid_argument(key + ": value " + std::to_string(value) + " is outside the joint limits [" +
-                                            std::to_string(lower) + ", " + std::to_string(upper) + "]");
-            held[name] = value;
-        }
+        const std::map<std::string, double> held = heldJoints(spec, *model);
 
         // The chain: movable joints between the base link and the tip link, neither held nor mimic.
         std::map<std::string, int> chainJoint;
@@ -354,7 +434,7 @@ namespace slideplan
             // A held joint may lie between base and tip, e.g. the finger joint of a gripper pad.
             if (link.jointType == RobotLink::JointType::Fixed || joint->mimic || held.count(link.jointName))
                 continue;
-            const auto [lower, upper] = limits(*joint);
+            const auto [lower, upper] = jointLimits(source, *joint);
             chainJoint[link.jointName] = static_cast<int>(jointNames_.size());
             jointNames_.push_back(link.jointName);
             lower_.conservativeResize(dof());
@@ -371,58 +451,9 @@ namespace slideplan
             throw std::invalid_argument(source + ": " + std::to_string(dof()) + " movable joints between the base link and '" +
                                         spec.tipLink + "'; at most " + std::to_string(kMaxJoints) +
                                         " are supported (hold the others with [robot] fixed_joints)");
-
-        // Every other movable joint: a mimic follows its master; the rest are held (fixed_joints, else 0
-        // clamped into the limits, e.g. a closed gripper).
-        for (RobotLink &link : links_)
-        {
-            if (link.jointType == RobotLink::JointType::Fixed)
-                continue;
-            const urdf::JointConstSharedPtr joint = model->getJoint(link.jointName);
-            const auto heldValue = [&](const std::string &name) {
-                const auto found = held.find(name);
-                if (found != held.end())
-                    return found->second;
-                const auto [lower, upper] = limits(*model->getJoint(name));
-                return std::clamp(0.0, lower, upper);
-            };
-            std::string master = link.jointName;
-            if (joint->mimic)
-            {
-                master = joint->mimic->joint_name;
-                if (!model->getJoint(master))
-                    throw std::invalid_argument(source + ": joint '" + link.jointName + "' mimics unknown joint '" + master + "'");
-                link.multiplier = joint->mimic->multiplier;
-                link.offset = joint->mimic->offset;
-            }
-            const auto inChain = chainJoint.find(master);
-            if (inChain != chainJoint.end())
-                link.jointIndex = inChain->second;
-            else
-            {
-                link.offset += link.multiplier * heldValue(master);
-                link.multiplier = 1.0;
-            }
-        }
-
+        tieJointsOffTheChain(source, *model, held, chainJoint, links_);
         tip_ = framePath(spec.tipLink, spec.tipOffset);
-
-        // Only the hand's concavities matter: the object enters the hand (between its jaws), while an
-        // arm link's hull only adds clearance, and checking its triangles slows every plan (the UR5's
-        // forearm, hull 1.55 x its volume, more than doubled the planning time: docs/benchmarks/robots.md).
-        const int wrist = static_cast<int>(dof()) - 1;
-        for (std::size_t i = 0; i < links_.size(); ++i)
-        {
-            bool inHand = false;
-            for (int j = static_cast<int>(i); j >= 0 && !inHand; j = links_[j].parent)
-                inHand = links_[j].jointIndex == wrist;
-            for (LinkShape &shape : links_[i].shapes)
-            {
-                if (!inHand)
-                    shape.surface = nullptr;
-                shape.geometry = linkGeometry(shape);
-            }
-        }
+        prepareShapes(links_, static_cast<int>(dof()) - 1);
     }
 
     RobotModel RobotModel::fromFile(const std::string &path, const std::string &tipLink, const Eigen::Isometry3d &basePose)
