@@ -3,7 +3,9 @@
 1. The command of the README's first plan (square table, crescent, a fixed pose), pinned to one core:
    with a cold grasp-map cache (a new, empty SLIDEPLAN_CACHE_DIR each run) and a warm one (primed by
    one run first).
-2. Per robot scene: 5 objects x 2 seeds (random poses), each run cold, 10 s planning budget: the wall
+2. The same on a busy machine, as a user often has one: every core running one spinning process beside
+   the command, which is not pinned (the scheduler shares the cores).
+3. Per robot scene: 5 objects x 2 seeds (random poses), each run cold, 10 s planning budget: the wall
    time, how many solved, and how many timed out.
 
 Prints and writes (docs/benchmarks/cli.md) medians and percentiles, with the build, CPU and date named. Not a test:
@@ -32,12 +34,13 @@ OBJECTS = ("crescent", "L", "E", "triangle", "irregular")
 SEEDS = (1, 2)
 
 
-def wall(args: list[str], cache: Path, core: int) -> tuple[float, int]:
-    """Run `slideplan plan ARGS` pinned to one core; returns (wall seconds, exit code)."""
+def wall(args: list[str], cache: Path, core: int | None) -> tuple[float, int]:
+    """Run `slideplan plan ARGS` pinned to one core (None: not pinned); returns (wall seconds, exit code)."""
     env = {**os.environ, "SLIDEPLAN_CACHE_DIR": str(cache)}
     env.pop("SLIDEPLAN_NO_CACHE", None)
     with tempfile.TemporaryDirectory() as out:
-        command = ["taskset", "-c", str(core), SLIDEPLAN, "plan", *args, "--json", f"{out}/plan.json"]
+        pin = [] if core is None else ["taskset", "-c", str(core)]
+        command = [*pin, SLIDEPLAN, "plan", *args, "--json", f"{out}/plan.json"]
         start = time.perf_counter()
         code = subprocess.run(command, env=env, capture_output=True).returncode
         return time.perf_counter() - start, code
@@ -48,7 +51,7 @@ def quantiles(times: list[float]) -> str:
     return f"{median:.3f} s | {p90:.3f} s | {min(times):.3f} s | {max(times):.3f} s"
 
 
-def first_plan(runs: int, core: int) -> list[str]:
+def first_plan(runs: int, core: int | None) -> list[str]:
     cold, warm = [], []
     with tempfile.TemporaryDirectory() as root:
         for run in range(runs):
@@ -81,6 +84,18 @@ def robots(scenes: list[str], core: int, time_limit: float) -> list[str]:
     return rows
 
 
+def busy_first_plan(runs: int) -> list[str]:
+    """:func:`first_plan`, not pinned, with one spinning process per core for the whole time."""
+    spinners = [subprocess.Popen(["taskset", "-c", str(core), sys.executable, "-c", "while True: pass"])
+                for core in range(os.cpu_count() or 1)]
+    try:
+        return first_plan(runs, None)
+    finally:
+        for spinner in spinners:
+            spinner.kill()
+            spinner.wait()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5, help="runs per cache state of the first plan")
@@ -98,6 +113,9 @@ def main() -> None:
         "the whole command (start, plan, verify, write the JSON).", "",
         f"## The first plan: `slideplan plan {' '.join(FIRST_PLAN)} --json plan.json`, {args.runs} runs each", "",
         *first_plan(args.runs, args.core), "",
+        f"## The first plan on a busy machine: one spinning process on each of the {os.cpu_count()} cores, the "
+        f"command not pinned, {args.runs} runs each", "",
+        *busy_first_plan(args.runs), "",
         f"## Robots, cold cache: {len(OBJECTS)} objects x {len(SEEDS)} seeds (random poses), "
         f"`--time-limit {args.time_limit:g}`", "",
         "Each run with an empty grasp-map cache, as the first plan of a new robot is; exit 0 is solved and verified.", "",
