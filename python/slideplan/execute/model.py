@@ -180,14 +180,50 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
     import mujoco
 
     contacts = contacts or contact_models.ACTIVE[0]
-    groups = contacts.groups
     robot = result.robot
-    urdf_source = str(robot["urdf"])
+    spec, joint_names = _imported_urdf(result)
+    concave = _exact_mesh_geoms(spec, robot)
+    zero = _AtZero(spec)
+    for body, geom in concave:
+        _split_into_convex_parts(spec, zero.model, body, geom)
+    _mount(spec, robot, zero)
+    _dress_robot(spec, settings, contacts.groups)
+    spring, pad = _add_compliance(spec, result, settings, zero, contacts.groups)
+    gripper_joints = dict(robot["gripper_joints"])
+    kinds, limits = _gripper_joints(spec, gripper_joints, joint_names, zero.model)
+    _add_actuators(spec, result.joint_names, robot["fixed_joints"], gripper_joints, kinds)
+    _add_world(spec, result, settings, world_object, camera, contacts)
+    try:
+        model = spec.compile()
+    except ValueError as error:
+        raise InputError(f"MuJoCo cannot build the execution model: {' '.join(str(error).split())}",
+                         source=str(robot["urdf"])) from None
+    gripper = Gripper(
+        actuators=np.array([model.actuator(f"close_{joint}").id for joint in gripper_joints], dtype=int),
+        opened=np.array([values[0] for values in gripper_joints.values()], dtype=float),
+        closed=np.array([values[1] for values in gripper_joints.values()], dtype=float),
+        prismatic=np.array([kinds[joint] is _PRISMATIC for joint in gripper_joints], dtype=bool),
+        limits=np.array([limits[joint] for joint in gripper_joints], dtype=float).reshape(-1, 2),
+    )
+    built = _indexed(model, mujoco.MjData(model), result, spring.name, pad.name, gripper, contacts)
+    _set_start(built, robot["fixed_joints"], gripper_joints, settings, result.start_config)
+    return built
+
+
+def _imported_urdf(result: PlanResult | Rig) -> tuple[Any, set[str]]:
+    """The plan's URDF as MuJoCo imports it, checked to have the plan's links and joints, and its joints' names.
+
+    Raises:
+        InputError: MuJoCo cannot import it, or a link or joint the plan names is not in it.
+    """
+    import mujoco
+
+    robot = result.robot
     try:
         spec = mujoco.MjSpec.from_string(_urdf_for_mujoco(robot))
         spec.compile()
     except ValueError as error:
-        raise InputError(f"MuJoCo cannot import the URDF: {' '.join(str(error).split())}", source=urdf_source) from None
+        raise InputError(f"MuJoCo cannot import the URDF: {' '.join(str(error).split())}", source=str(robot["urdf"])) from None
     names = {body.name for body in spec.bodies}
     for key in ("tip_link", "grasp_link"):
         if robot[key] not in names:
@@ -199,9 +235,14 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
     for joint in result.joint_names:
         if joint not in joint_names:
             raise InputError(f"joint {joint!r} not in the URDF", field="joint_names")
+    return spec, joint_names
 
-    # The hand meshes the planner checks as their triangles: MuJoCo would collide their hulls, which fill
-    # the concavity the object enters (convex.py), so each becomes its convex parts.
+
+def _exact_mesh_geoms(spec, robot: dict[str, Any]) -> list[tuple[Any, Any]]:
+    """The (body, geom) of the hand meshes the planner checks as their triangles, each named: MuJoCo would
+    collide their hulls, which fill the concavity the object enters (convex.py), so each becomes its convex parts."""
+    import mujoco
+
     exact = {(link, str(Path(mesh).resolve())) for link, mesh, _, is_exact in plan_robot(robot).collision_meshes if is_exact}
     concave = []
     for body in spec.bodies:
@@ -209,30 +250,40 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
             if geom.type == mujoco.mjtGeom.mjGEOM_MESH and (body.name, str(Path(spec.mesh(geom.meshname).file).resolve())) in exact:
                 geom.name = f"slideplan_concave_{body.name}_{index}"
                 concave.append((body, geom))
+    return concave
 
-    # Kinematics at qpos0 (every joint 0) give the fixed transforms the new joints need.
-    model0 = spec.compile()
-    data0 = mujoco.MjData(model0)
-    mujoco.mj_kinematics(model0, data0)
-    for body, geom in concave:
-        _split_into_convex_parts(spec, model0, body, geom)
 
-    def pose0(name: str) -> np.ndarray:
-        body = model0.body(name).id
+class _AtZero:
+    """The imported robot compiled, its kinematics at qpos0 (every joint 0): the fixed transforms the new joints need."""
+
+    def __init__(self, spec) -> None:
+        import mujoco
+
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        mujoco.mj_kinematics(self.model, self.data)
+
+    def pose(self, name: str) -> np.ndarray:
+        """The 4x4 world pose of body ``name``."""
+        body = self.model.body(name).id
         pose = np.eye(4)
-        pose[:3, :3] = data0.xmat[body].reshape(3, 3)
-        pose[:3, 3] = data0.xpos[body]
+        pose[:3, :3] = self.data.xmat[body].reshape(3, 3)
+        pose[:3, 3] = self.data.xpos[body]
         return pose
 
-    # Mount: the planned chain's base link (default: the URDF root) at base_pose.
+
+def _mount(spec, robot: dict[str, Any], zero: _AtZero) -> None:
+    """Place the robot: the planned chain's base link (default: the URDF root) at base_pose."""
     root_body = spec.worldbody.first_body()
     base_link = robot["base_link"] or root_body.name
-    mount = np.asarray(robot["base_pose"]) @ np.linalg.inv(pose0(base_link)) @ pose0(root_body.name)
+    mount = np.asarray(robot["base_pose"]) @ np.linalg.inv(zero.pose(base_link)) @ zero.pose(root_body.name)
     root_body.pos = mount[:3, 3]
     root_body.quat = _wxyz(mount[:3, :3])
 
-    robot_bodies = [body for body in spec.bodies if body.name != "world"]
-    for body in robot_bodies:
+
+def _dress_robot(spec, settings: ExecutionSettings, groups) -> None:
+    """Gravity compensation and soft contacts on every robot body."""
+    for body in (body for body in spec.bodies if body.name != "world"):
         body.gravcomp = 1.0  # the arm controller's gravity compensation
         for geom in body.geoms:
             geom.contype, geom.conaffinity = groups.robot
@@ -240,18 +291,27 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
             geom.friction = [settings.pad_friction, settings.torsional_friction, settings.torsional_friction]
             geom.condim = 6
 
-    # Finger compliance: a slide joint on the first contact link, along the world vertical seen from
-    # the contact frame at pitch beta0, and a pad whose lowest point is the contact frame.
+
+def _add_compliance(spec, result: PlanResult | Rig, settings: ExecutionSettings, zero: _AtZero, groups) -> tuple[Any, Any]:
+    """Finger compliance: a slide joint on the first contact link, along the world vertical seen from
+    the contact frame at pitch beta0, and a pad whose lowest point is the contact frame.
+
+    Returns:
+        The joint and the pad geom (specs).
+    """
+    import mujoco
+
     from .. import _core
 
+    robot = result.robot
     contact = set(robot["contact_links"])
     contact_root = next(
         name for name in robot["contact_links"] if spec.body(name).parent.name not in contact
     )
-    tip_frame = pose0(robot["tip_link"]) @ np.asarray(robot["tip_offset"])
+    tip_frame = zero.pose(robot["tip_link"]) @ np.asarray(robot["tip_offset"])
     up_in_tip = _core.contact_rotation(0.0, float(result.params["beta0"])).T @ np.array([0.0, 0.0, 1.0])
     up_world0 = tip_frame[:3, :3] @ up_in_tip
-    root_pose = pose0(contact_root)
+    root_pose = zero.pose(contact_root)
     spring = spec.body(contact_root).add_joint(
         name="slideplan_finger_compliance",
         type=mujoco.mjtJoint.mjJNT_SLIDE,
@@ -262,7 +322,7 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         range=[-0.01, float(result.params["dz_max"]) + 0.03],
     )
     spring.stiffness = [settings.spring_stiffness(float(result.params["dz_min"]), float(result.params["dz_max"])), 0.0, 0.0]
-    tip_body_pose = pose0(robot["tip_link"])
+    tip_body_pose = zero.pose(robot["tip_link"])
     pad_world = tip_frame[:3, 3] + _PAD_RADIUS * up_world0
     pad = spec.body(robot["tip_link"]).add_geom(
         name="slideplan_pad",
@@ -279,14 +339,26 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         mass=0.001,
         rgba=[0.9, 0.3, 0.2, 1],
     )
+    return spring, pad
 
-    # The hand's own closing joints ([hand] gripper_joints); their mimic joints follow (MuJoCo's
-    # import makes each mimic an equality constraint).
-    gripper_joints = dict(robot["gripper_joints"])
+
+def _gripper_joints(spec, gripper_joints: dict[str, Any], joint_names: set[str], model0):
+    """The hand's own closing joints ([hand] gripper_joints) checked; their mimic joints follow (MuJoCo's
+    import makes each mimic an equality constraint, made stiff here).
+
+    Returns:
+        Per gripper joint: its _GripperKind, and its range (unlimited: infinite).
+
+    Raises:
+        InputError: a joint not in the URDF, neither revolute nor prismatic, or whose open and closed
+            values are outside its limits.
+    """
+    import mujoco
+
     for equality in spec.equalities:  # a mimic is geared to its joint: MuJoCo's default coupling is soft
         equality.solref = [_MIMIC_TIME_CONSTANT, 1.0]
     kinds = {int(mujoco.mjtJoint.mjJNT_HINGE): _REVOLUTE, int(mujoco.mjtJoint.mjJNT_SLIDE): _PRISMATIC}
-    kind_of, limits = {}, {}  # per gripper joint: its _GripperKind, its range (unlimited: infinite)
+    kind_of, limits = {}, {}
     for joint, (opened, closed) in gripper_joints.items():
         field = f"hand.gripper_joints.{joint}"
         if joint not in joint_names:
@@ -299,23 +371,34 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
         if not (low <= min(opened, closed) and max(opened, closed) <= high):
             raise InputError(f"[open, closed] = [{opened}, {closed}] is outside the joint's limits [{low}, {high}]", field=field)
         limits[joint] = (low, high)
+    return kind_of, limits
 
-    # Arm servos (gains set after compiling, from the inertia) and the fingers' closing servos.
-    for joint in result.joint_names:
+
+def _add_actuators(spec, arm_joints: list[str], fixed_joints: dict[str, float], gripper_joints: dict[str, Any],
+                   kinds: dict[str, _GripperKind]) -> None:
+    """Arm servos (gains set after compiling, from the inertia), the fixed joints' holds and the fingers' closing servos."""
+    import mujoco
+
+    for joint in arm_joints:
         actuator = spec.add_actuator(name=f"servo_{joint}", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         actuator.set_to_position(kp=1.0, kv=0.1)
-    for joint, value in robot["fixed_joints"].items():
+    for joint in fixed_joints:
         if joint in gripper_joints:  # its own closing servo below
             continue
         actuator = spec.add_actuator(name=f"hold_{joint}", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         actuator.set_to_position(kp=200.0, kv=5.0)
     for joint in gripper_joints:
-        kp = kind_of[joint].kp
+        kp = kinds[joint].kp
         actuator = spec.add_actuator(name=f"close_{joint}", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         actuator.set_to_position(kp=kp, kv=0.01 * kp)
         actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
         actuator.forcerange = [-_HOLD_OPEN_LIMIT, _HOLD_OPEN_LIMIT]  # stiff while sliding; capped when closing
 
+
+def _add_world(spec, result: PlanResult | Rig, settings: ExecutionSettings, world_object, camera,
+               contacts: ContactModel) -> None:
+    """The table and the object (the plan's, or ``world_object``), the depth camera if any, and the
+    simulation's options."""
     if world_object is None:
         points, com = np.asarray(result.object["points"]), np.asarray(result.object["com_xy"], dtype=float)
     else:
@@ -330,50 +413,50 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
     spec.memory = _ARENA_BYTES
     spec.option.timestep = settings.timestep
     contacts.apply(spec)
-    try:
-        model = spec.compile()
-    except ValueError as error:
-        raise InputError(f"MuJoCo cannot build the execution model: {' '.join(str(error).split())}", source=urdf_source) from None
-    data = mujoco.MjData(model)
 
+
+def _indexed(model, data, result: PlanResult | Rig, spring: str, pad: str, gripper: Gripper,
+             contacts: ContactModel) -> Model:
+    """The compiled model with the indices the run needs (``spring`` and ``pad`` the compliance joint's and pad's names)."""
     arm_joints = [model.joint(name).id for name in result.joint_names]
-    contact_bodies = {model.body(name).id for name in contact}
+    contact_bodies = {model.body(name).id for name in result.robot["contact_links"]}
+    pad_geom = model.geom(pad).id
     hand_geoms = np.array(
-        [index for index in range(model.ngeom) if model.geom_bodyid[index] in contact_bodies and index != model.geom(pad.name).id],
+        [index for index in range(model.ngeom) if model.geom_bodyid[index] in contact_bodies and index != pad_geom],
         dtype=int,
     )
     object_body = model.body("slideplan_object").id
-    built = Model(
+    return Model(
         model=model,
         data=data,
         arm_qpos=np.array([model.jnt_qposadr[joint] for joint in arm_joints]),
         arm_dofs=np.array([model.jnt_dofadr[joint] for joint in arm_joints]),
         arm_actuators=np.array([model.actuator(f"servo_{name}").id for name in result.joint_names]),
-        spring_qpos=int(model.jnt_qposadr[model.joint(spring.name).id]),
-        spring_joint=model.joint(spring.name).id,
-        gripper=Gripper(
-            actuators=np.array([model.actuator(f"close_{joint}").id for joint in gripper_joints], dtype=int),
-            opened=np.array([values[0] for values in gripper_joints.values()], dtype=float),
-            closed=np.array([values[1] for values in gripper_joints.values()], dtype=float),
-            prismatic=np.array([kind_of[joint] is _PRISMATIC for joint in gripper_joints], dtype=bool),
-            limits=np.array([limits[joint] for joint in gripper_joints], dtype=float).reshape(-1, 2),
-        ),
+        spring_qpos=int(model.jnt_qposadr[model.joint(spring).id]),
+        spring_joint=model.joint(spring).id,
+        gripper=gripper,
         hand_geoms=hand_geoms,
-        robot_groups=groups.robot,
+        robot_groups=contacts.groups.robot,
         contacts=contacts,
-        pad_geom=model.geom(pad.name).id,
+        pad_geom=pad_geom,
         object_body=object_body,
         object_geoms={index for index in range(model.ngeom) if model.geom_bodyid[index] == object_body},
         table_geoms={index for index in range(model.ngeom) if model.geom(index).name.startswith("slideplan_table_")},
     )
-    for joint, value in robot["fixed_joints"].items():
+
+
+def _set_start(built: Model, fixed_joints: dict[str, float], gripper_joints: dict[str, Any], settings: ExecutionSettings,
+               start_config) -> None:
+    """The start state: fixed joints where the robot description holds them, the hand open, the arm's
+    armature and its servo gains at ``start_config``."""
+    model, data = built.model, built.data
+    for joint, value in fixed_joints.items():
         data.qpos[model.jnt_qposadr[model.joint(joint).id]] = value
         if joint not in gripper_joints:
             data.ctrl[model.actuator(f"hold_{joint}").id] = value
     data.ctrl[built.gripper.actuators] = built.gripper.opened
     model.dof_armature[built.arm_dofs] += settings.joint_armature
-    set_servo_gains(built, result.start_config, settings)
-    return built
+    set_servo_gains(built, start_config, settings)
 
 
 def _split_into_convex_parts(spec, model0, body, geom) -> None:
