@@ -22,6 +22,7 @@ Needs the ``perception`` extra (scikit-learn; SciPy for the grid filters).
 
 from __future__ import annotations
 
+import importlib
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -258,8 +259,8 @@ def perceive(
             the table.
     """
     try:
-        import scipy.ndimage  # noqa: F401
-        import sklearn  # noqa: F401  (imported here so a missing extra is named before any work)
+        for module in ("sklearn", "scipy.ndimage"):  # imported here so a missing extra is named before any work
+            importlib.import_module(module)
     except ImportError as error:
         raise ImportError(f"perceive needs the perception extra (pip install 'slideplan[perception]'): {error}") from None
 
