@@ -27,7 +27,7 @@ from plan_bench import write_report  # benchmarks/ is the script's directory, he
 from slideplan import InputError, PlannerConfig, load_object, load_scene, plan, verify
 from slideplan.objects import load_outline, sample_pose_on_table
 from slideplan.camera import Camera
-from slideplan.rendering import Box, PlacedObject, depth_image, noisy_depth, scene_mjcf
+from slideplan.rendering import Box, PlacedObject, depth_image, noisy_depth, scene_spec
 from slideplan.tracking import Tracker
 from slideplan.transforms import rotation_2d, row_to_pose
 from slideplan.transforms import planar_motion
@@ -67,7 +67,7 @@ def main() -> None:
             about = (*(tip[:2] - rotation_2d(turn) @ tip[:2] + shift), turn)
             truth = obj.moved(predicted).moved(about)
             hand = [Box((tip[0], tip[1], table.height + 0.06), (0.05, 0.04, 0.03))]
-            depth = noisy_depth(depth_image(scene_mjcf(table, [PlacedObject(name, pose, obj.thickness, truth.outline)], hand, camera),
+            depth = noisy_depth(depth_image(scene_spec(table, [PlacedObject(name, pose, obj.thickness, truth.outline)], hand, camera),
                                             camera), 0.002, 0.05, rng)
             tracker = Tracker(obj, camera, table_height=table.height)
             tracker.track(depth, predicted)  # warm: SciPy's imports

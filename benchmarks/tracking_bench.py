@@ -33,7 +33,7 @@ import numpy as np
 from plan_bench import write_report  # benchmarks/ is the script's directory, hence on sys.path
 from slideplan import load_object, load_scene
 from slideplan.camera import Camera
-from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_mjcf
+from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_spec
 from slideplan.tracking import Tracker
 from slideplan.transforms import wrap_angle
 
@@ -49,7 +49,7 @@ def box_frames(table, camera, rng, poses: int, reach: float, turn: float):
             step = (*rng.uniform(-reach, reach, 2), rng.uniform(-turn, turn))
             now = tuple(a + b for a, b in zip(last, step))
             hand = [Box((now[0] + 0.02, now[1], table.height + 0.06), (0.05, 0.04, 0.03))]
-            depth = noisy_depth(depth_image(scene_mjcf(table, place_objects([(name, now)]), hand, camera), camera),
+            depth = noisy_depth(depth_image(scene_spec(table, place_objects([(name, now)]), hand, camera), camera),
                                 0.002, 0.05, rng)
             tracker = Tracker(load_object(name, table_height=table.height, pose=last), camera, table_height=table.height)
             # The reference is the object as last seen: the motion to now turns it about the world's origin.

@@ -72,7 +72,7 @@ from .plan.config import PlannerConfig
 from .plan.planner import plan
 from .plan.result import PlanResult
 from .plan.robot import build_robot
-from .rendering import camera_depth, depth_image, noisy_depth, place_objects, scene_mjcf
+from .rendering import camera_depth, depth_image, noisy_depth, place_objects, scene_spec
 from .scenes import Scene, load_scene
 from .timing import resolve_limits
 from .transforms import move_planar
@@ -199,7 +199,7 @@ def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: fl
 
     placed = place_objects([(object_name, pose)])[0]
     mounted = mounted or camera
-    depth = depth_image(scene_mjcf(scene.table, [placed], [], mounted), mounted)
+    depth = depth_image(scene_spec(scene.table, [placed], [], mounted), mounted)
     points = back_project(noisy_depth(depth, noise, DEPTH_DROPOUT, np.random.default_rng(seed)), camera)
     perception = perceive(points, seed=seed, source="the rendered scene")
     if not perception.objects:

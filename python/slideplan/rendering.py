@@ -18,11 +18,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import shapely
 from shapely.geometry import Polygon
 
 from .camera import Camera, back_project
 from .geometry import SupportSurface
+from .mjscene import add_camera, add_prism
 from .objects import load_outline, place_outline
 
 TABLE_SLAB_M = 0.03  # table top thickness
@@ -100,65 +100,41 @@ def place_objects(specs) -> list[PlacedObject]:
     return placed
 
 
-def _prism_pieces(outline: Polygon) -> list[np.ndarray]:
-    """Convex pieces covering the outline (its constrained Delaunay triangles), as (k, 2) arrays.
-
-    MuJoCo renders a vertex-only mesh as its convex hull, so a non-convex outline needs
-    convex pieces.
-    """
-    triangles = shapely.constrained_delaunay_triangles(outline)
-    return [np.asarray(triangle.exterior.coords)[:3] for triangle in triangles.geoms]
-
-
-def _mesh_asset(name: str, xy: np.ndarray, bottom: float, top: float) -> str:
-    vertices = np.vstack([np.column_stack([xy, np.full(len(xy), z)]) for z in (bottom, top)])
-    return f'<mesh name="{name}" vertex="{" ".join(f"{value:.6f}" for value in vertices.ravel())}"/>'
-
-
-def scene_mjcf(table: SupportSurface, objects: list[PlacedObject], clutter: list[Box], camera: Camera) -> str:
-    """The MuJoCo model (MJCF XML) of a table scene.
+def scene_spec(table: SupportSurface, objects: list[PlacedObject], clutter: list[Box], camera: Camera):
+    """The MuJoCo model (an ``mujoco.MjSpec``, :mod:`slideplan.mjscene`'s parts, as the execution model
+    builds them) of a table scene.
 
     Args:
-        table: the table (its top at ``table.height``; convex polygons render exactly).
-        objects: the thin objects lying on it.
+        table: the table (its top at ``table.height``; a non-convex one as convex pieces).
+        objects: the thin objects lying on it (prisms of their outlines).
         clutter: boxes.
-        camera: the depth camera.
+        camera: the depth camera (named ``depth``).
 
     Returns:
-        The XML text.
+        The spec, to compile.
     """
-    top = table.height
-    assets = [_mesh_asset("table", table.vertices, top - TABLE_SLAB_M, top)]
-    geoms = ['<geom type="mesh" mesh="table" rgba="0.6 0.5 0.4 1"/>']
+    os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco: headless rendering
+    import mujoco
+
+    spec = mujoco.MjSpec()
+    spec.visual.map.znear, spec.visual.map.zfar = 0.01, _FAR
+    top, world = table.height, spec.worldbody
+    world.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5, 5, 0.1], pos=[0, 0, top - FLOOR_BELOW_M])
+    add_prism(world, spec, "table", table.polygon, top - TABLE_SLAB_M, top, rgba=[0.6, 0.5, 0.4, 1])
     for index, placed in enumerate(objects):
-        for piece_index, piece in enumerate(_prism_pieces(placed.outline)):
-            name = f"object{index}_{piece_index}"
-            assets.append(_mesh_asset(name, piece, top, top + placed.thickness))
-            geoms.append(f'<geom type="mesh" mesh="{name}" rgba="0.2 0.4 0.8 1"/>')
+        add_prism(world, spec, f"object{index}", placed.outline, top, top + placed.thickness, rgba=[0.2, 0.4, 0.8, 1])
     for box in clutter:
-        half = " ".join(f"{0.5 * size:.6f}" for size in box.size)
-        center = " ".join(f"{value:.6f}" for value in box.center)
-        # MJCF angles are in degrees by default.
-        geoms.append(f'<geom type="box" size="{half}" pos="{center}" euler="0 0 {math.degrees(box.yaw):.6f}" rgba="0.8 0.3 0.2 1"/>')
-    axes = camera.axes()
-    xyaxes = " ".join(f"{value:.6f}" for value in np.concatenate([axes[:, 0], axes[:, 1]]))
-    position = " ".join(f"{value:.6f}" for value in camera.position)
-    return f"""<mujoco>
-  <visual><global offwidth="{camera.width}" offheight="{camera.height}"/><map znear="0.01" zfar="{_FAR:g}"/></visual>
-  <asset>{"".join(assets)}</asset>
-  <worldbody>
-    <geom type="plane" size="5 5 0.1" pos="0 0 {top - FLOOR_BELOW_M:.6f}"/>
-    {"".join(geoms)}
-    <camera name="depth" pos="{position}" xyaxes="{xyaxes}" fovy="{camera.fovy_deg}"/>
-  </worldbody>
-</mujoco>"""
+        world.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5 * size for size in box.size], pos=list(box.center),
+                       quat=[math.cos(0.5 * box.yaw), 0.0, 0.0, math.sin(0.5 * box.yaw)], rgba=[0.8, 0.3, 0.2, 1])
+    add_camera(spec, "depth", camera)
+    return spec
 
 
-def depth_image(mjcf: str, camera: Camera) -> np.ndarray:
+def depth_image(spec, camera: Camera) -> np.ndarray:
     """Render the depth image (distance along the optical axis, m) of the model's camera.
 
     Args:
-        mjcf: the model (from :func:`scene_mjcf`).
+        spec: the model (from :func:`scene_spec`).
         camera: its camera (for the image size).
 
     Returns:
@@ -167,7 +143,7 @@ def depth_image(mjcf: str, camera: Camera) -> np.ndarray:
     os.environ.setdefault("MUJOCO_GL", "egl")
     import mujoco
 
-    model = mujoco.MjModel.from_xml_string(mjcf)
+    model = spec.compile()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     with mujoco.Renderer(model, camera.height, camera.width) as renderer:
@@ -240,6 +216,6 @@ def render_scene(
         center = table.polygon.centroid
         camera = Camera((center.x - 0.15, center.y, table.height + 0.75), (center.x, center.y, table.height))
     clutter = list(clutter)
-    depth = depth_image(scene_mjcf(table, objects, clutter, camera), camera)
+    depth = depth_image(scene_spec(table, objects, clutter, camera), camera)
     depth = noisy_depth(depth, noise_at_1m, dropout, np.random.default_rng(seed))
     return RenderedScene(back_project(depth, camera), table, list(objects), clutter, camera)

@@ -41,6 +41,12 @@ def quaternion_from_matrix(rotation) -> np.ndarray:
     return -quaternion if quaternion[3] < 0 else quaternion
 
 
+def quaternion_wxyz(rotation) -> np.ndarray:
+    """:func:`quaternion_from_matrix` scalar first, ``[qw, qx, qy, qz]`` (MuJoCo's and viser's order)."""
+    x, y, z, w = quaternion_from_matrix(rotation)
+    return np.array([w, x, y, z])
+
+
 def matrix_from_quaternion(quaternion) -> np.ndarray:
     """Convert a quaternion to a rotation matrix.
 

@@ -31,7 +31,7 @@ import numpy as np
 from .errors import InputError
 from .framing import frame_points, view_direction
 from .plan.result import PlanResult
-from .transforms import move_planar, quaternion_from_matrix, row_to_pose
+from .transforms import move_planar, quaternion_wxyz, row_to_pose
 from .transforms import planar_motion
 
 # Colours (RGB 0-255) with distinct hues, so that a screenshot can tell the parts apart (tests do).
@@ -135,12 +135,6 @@ def object_mesh(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2)
     spacing = np.median(edges.min(axis=1))
     return points, faces[edges.max(axis=1) <= 3.0 * spacing]
-
-
-def _wxyz(pose: np.ndarray) -> np.ndarray:
-    """viser's scalar-first quaternion of a 4x4 pose."""
-    x, y, z, w = quaternion_from_matrix(pose)
-    return np.array([w, x, y, z])
 
 
 def _planar(motion) -> tuple[np.ndarray, np.ndarray]:
@@ -253,7 +247,7 @@ class PlanView:
             scene.add_line_segments("/fingertip_path", np.stack([tips[:-1], tips[1:]], axis=1), TIP_PATH_COLOR,
                                     thickness=0.003)
         grasp = row_to_pose(result.grasp["pose"])
-        scene.add_frame("/grasp", axes_length=0.06, axes_radius=0.003, wxyz=_wxyz(grasp), position=grasp[:3, 3])
+        scene.add_frame("/grasp", axes_length=0.06, axes_radius=0.003, wxyz=quaternion_wxyz(grasp), position=grasp[:3, 3])
         scene.add_label("/grasp/label", "grasp", position=(0.0, 0.0, 0.07), anchor="bottom-left")
 
     def _add_overhang(self, points: np.ndarray, polygon: np.ndarray) -> None:
@@ -293,7 +287,7 @@ class PlanView:
         except Exception as error:  # yourdfpy raises anything from OSError to lxml and trimesh errors
             raise InputError(f"cannot load the robot ({type(error).__name__}: {error})", source=str(path), field="robot.urdf") from None
         base = np.asarray(result.robot["base_pose"], dtype=float)
-        self._robot_frame = scene.add_frame("/robot", show_axes=False, wxyz=_wxyz(base), position=base[:3, 3])
+        self._robot_frame = scene.add_frame("/robot", show_axes=False, wxyz=quaternion_wxyz(base), position=base[:3, 3])
         visual = urdf.scene is not None and len(urdf.scene.geometry) > 0  # the bundled robot has primitives only
         self._urdf = urdf
         self._robot = ViserUrdf(self.server, urdf, root_node_name="/robot", load_meshes=visual, load_collision_meshes=not visual,
@@ -392,7 +386,7 @@ class PlanView:
             self._robot.update_cfg(self._urdf_config(config))
             tip = self._urdf.get_transform(self.result.robot["tip_link"], self._urdf.base_link, collision_geometry=True) @ \
                 np.asarray(self.result.robot["tip_offset"], dtype=float)
-            self._tip.wxyz, self._tip.position = _wxyz(tip), tip[:3, 3]
+            self._tip.wxyz, self._tip.position = quaternion_wxyz(tip), tip[:3, 3]
             self._object.wxyz, self._object.position = _planar(motion)
 
 

@@ -15,7 +15,7 @@ from slideplan.cli import app
 from slideplan.closed_loop import default_camera, run
 from slideplan.closed_loop_settings import Disturbance
 from slideplan.objects import load_object
-from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_mjcf
+from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_spec
 from slideplan.tracking import Tracker
 from slideplan.transforms import row_to_pose, wrap_angle
 from slideplan.transforms import planar_motion
@@ -343,8 +343,8 @@ def test_a_search_of_the_table_leaves_out_the_obstacles_whose_sides_rise_through
     watch = Watch(scene, obj, PlannerConfig.for_scene(scene), camera, (0.003, math.radians(2.0)), 0.05)
 
     def frame(objects):
-        mjcf = scene_mjcf(scene.table, place_objects(objects), walls, camera)
-        return noisy_depth(depth_image(mjcf, camera), 0.002, 0.05, np.random.default_rng(3))
+        spec = scene_spec(scene.table, place_objects(objects), walls, camera)
+        return noisy_depth(depth_image(spec, camera), 0.002, 0.05, np.random.default_rng(3))
 
     empty = frame([])
     tracker = Tracker(obj, camera, table_height=scene.table.height)

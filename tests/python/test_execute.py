@@ -245,18 +245,18 @@ def test_grasp_whose_fingers_reach_over_the_table_fails_and_says_why():
     assert "stopped by the table" in execution.failure
 
 
-def test_non_convex_table_is_a_union_of_triangles_covering_it():
+def test_a_non_convex_outline_is_a_union_of_convex_pieces_covering_it():
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
-    from slideplan.execute.model import table_pieces
+    from slideplan.mjscene import prism_pieces
 
     ell = Polygon([(0.3, -0.3), (0.9, -0.3), (0.9, 0.0), (0.6, 0.0), (0.6, 0.3), (0.3, 0.3)])
-    pieces = [Polygon(piece) for piece in table_pieces(ell)]
+    pieces = [Polygon(piece) for piece in prism_pieces(ell)]
     assert len(pieces) > 1 and all(piece.convex_hull.area - piece.area < 1e-12 for piece in pieces)
     assert abs(unary_union(pieces).area - ell.area) < 1e-9 and unary_union(pieces).symmetric_difference(ell).area < 1e-9
     square = Polygon([(0.3, -0.2), (0.7, -0.2), (0.7, 0.2), (0.3, 0.2)])
-    assert len(table_pieces(square)) == 1
+    assert len(prism_pieces(square)) == 1
 
 
 def test_object_boxes_cover_a_non_convex_outline_and_not_its_hollow():

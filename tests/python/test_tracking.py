@@ -7,7 +7,7 @@ import pytest
 
 from slideplan import InputError, load_object, load_scene
 from slideplan.camera import Camera
-from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_mjcf
+from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_spec
 from slideplan.tracking import Tracker
 from slideplan.transforms import wrap_angle
 
@@ -21,8 +21,8 @@ def square():
 
 def frame(table, camera, name, pose, hand, rng):
     """A noisy depth frame of one object at `pose` with a box (`hand`) above part of it."""
-    mjcf = scene_mjcf(table, place_objects([(name, pose)]), hand, camera)
-    return noisy_depth(depth_image(mjcf, camera), 0.002, 0.05, rng)
+    spec = scene_spec(table, place_objects([(name, pose)]), hand, camera)
+    return noisy_depth(depth_image(spec, camera), 0.002, 0.05, rng)
 
 
 def pose_error(tracker, estimate, truth, turn):
@@ -84,7 +84,7 @@ def test_an_object_far_from_the_guess_is_lost_by_tracking_and_found_by_locating_
     assert estimate.ok, estimate.reason
     assert pose_error(tracker, estimate, truth, 0.0)[0] <= 0.002
     # An empty table: nothing to locate.
-    empty = noisy_depth(depth_image(scene_mjcf(table, [], hand, camera), camera), 0.002, 0.05, np.random.default_rng(3))
+    empty = noisy_depth(depth_image(scene_spec(table, [], hand, camera), camera), 0.002, 0.05, np.random.default_rng(3))
     assert tracker.locate(empty, (0.0, 0.0, 0.0), table.polygon) is None
 
 
@@ -146,10 +146,10 @@ def test_a_straight_edge_alone_does_not_fix_the_pose(square):
     hands = [Box((x, 0.0, table.height + 0.04), (0.14, 0.2, 0.04)) for x in (0.35, 0.65)]  # above the strip's ends
     tracker = Tracker(strip, camera, table_height=table.height)
     rng = np.random.default_rng(1)
-    hidden = noisy_depth(depth_image(scene_mjcf(table, placed, hands, camera), camera), 0.002, 0.05, rng)
+    hidden = noisy_depth(depth_image(scene_spec(table, placed, hands, camera), camera), 0.002, 0.05, rng)
     slid = tracker.track(hidden, guess=(0.02, 0.0, 0.0))
     assert not slid.ok and "does not fix the pose" in slid.reason
-    whole = tracker.track(noisy_depth(depth_image(scene_mjcf(table, placed, [], camera), camera), 0.002, 0.05, rng))
+    whole = tracker.track(noisy_depth(depth_image(scene_spec(table, placed, [], camera), camera), 0.002, 0.05, rng))
     assert whole.ok, whole.reason
     assert np.hypot(*whole.motion[:2]) < 0.002
 
@@ -164,7 +164,7 @@ def test_a_fit_where_the_frame_shows_the_table_is_refused(square):
             Box((x, -0.045, z), (0.1, 0.01, 0.006)), Box((x, 0.045, z), (0.1, 0.01, 0.006))]
     tracker = Tracker(load_object("square", table_height=table.height, pose=(x, 0.0, 0.0)), camera, table_height=table.height)
     rng = np.random.default_rng(1)
-    traced = tracker.track(noisy_depth(depth_image(scene_mjcf(table, [], ring, camera), camera), 0.002, 0.05, rng))
+    traced = tracker.track(noisy_depth(depth_image(scene_spec(table, [], ring, camera), camera), 0.002, 0.05, rng))
     assert not traced.ok and "does not show the object" in traced.reason
     real = tracker.track(frame(table, camera, "square", (x, 0.0, 0.0), [], rng))
     assert real.ok, real.reason
@@ -208,7 +208,7 @@ def test_a_camera_mounted_millimetres_off_still_tracks_with_the_table_plane_it_s
     mounted = camera_as_mounted(believed, draws)
     rng = np.random.default_rng(11)
     start = (0.55, 0.0, 0.4)
-    first = noisy_depth(depth_image(scene_mjcf(table, place_objects([("crescent", start)]), [], mounted), mounted),
+    first = noisy_depth(depth_image(scene_spec(table, place_objects([("crescent", start)]), [], mounted), mounted),
                         0.002, 0.05, rng)
     plane = perceive(back_project(first, believed), seed=1).plane
     reference = load_object("crescent", table_height=table.height, pose=start)
@@ -217,7 +217,7 @@ def test_a_camera_mounted_millimetres_off_still_tracks_with_the_table_plane_it_s
     found = {"level": 0, "plane": 0}
     for step in range(4):
         now = (0.55 + 0.01 * step, 0.005 * step, 0.4 + 0.02 * step)
-        depth = noisy_depth(depth_image(scene_mjcf(table, place_objects([("crescent", now)]), [], mounted), mounted),
+        depth = noisy_depth(depth_image(scene_spec(table, place_objects([("crescent", now)]), [], mounted), mounted),
                             0.002, 0.05, rng)
         turn = now[2] - start[2]  # the motion taking the object at start to now: R(turn) p + shift
         shift = np.subtract(now[:2], [[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]] @ np.array(start[:2]))

@@ -14,12 +14,13 @@ import numpy as np
 from ..errors import InputError
 from ..plan.robot import merge_urdf, plan_robot, robot_description, search_dirs
 from ..plan.result import PlanResult
-from ..transforms import quaternion_from_matrix
+from ..mjscene import add_camera
+from ..transforms import quaternion_wxyz
 from . import contacts as contact_models
 from .contacts import ContactModel
 from .convex import convex_parts
 from .settings import ExecutionSettings
-from .world import TABLE_THICKNESS, add_world, cloud_footprint, object_boxes, table_pieces  # noqa: F401 - re-exported
+from .world import TABLE_THICKNESS, add_world, cloud_footprint, object_boxes  # noqa: F401 - re-exported
 
 MESH_SUFFIXES = (".stl", ".obj")  # what MuJoCo reads from a URDF
 DEPTH_CAMERA = "slideplan_depth"
@@ -278,7 +279,7 @@ def _mount(spec, robot: dict[str, Any], zero: _AtZero) -> None:
     base_link = robot["base_link"] or root_body.name
     mount = np.asarray(robot["base_pose"]) @ np.linalg.inv(zero.pose(base_link)) @ zero.pose(root_body.name)
     root_body.pos = mount[:3, 3]
-    root_body.quat = _wxyz(mount[:3, :3])
+    root_body.quat = quaternion_wxyz(mount[:3, :3])
 
 
 def _dress_robot(spec, settings: ExecutionSettings, groups) -> None:
@@ -405,11 +406,7 @@ def _add_world(spec, result: PlanResult | Rig, settings: ExecutionSettings, worl
         points, com = world_object.points, np.asarray(world_object.centroid_xy, dtype=float)
     add_world(spec, result, settings, points, com, contacts)
     if camera is not None:
-        # Camera.axes() are MuJoCo's camera frame (x right, y up, looking along -z).
-        spec.worldbody.add_camera(name=DEPTH_CAMERA, pos=list(camera.position), fovy=camera.fovy_deg,
-                                  quat=_wxyz(camera.axes()))
-        spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, camera.width)
-        spec.visual.global_.offheight = max(spec.visual.global_.offheight, camera.height)
+        add_camera(spec, DEPTH_CAMERA, camera)
     spec.memory = _ARENA_BYTES
     spec.option.timestep = settings.timestep
     contacts.apply(spec)
@@ -473,12 +470,6 @@ def _split_into_convex_parts(spec, model0, body, geom) -> None:
         body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name, pos=compiled.pos, quat=compiled.quat,
                       rgba=geom.rgba)
     spec.delete(geom)
-
-
-def _wxyz(rotation: np.ndarray) -> np.ndarray:
-    """MuJoCo's (w, x, y, z) quaternion of a rotation matrix."""
-    x, y, z, w = quaternion_from_matrix(rotation)
-    return np.array([w, x, y, z])
 
 
 def set_servo_gains(built: Model, config: np.ndarray, settings: ExecutionSettings) -> None:

@@ -8,18 +8,11 @@ import shapely
 from shapely.geometry import Polygon
 
 from ..geometry import SupportSurface
+from ..mjscene import add_prism
 from .contacts import ContactModel
 from .settings import ExecutionSettings
 
 TABLE_THICKNESS = 0.05
-
-
-def table_pieces(polygon: Polygon) -> list[np.ndarray]:
-    """Convex pieces of the table polygon: itself if convex, else its constrained Delaunay triangles."""
-    if polygon.convex_hull.area - polygon.area <= 1e-9 * polygon.area:
-        return [np.asarray(polygon.exterior.coords)[:-1]]
-    triangles = shapely.constrained_delaunay_triangles(polygon)
-    return [np.asarray(piece.exterior.coords)[:-1] for piece in triangles.geoms]
 
 
 def cloud_footprint(points: np.ndarray) -> Polygon | shapely.MultiPolygon:
@@ -86,21 +79,9 @@ def add_world(spec, result, settings: ExecutionSettings, points: np.ndarray, com
     groups = contacts.groups
     height = float(result.table["height"])
     table = SupportSurface.from_vertices(result.table["polygon"], height, field="table.polygon")
-    for index, piece in enumerate(table_pieces(table.polygon)):
-        vertices = np.vstack([
-            np.column_stack([piece, np.full(len(piece), height)]),
-            np.column_stack([piece, np.full(len(piece), height - TABLE_THICKNESS)]),
-        ])
-        spec.add_mesh(name=f"slideplan_table_{index}", uservert=vertices.ravel().tolist())
-        spec.worldbody.add_geom(
-            name=f"slideplan_table_{index}",
-            type=mujoco.mjtGeom.mjGEOM_MESH,
-            meshname=f"slideplan_table_{index}",
-            contype=groups.table[0],
-            conaffinity=groups.table[1],
-            friction=[settings.table_friction, 0.005, 0.0001],
-            rgba=[0.55, 0.45, 0.35, 1],
-        )
+    add_prism(spec.worldbody, spec, "slideplan_table", table.polygon, height - TABLE_THICKNESS, height,
+              contype=groups.table[0], conaffinity=groups.table[1], friction=[settings.table_friction, 0.005, 0.0001],
+              rgba=[0.55, 0.45, 0.35, 1])
     thickness = float(result.object["thickness"])
     boxes = object_boxes(points, settings.cell_size)
     body = spec.worldbody.add_body(name="slideplan_object", pos=[com[0], com[1], height + thickness / 2])
