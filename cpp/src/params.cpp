@@ -70,6 +70,10 @@ namespace slideplan
                      "open: the paper does not say how the hand moves from phi_g to H_g", true, true,
                      "The fingertip rises this far above the object's top before the transfer to the grasp; the "
                      "grasp's own lift check lifts H_g as far."),
+                real("approach_height", &P::approachHeight, "m", 0.03, 0.0, open, inf, open, leftOpen,
+                     "open: the paper does not say how the hand comes onto the first contact", false, false,
+                     "The fingertip comes down onto the first contact from this far above the object's top, "
+                     "straight; with lift_check a start root counts only if that line is reachable from it."),
                 real("grasp_backoff", &P::graspBackoff, "m", 0.06, 0.0, closed, inf, open, leftOpen,
                      "open: the paper does not say how the hand moves from phi_g to H_g", true, false,
                      "Pre-grasp offset along the approach axis: the last motion is a straight approach."),
@@ -129,9 +133,11 @@ namespace slideplan
                 flag("goal_grasp_filter", &P::goalGraspFilter, true, 0.0, "Algorithm 1: every goal root kept", false, false,
                      "Beyond the paper (with grasp_map): a goal root by an edge stretch without a reachable side grasp "
                      "is kept one time in ten."),
-                flag("lift_check", &P::liftCheck, true, 0.0, "IV-C.1: any IK solution of H_g", false, true,
+                flag("lift_check", &P::liftCheck, true, 0.0, "IV-C.1, Eq. 3: any IK solution of H_g or of a contact",
+                     false, true,
                      "Beyond the paper: a grasp IK solution counts only if H_g raised by grasp_lift is reachable from "
-                     "it, a centimetre at a time as the execution lifts."),
+                     "it, and a start root only if the fingertip rises approach_height above the object from it, a "
+                     "centimetre at a time as the execution moves."),
                 flag("cache_verdicts", &P::cacheVerdicts, true, 0.0, "Algorithm 1: every connection checked", false, false,
                      "Beyond the paper: IsPairValid's verdict is remembered per root pair."),
                 real("contact_radius", &P::contactRadius, "m", 0.03, 0.0, closed, inf, open, 0.0, "Eq. 3: the whole cloud",

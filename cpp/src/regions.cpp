@@ -1,6 +1,7 @@
 #include "slideplan/regions.hpp"
 
 #include "slideplan/contact_frame.hpp"
+#include "slideplan/straight_line.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -53,7 +54,13 @@ namespace slideplan
         options.maxAttempts = params_.rootIkAttempts;
         options.positionTolerance = options.orientationTolerance = 0.1 * params_.projectionTolerance;
         options.stop = [&ptc] { return ptc(); };
+        options.accept = [this](const Eigen::VectorXd &solution) { return acceptable(solution); };
         return task.robot->ik(target, seed, rng, q, options) && validity_->isValid(q, task.robot->fk(q));
+    }
+
+    bool ContactRegion::acceptable(const Eigen::VectorXd &) const
+    {
+        return true;
     }
 
     StartRegion::StartRegion(std::shared_ptr<const SlidingValidity> validity, const PlannerParams &params)
@@ -68,6 +75,22 @@ namespace slideplan
         for (Eigen::Index i = 0; i < distance.size(); ++i)
             if (distance(i) <= limit)
                 candidates_.push_back(i);
+    }
+
+    bool StartRegion::acceptable(const Eigen::VectorXd &q) const
+    {
+        const RobotModel &robot = *validity_->task().robot;
+        const Eigen::Isometry3d tip = robot.fk(q);
+        // An invalid state is the caller's to reject (as without the check: the same draws, the same plans);
+        // the line is solved for valid ones only, a few in a tree's growth.
+        if (!params_.liftCheck || !validity_->isValid(q, tip))
+            return true;
+        const double top = validity_->task().surfaceZ;
+        // From the seed only (one attempt: a restart would jump branches), as slideplan.motions rises.
+        IkOptions near = contactIkOptions(robot);
+        near.maxAttempts = 1;
+        const double rise = std::max(tip.translation().z(), top) + params_.approachHeight - tip.translation().z();
+        return straightLine(robot, q, tip, Eigen::Vector3d(0.0, 0.0, rise), near).has_value();
     }
 
     bool StartRegion::samplePoint(std::mt19937_64 &rng, Eigen::Vector2d &point) const

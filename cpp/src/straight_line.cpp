@@ -12,8 +12,9 @@ namespace slideplan
                                                              const std::string &link, const Eigen::Isometry3d &frame)
     {
         const int steps = std::max(1, static_cast<int>(std::ceil(offset.norm() / kLiftStep - 1e-9)));
-        std::vector<Eigen::VectorXd> path{q};
+        std::vector<Eigen::VectorXd> path;
         path.reserve(steps + 1);
+        path.push_back(q);
         for (int step = 1; step <= steps; ++step)
         {
             Eigen::Isometry3d target = start;

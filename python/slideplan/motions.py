@@ -16,6 +16,7 @@ import shapely
 from . import _core
 from .errors import InputError
 from .objects import ThinObject
+from .plan.config import PlannerConfig
 from .plan.result import PlanResult
 from .timing import time_path
 
@@ -100,7 +101,6 @@ def plan_times(result: PlanResult, key: str, length: int) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- the reach to a first contact
 
-HOVER_M = 0.03  # the reach comes down onto the first contact from this far above the object
 REACH_CLEARANCE_M = 0.15  # or by way of this much higher, where the direct move collides
 REACH_STEP_RAD = 0.02  # the reach is checked for collisions this densely (joint space)
 
@@ -128,11 +128,12 @@ def dense(configs: list[np.ndarray]) -> np.ndarray:
 
 def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = False) -> np.ndarray:
     """From the arm's configuration ``current`` to the slide's first contact: joint-linear to a
-    configuration with the fingertip HOVER_M above the object there, or else by way of one
+    configuration with the fingertip the plan's ``approach_height`` above the object there (the planner
+    kept only a first contact it can rise from so), or else by way of one
     REACH_CLEARANCE_M higher still, or else up to that height first, across and down (every link clear
     of table, clutter and object on the way), then
     down onto the contact (the finger may touch the object there, as while sliding). ``pressed``: the
-    finger is on the table or the object now (a slide ended): it rises HOVER_M straight up first.
+    finger is on the table or the object now (a slide ended): it rises as high straight up first.
 
     Raises:
         Unreachable: no IK above the contact, or a collision on every way, naming the links.
@@ -143,6 +144,7 @@ def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = 
 
     top = float(result.table["height"]) + obj.thickness
     tip = np.asarray(robot.fk(start))
+    hover = float(result.params.get("approach_height", PlannerConfig().approach_height))  # older plans: the default
 
     def above(height: float, seed: np.ndarray, pose: np.ndarray = tip) -> np.ndarray:
         """A configuration with the fingertip (at the start's pose) ``height`` above the object's top (the
@@ -162,18 +164,18 @@ def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = 
         return []
 
     def up_from(config: np.ndarray, what: str) -> np.ndarray:
-        """Straight up from ``config`` to HOVER_M above the object's top, a centimetre at a time (one IK
+        """Straight up from ``config`` to ``hover`` above the object's top, a centimetre at a time (one IK
         call for the whole height may land on another branch of the arm)."""
         z = float(np.asarray(robot.fk(config))[2, 3])
-        way = straight_up(robot, config, max(z, top) + HOVER_M - z)
+        way = straight_up(robot, config, max(z, top) + hover - z)
         if way is None:
-            raise Unreachable(f"no inverse kinematics straight up {100 * HOVER_M:.0f} cm above the object {what}")
+            raise Unreachable(f"no inverse kinematics straight up {100 * hover:.0f} cm above the object {what}")
         return dense(list(way))
 
     up = up_from(start, "at the first contact")
-    hover, down = up[-1], up[::-1]
+    above_contact, down = up[-1], up[::-1]
     if blocked(down, _core.ContactMode.SLIDING):
-        raise Unreachable(f"the move down onto the first contact from {100 * HOVER_M:.0f} cm above collides")
+        raise Unreachable(f"the move down onto the first contact from {100 * hover:.0f} cm above collides")
     current = np.asarray(current, dtype=float)
     rise = np.zeros((0, len(current)))
     if pressed:
@@ -182,11 +184,12 @@ def reach_path(result: PlanResult, obj: ThinObject, current, *, pressed: bool = 
             raise Unreachable("lifting the finger off collides")
         current, rise = rise[-1], rise[:-1]
     pairs: list = []
-    high = HOVER_M + REACH_CLEARANCE_M
+    high = hover + REACH_CLEARANCE_M
     # Straight across; by way of high above the contact; or up first, across high, and down (a joint-linear
     # move from a finger on the object to high above a new contact can dip into the object on the way).
-    ways = (lambda: [current, hover], lambda: [current, above(high, hover), hover],
-            lambda: [current, above(high, current, np.asarray(robot.fk(current))), above(high, hover), hover])
+    ways = (lambda: [current, above_contact], lambda: [current, above(high, above_contact), above_contact],
+            lambda: [current, above(high, current, np.asarray(robot.fk(current))), above(high, above_contact),
+                     above_contact])
     for way in ways:
         try:
             path = dense(way())

@@ -94,8 +94,10 @@ namespace slideplan
         long fewNodes = 0, manyNodes = 0;
         const long few = grow(500, fewNodes), many = grow(5000, manyNodes);
         ASSERT_GT(manyNodes - fewNodes, 10000);  // the set-up and the first roots cancel out in the difference
-        // 1.27 here (root pairs add map entries); 3.6 when a node held a VectorXd and each step allocated.
-        EXPECT_LT(static_cast<double>(many - few) / static_cast<double>(manyNodes - fewNodes), 1.5)
+        // 1.50 here (root pairs add map entries, and each valid start root solves the line the reach comes
+        // down on: about 18 allocations per root, a root per 70 nodes); 3.6 when a node held a VectorXd and
+        // each step allocated.
+        EXPECT_LT(static_cast<double>(many - few) / static_cast<double>(manyNodes - fewNodes), 2.0)
             << many - few << " allocations, " << manyNodes - fewNodes << " nodes";
     }
 }  // namespace slideplan

@@ -530,6 +530,29 @@ def test_the_planners_grasp_lifts_straight_up_where_its_wrist_sits_at_a_limit():
     assert straight_up(result.robot_model(), np.asarray(result.grasp["config"]), result.params["grasp_lift"]) is not None
 
 
+def test_the_planners_first_contact_can_be_come_down_onto_straight():
+    # The crescent of the ROS tests, seed 11: any IK of Eq. 3 (lift_check off) put the WAM's first and sixth
+    # joints at their limits, where the fingertip cannot rise approach_height straight up, so the reach had
+    # no way down onto the contact (CI's ROS test refused the plan: "no inverse kinematics straight up").
+    from slideplan import PlannerConfig, load_object, load_scene, plan
+    from slideplan.motions import reach_path, straight_up
+
+    scene = load_scene("square")
+    obj = load_object("crescent", table_height=scene.table.height, pose=(0.55, -0.08, 0.4))
+    home = np.zeros(7)
+
+    def rises(result) -> bool:
+        robot, start = result.robot_model(), np.asarray(result.start_config)
+        z, top = float(np.asarray(robot.fk(start))[2, 3]), scene.table.height + obj.thickness
+        return straight_up(robot, start, max(z, top) + result.params["approach_height"] - z) is not None
+
+    paper_rule = plan(scene, obj, PlannerConfig.for_scene(scene, seed=11, lift_check=False))
+    assert paper_rule.solved and not rises(paper_rule)  # what the check is for
+    for seed in range(16):
+        result = plan(scene, obj, PlannerConfig.for_scene(scene, seed=seed))
+        assert result.solved and rises(result), seed
+        assert len(reach_path(result, obj, home)) > 1
+
 def test_a_move_straight_up_stays_on_the_vertical_and_on_the_arms_branch():
     # The sweep's square/irregular pose 0: one IK call for 10 cm above the slide's end lands on another
     # branch (a joint turned by 3.4 rad), and the joint-linear move there swept the hand 25 cm down

@@ -28,7 +28,7 @@ namespace slideplan
         // Root sampling (Eq. 5) and regions (Eq. 4).
         double nStar, dGoal;
         // Pair validation (IV-C.1) and the motion from phi_g to the grasp.
-        double uStar, graspLift, graspBackoff, graspStandoff, graspHold;
+        double uStar, graspLift, approachHeight, graspBackoff, graspStandoff, graspHold;
         double graspTiltTolerance, graspYawTolerance, graspRollTolerance;
         int transferIterations;
         // Constrained extension (CBiRRT [16]).

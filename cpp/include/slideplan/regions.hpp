@@ -34,18 +34,26 @@ namespace slideplan
         virtual bool samplePoint(std::mt19937_64 &rng, Eigen::Vector2d &point) const = 0;
 
     protected:
+        /// Asked of every IK solution (so that the restarts look for another posture): none by default.
+        virtual bool acceptable(const Eigen::VectorXd &q) const;
+
         std::shared_ptr<const SlidingValidity> validity_;
         PlannerParams params_;
         double reach_;  ///< upper bound of the distance from the base to the tip: cheap rejection before IK
     };
 
     /// Eq. 3: contact points from the object's cloud P_o; beyond the paper, only those within
-    /// params.contactRadius of the closest distance to the centre of mass.
+    /// params.contactRadius of the closest distance to the centre of mass, and (params.liftCheck) only
+    /// configurations the fingertip can rise from straight up by params.approachHeight above the object,
+    /// the line the execution comes down on (a start with a joint at its limit may have none).
     class StartRegion final : public ContactRegion
     {
     public:
         StartRegion(std::shared_ptr<const SlidingValidity> validity, const PlannerParams &params);
         bool samplePoint(std::mt19937_64 &rng, Eigen::Vector2d &point) const override;
+
+    protected:
+        bool acceptable(const Eigen::VectorXd &q) const override;
 
     private:
         std::vector<Eigen::Index> candidates_;  ///< rows of P_o that may be drawn
