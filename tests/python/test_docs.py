@@ -122,3 +122,13 @@ def test_the_readme_commands_run_in_order_after_make_demo(tmp_path, monkeypatch)
         assert result.exit_code == 0, (words, result.output)
         ran += 1
     assert ran >= 7 and Path("execution.mp4").stat().st_size > 0 and Path("perceived/scene.toml").exists()
+
+
+@pytest.mark.parametrize("document", ["README.md", "docs/ros2.md"])
+def test_the_bounds_of_a_run_are_documented_as_the_loop_has_them(document):
+    from slideplan.bounds import MAX_REPLANS, MAX_SLIDE_S, NO_PROGRESS_MOVE_M, NO_PROGRESS_TRAVEL_M
+
+    text = " ".join((ROOT / document).read_text().split())
+    assert f"after {MAX_REPLANS} re-plans or {MAX_SLIDE_S:g} s of sliding" in text
+    assert (f"travels {100 * NO_PROGRESS_TRAVEL_M:g} cm while the object, as seen, does not move "
+            f"{1000 * NO_PROGRESS_MOVE_M:g} mm") in text

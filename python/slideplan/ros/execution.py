@@ -42,7 +42,10 @@ class Execution:
         node.set_gripper(False)
         names = result.joint_names
         node.move(names, task.reach, rest_to_rest(result.robot_model(), task.reach, result.timing["limits"], "reach", capped=False), "reach")
-        result, replans, expected = self.slide(result)
+        result, loop, expected = self.slide(result)
+        if loop.abandoned:  # as slideplan.closed_loop.run judges it: no grasp of an object the finger lost
+            raise Refused("slide", "no progress: the finger travelled on and the object did not, and no new plan "
+                                   f"followed (slide_stop {loop.stopped})")
         approach = np.asarray(result.grasp["approach"], dtype=float)
         if len(approach):
             node.move(names, approach, result.timing["approach"], "approach")
@@ -53,23 +56,24 @@ class Execution:
         node.move(names, lift, rest_to_rest(result.robot_model(), lift, result.timing["limits"], "lift"), "lift")
         checked = self.check_lifted(expected)
         latencies = [event.latency_s for event in self.events if event.outcome in ("slide", "grasp", "refused", "timeout")]
-        return {"status": "done", "closed_loop": bool(node.parameter("closed_loop")), "replans": replans,
+        return {"status": "done", "closed_loop": bool(node.parameter("closed_loop")), "replans": loop.replans,
+                "slide_stop": loop.stopped,
                 "looks": 0 if self.judge is None else self.judge.looks, "kept": 0 if self.judge is None else self.judge.kept,
                 "lift_checked": checked, "overhang_m": round(result.overhang_m, 4),
                 "planning_time_s": round(task.result.planning_time_s, 4),
                 "replan_latency_s": round(float(np.median(latencies)), 4) if latencies else None}
 
-    def slide(self, result: PlanResult) -> tuple[PlanResult, int, tuple]:
+    def slide(self, result: PlanResult) -> tuple[PlanResult, SlideLoop, tuple]:
         """Follow the slide; with ``closed_loop``, watch the object in each new cloud and re-plan as
-        :func:`slideplan.closed_loop.run` does (:class:`~slideplan.loop.SlideLoop`). Return the plan
-        whose grasp is made, the re-plans followed, and where the object is expected at the grasp (motion
-        from its perceived pose: as last seen, or as Eq. 2 puts it)."""
+        :func:`slideplan.closed_loop.run` does (:class:`~slideplan.loop.SlideLoop`, within its bounds).
+        Return the plan whose grasp is made, the loop (its re-plans and the bound it met), and where the
+        object is expected at the grasp (motion from its perceived pose: as last seen, or as Eq. 2 puts it)."""
         node, task = self.node, self.task
         watch = self.judge = self._watch() if bool(node.parameter("closed_loop")) else None
         robot = result.robot_model()
         loop = SlideLoop(watch, robot, task.scene.table.height + task.obj.thickness, END_REPLANS, _Controlled(self, result, robot))
         final, expected = loop.run(result)
-        return final, loop.replans, expected
+        return final, loop, expected
 
     def next_points(self, phase: str) -> np.ndarray:
         """The points of the next cloud, in the camera's optical frame as they came.
