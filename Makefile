@@ -87,6 +87,7 @@ bench: install
 	$(PYTHON) benchmarks/cli_bench.py
 	$(PYTHON) benchmarks/perceive_bench.py
 	$(PYTHON) benchmarks/execute_bench.py
+	$(PYTHON) benchmarks/video_bench.py
 	$(PYTHON) benchmarks/tracking_bench.py
 	$(PYTHON) benchmarks/replan_bench.py
 	$(PYTHON) benchmarks/ros_bench.py

@@ -250,12 +250,12 @@ def _diagnose(report: dict[str, Any], table, perceived: ThinObject, truth: ThinO
 class _Simulated:
     """The :class:`~slideplan.loop.Arm` of :func:`run`: MuJoCo's servos (:class:`~slideplan.execute.runner.Runner`), a look
     every ``period`` of simulated time, the frames rendered; ``on_step(clock)`` before each step (the
-    disturbance)."""
+    disturbance); ``mark(text)`` says on the video what the loop did."""
 
     def __init__(self, runner: Runner, robot, settings: ExecutionSettings, frames, events: list, period: float,
-                 on_step: Callable[[float], None]) -> None:
+                 on_step: Callable[[float], None], mark: Callable[[str], None]) -> None:
         self.runner, self.robot, self.settings, self._frames = runner, robot, settings, frames
-        self.events, self.period, self.on_step = events, period, on_step
+        self.events, self.period, self.on_step, self.mark = events, period, on_step, mark
         self.started = float(runner.built.data.time)
 
     def clock(self) -> float:
@@ -302,7 +302,8 @@ class _Simulated:
         self.events.append(event)
 
     def replanned(self, trigger: str, outcome: str, replans: int) -> None:
-        """Nothing to say: the report has the loop's count and the events."""
+        """Marked on the video (the report has the loop's count and the events)."""
+        self.mark(f"re-plan {replans} ({trigger}): {outcome}")
 
 
 def run(
@@ -388,7 +389,8 @@ def run(
 
     world.runner.press(first.trajectory[0], segment.depths[0])
     loop = SlideLoop(watch if closed else None, world.robot, top, end_replans,
-                     _Simulated(world.runner, world.robot, settings, world.frames, report["events"], replan_period, push))
+                     _Simulated(world.runner, world.robot, settings, world.frames, report["events"], replan_period, push,
+                                world.recorder.mark))
     _episode(report, first, loop, watch, world, scene.table, perceived, truth, settings, top)
     world.recorder.write()
     return ClosedLoopRun(**report, sim_time_s=float(world.built.data.time), wall_time_s=time.perf_counter() - wall_start)
@@ -471,6 +473,8 @@ class _Push:
                 self.report["disturbance"] = None if push is None else dataclasses.asdict(push)
             if push is not None:
                 push.apply(self.world.built)
+                self.world.recorder.mark(f"pushed {100 * math.hypot(push.dx, push.dy):.1f} cm, "
+                                         f"{math.degrees(push.dyaw):+.0f} deg")
             self.pending = None
 
 

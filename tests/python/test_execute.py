@@ -307,9 +307,9 @@ def test_the_video_keeps_the_table_and_the_hand_in_view_through_the_transfer(tmp
     record = video.Recorder.after_step
 
     def after_step(recorder):
-        before = len(recorder.frames)
+        before = recorder.count
         record(recorder)
-        if len(recorder.frames) == before:
+        if recorder.count == before:
             return
         # MuJoCo's own camera of the frame just rendered: its pose and frustum at the near plane.
         camera = recorder.renderer.scene.camera[0]
@@ -595,3 +595,31 @@ def test_a_state_mujoco_resets_silently_is_named_as_the_cause():
     data.qpos[0] = 1e300
     mujoco.mj_step(model, data)
     assert instability(data) == "MuJoCo's BADQPOS warning"
+
+
+def test_a_mark_is_written_on_the_frames_that_follow_it_and_the_depth_cameras_quality_is_kept(tmp_path):
+    import os
+
+    os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo is first imported: offscreen rendering
+    import mujoco
+    from slideplan.execute.video import MARK_S, Recorder
+
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><light pos='0 0 2'/><geom type='sphere' size='.1' rgba='1 1 1 1'/></worldbody></mujoco>")
+    data = mujoco.MjData(model)
+    quality = [model.vis.quality.offsamples, model.vis.quality.numslices]
+    recorder = Recorder(model, data, tmp_path / "run.gif", 10, (48, 64), np.array([[-0.1, -0.1, 0.0], [0.1, 0.1, 0.1]]))
+    assert [model.vis.quality.offsamples, model.vis.quality.numslices] == quality  # what a depth renderer made later reads
+    while data.time < 1.95:  # frames at 0, 0.1, ..., 1.9 s
+        if 0.25 <= data.time < 0.25 + model.opt.timestep:  # once, between the frames of 0.2 and 0.3 s
+            recorder.mark("re-plan 1 (drift): slide")
+        mujoco.mj_step(model, data)
+        recorder.after_step()
+    recorder.close()
+    assert len(recorder.frames) == 20
+    band = np.array([frame[:4].reshape(-1, 3) for frame in recorder.frames])  # the top rows of each frame
+    marked = [bool((rows == (20, 20, 20)).all(axis=1).any()) for rows in band]
+    # Frames every 0.1 s: marked from the one after the mark until MARK_S later (0.25 + 1.5 = 1.75 s).
+    assert MARK_S == 1.5 and marked == [3 <= index <= 17 for index in range(20)], marked
+    recorder.write()
+    assert (tmp_path / "run.gif").stat().st_size > 0
