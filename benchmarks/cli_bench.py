@@ -8,8 +8,9 @@
 3. Per robot scene: 5 objects x 2 seeds (random poses), each run cold, 10 s planning budget: the wall
    time, how many solved, and how many timed out.
 
-Prints and writes (docs/benchmarks/cli.md) medians and percentiles, with the build, CPU and date named. Not a test:
-`make bench`.
+Prints and writes (docs/benchmarks/cli.md) medians and percentiles, with the build, CPU and date named, and
+every run's wall time as a row (docs/benchmarks/cli.parquet, with the build: the README's sentence on the
+command's wall time is written from these rows by docs/results/make_tables.py). Not a test: `make bench`.
 
     python benchmarks/cli_bench.py [--runs 5] [--scenes square panda_square ur5_square]
 """
@@ -26,6 +27,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 from plan_bench import write_report  # same directory: python puts it on sys.path
 
 SLIDEPLAN = str(Path(sys.executable).with_name("slideplan"))
@@ -51,7 +53,10 @@ def quantiles(times: list[float]) -> str:
     return f"{median:.3f} s | {p90:.3f} s | {min(times):.3f} s | {max(times):.3f} s"
 
 
-def first_plan(runs: int, core: int | None) -> list[str]:
+ROWS: list[dict] = []  # every run: part, scene, cache, wall_s, exit_code
+
+
+def first_plan(runs: int, core: int | None, part: str = "first plan, pinned") -> list[str]:
     cold, warm = [], []
     with tempfile.TemporaryDirectory() as root:
         for run in range(runs):
@@ -64,6 +69,8 @@ def first_plan(runs: int, core: int | None) -> list[str]:
             seconds, code = wall(FIRST_PLAN, primed, core)
             assert code == 0, f"the first plan failed (exit {code})"
             warm.append(seconds)
+    ROWS.extend({"part": part, "scene": "square", "cache": cache, "wall_s": seconds, "exit_code": 0}
+                for cache, times in (("cold", cold), ("warm", warm)) for seconds in times)
     return ["| grasp-map cache | median | p90 | min | max |", "|---|---|---|---|---|",
             f"| cold (empty cache) | {quantiles(cold)} |", f"| warm (stored map) | {quantiles(warm)} |"]
 
@@ -78,6 +85,7 @@ def robots(scenes: list[str], core: int, time_limit: float) -> list[str]:
                     seconds, code = wall(["--scene", scene, "--object", name, "--seed", str(seed),
                                           "--time-limit", str(time_limit)], Path(cache), core)
                 times.append(seconds)
+                ROWS.append({"part": "robots", "scene": scene, "cache": "cold", "wall_s": seconds, "exit_code": code})
                 solved += code == 0
                 timeouts += code == 1
         rows.append(f"| {scene} | {len(times)} | {solved} | {timeouts} | {quantiles(times)} |")
@@ -89,7 +97,7 @@ def busy_first_plan(runs: int) -> list[str]:
     spinners = [subprocess.Popen(["taskset", "-c", str(core), sys.executable, "-c", "while True: pass"])
                 for core in range(os.cpu_count() or 1)]
     try:
-        return first_plan(runs, None)
+        return first_plan(runs, None, "first plan, busy")
     finally:
         for spinner in spinners:
             spinner.kill()
@@ -104,6 +112,7 @@ def main() -> None:
     parser.add_argument("--core", type=int, default=0, help="the core every run is pinned to")
     parser.add_argument("--time-limit", type=float, default=10.0, help="planning budget of part 2 (s)")
     parser.add_argument("--out", type=Path, default=Path("docs/benchmarks/cli.md"))
+    parser.add_argument("--rows", type=Path, default=Path("docs/benchmarks/cli.parquet"))
     args = parser.parse_args()
     if shutil.which("taskset") is None:
         sys.exit("cli_bench needs taskset (util-linux) to pin runs to one core")
@@ -122,6 +131,9 @@ def main() -> None:
         *robots(args.scenes, args.core, args.time_limit),
     ]
     write_report(lines, args.out)
+    from slideplan.provenance import run_provenance
+
+    pd.DataFrame(ROWS).assign(runs=args.runs, cores=os.cpu_count(), **run_provenance()).to_parquet(args.rows)
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ not show::
     <!-- /generated -->
 
 The name says which value goes there (the functions ``values()`` of ``numbers_planning.py``,
-``numbers_execution.py`` and ``numbers_closed_loop.py`` make them). A block whose opening comment ends
+``numbers_execution.py``, ``numbers_closed_loop.py`` and ``numbers_benchmarks.py`` make them). A block whose opening comment ends
 its line is a block of lines
 (tables); any other is inline and must not start a line (markdown would take the line for raw HTML).
 Edit the text around a block freely; edit inside it and the next run (or ``--check``) puts the rows'
@@ -179,11 +179,12 @@ def fill_blocks(text: str, values: dict[str, str], where: str) -> tuple[str, lis
 def all_values() -> dict[str, str]:
     """Every block value, by name."""
     sys.path.insert(0, str(HERE))
+    import numbers_benchmarks
     import numbers_closed_loop
     import numbers_execution
     import numbers_planning
 
-    parts = [numbers_planning.values(), numbers_execution.values(), numbers_closed_loop.values()]
+    parts = [numbers_planning.values(), numbers_execution.values(), numbers_closed_loop.values(), numbers_benchmarks.values()]
     names = [name for part in parts for name in part]
     clash = {name for name in names if names.count(name) > 1}
     assert not clash, f"block names defined twice: {sorted(clash)}"

@@ -26,7 +26,8 @@ def values() -> dict[str, str]:
     return {"cl53-report": report(sets), "readme-cl53-eval": eval_sentence(eval_runs),
             "cl53-eval-targets": targets_sentence(eval_runs) if ran else "not run yet",
             "cl53-eval-hard": hard_failures(eval_runs) if ran else "not run yet",
-            "cl53-eval-others": other_failures(eval_runs) if ran else "not run yet"}
+            "cl53-eval-others": other_failures(eval_runs) if ran else "not run yet",
+            "cl53-eval-speed": speed(eval_runs) if ran else "not run yet"}
 
 
 def eval_sentence(runs) -> str:
@@ -96,3 +97,14 @@ def other_failures(runs) -> str:
     counts = failed["object"].value_counts()
     return (f"{len(failed)} of the {len(easier)} runs failed, " + ", ".join(
         f"{count} on the {name}" for name, count in counts.items()) + " (each letter has as many runs)")
+
+
+def speed(runs) -> str:
+    """Simulated seconds per wall second of the runs, per mode: median, p10, p90, and the CPU."""
+    factor = runs["sim_time_s"] / runs["wall_time_s"]
+    parts = []
+    for mode in ("open", "closed"):
+        values = factor[runs["mode"] == mode]
+        parts.append(f"the {mode} loop's {len(values)} runs {values.median():.1f}x real time (p10 "
+                     f"{values.quantile(0.1):.1f}x, p90 {values.quantile(0.9):.1f}x)")
+    return " and ".join(parts) + f", on an {runs['cpu'].iloc[0]}"
