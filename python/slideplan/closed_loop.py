@@ -372,10 +372,14 @@ def run(
     perceived, table_plane = _perceived_object(scene, object_name, camera, pose, draws["depth_noise_at_1m"], seed, mounted)
 
     report = _new_report("closed" if closed else "open", setting, draws, disturbance)
-    first = plan(scene, perceived, config)
-    if not first.solved:
-        return ClosedLoopRun(**{**report, "failed_stage": "plan", "failure": f"no plan for the object as perceived "
-                                f"({first.status})"}, sim_time_s=0.0, wall_time_s=time.perf_counter() - wall_start)
+    try:  # the object as perceived (a camera mounted off moves it) may lie over an edge: a failed run, not bad input
+        first = plan(scene, perceived, config)
+        unsolved = None if first.solved else f"no plan for the object as perceived ({first.status})"
+    except InputError as error:
+        unsolved = f"no plan for the object as perceived: {error.problem}"
+    if unsolved is not None:
+        return ClosedLoopRun(**{**report, "failed_stage": "plan", "failure": unsolved}, sim_time_s=0.0,
+                             wall_time_s=time.perf_counter() - wall_start)
 
     top = scene.table.height + perceived.thickness
     segment = slide_segment(first, top, (0.0, 0.0, 0.0))

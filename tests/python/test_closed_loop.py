@@ -204,6 +204,19 @@ def test_a_perceived_object_a_millimetre_over_an_edge_is_moved_onto_the_table():
             assert placed == pose
 
 
+
+def test_an_object_perceived_over_an_edge_is_a_run_failed_at_planning_not_an_error(monkeypatch):
+    # The dev sweep (a380440): in 9 of 200 tasks a camera mounted off moved the perceived object a centimetre
+    # over an edge, the planner refused it as input, and the task raised, losing all eight of its runs.
+    from slideplan import closed_loop
+
+    scene = load_scene("square")
+    edge_y = scene.table.polygon.bounds[3]
+    over = load_object("square", table_height=scene.table.height, pose=(0.5, edge_y - 0.04, 0.0))  # 1 cm over
+    monkeypatch.setattr(closed_loop, "_perceived_object", lambda *args, **kwargs: (over, None))
+    result = run(scene, "square", (0.5, 0.0, 0.0), seed=1)
+    assert not result.success and result.failed_stage == "plan", result
+    assert "no plan for the object as perceived" in result.failure and "not on the table" in result.failure
 @pytest.mark.physics
 def test_when_the_arm_hides_the_object_at_the_end_the_finger_rises_clear_to_look(monkeypatch):
     # A camera beside the slide's end: at the end of the slide the hand hides the object from it. The
