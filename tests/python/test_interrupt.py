@@ -67,3 +67,27 @@ def test_the_interpreter_exits_cleanly_while_a_daemon_thread_plans(exit_call):
     assert done.stdout.strip() == "exiting"
     assert done.returncode == 0, done.stderr
     assert "terminate" not in done.stderr
+
+
+# A Ctrl-C while the command's modules import (about 0.3 s), made certain: the import of slideplan.cli
+# is interrupted as SIGINT would interrupt it.
+LAUNCH = """
+import sys
+
+class Interrupt:
+    def find_spec(self, name, path=None, target=None):
+        if name == "slideplan.cli":
+            raise KeyboardInterrupt
+
+sys.meta_path.insert(0, Interrupt())
+sys.argv = ["slideplan", "--help"]
+from importlib.metadata import entry_points
+(script,) = entry_points(group="console_scripts", name="slideplan")
+script.load()()
+"""
+
+
+def test_ctrl_c_while_the_command_imports_exits_130_with_one_line():
+    done = subprocess.run([sys.executable, "-c", LAUNCH], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.strip() == "slideplan: aborted"

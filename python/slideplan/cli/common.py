@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import typer
+from _slideplan_entry import EXIT_INTERRUPTED  # Ctrl-C: the entry point's, one value for both
 from typer.core import TyperGroup
 
 try:  # typer 0.28 carries its own copy of click; earlier releases use click itself
@@ -28,7 +29,6 @@ from ..scenes import Scene
 
 
 EXIT_SOLVED, EXIT_NOT_SOLVED, EXIT_BAD_INPUT, EXIT_INVALID_PLAN = 0, 1, 2, 3
-EXIT_INTERRUPTED = 130  # Ctrl-C
 PICTURE_SUFFIXES = (".png", ".svg")
 MIN_TABLE_REACH = 0.5  # perceive warns when the fingertip reaches less of the table than this (plan.robot.table_reach)
 VIDEO_SUFFIXES = (".mp4", ".gif", ".png")
