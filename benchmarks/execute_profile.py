@@ -151,8 +151,9 @@ def install() -> None:
 
     closed_loop.camera_depth = outside("depth frame rendering", closed_loop.camera_depth)
     closed_loop.noisy_depth = outside("depth frame noise", closed_loop.noisy_depth)
-    for module in (closed_loop, watch, loop):  # the first plan, the re-plans, a new contact's plan
-        module.plan = outside("planning", module.plan)
+    closed_loop.plan = outside("planning", closed_loop.plan)  # the first plan
+    for module in (watch, loop):  # the re-plans and a new contact's plan, each verified
+        module.plan_checked = outside("planning", module.plan_checked)
     Tracker.track = outside("tracking", Tracker.track)
     Tracker.locate = outside("tracking", Tracker.locate)
 
