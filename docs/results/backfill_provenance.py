@@ -47,6 +47,10 @@ FILES = {
     "closed_loop_tasks_e0328a8.parquet": ("e0328a8", AMD, "2026-12-05"),
     "partial/closed_loop.parquet": ("b74bcec", AMD, "2026-12-04"),
     "partial/closed_loop_e0328a8.parquet": ("e0328a8", AMD, "2026-12-05"),
+    # Issue 53's sets: every row recorded its build at run time (closed_loop.md names them); these values
+    # would serve only a row that recorded none.
+    "closed_loop_dev.parquet": ("a380440", "Intel(R) Xeon(R) Processor", "2026-12-06"),
+    "closed_loop_eval.parquet": ("a380440", "Intel(R) Xeon(R) Processor", "2026-12-06"),
 }
 # File -> planner -> (build, cpu, date): rows a page dates more closely than the file as a whole.
 BY_PLANNER = {
