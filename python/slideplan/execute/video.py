@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 from typing import Callable
@@ -143,15 +144,23 @@ class Recorder:
             write_video(self.frames, Path(self.path), self.fps)
 
 
+@functools.lru_cache(maxsize=4)
+def _font(height: int):
+    """Pillow's own font at ``height`` pixels, loaded once (not for every marked frame)."""
+    from PIL import ImageFont
+
+    return ImageFont.load_default(size=height)
+
+
 def _labelled(frame: np.ndarray, text: str) -> np.ndarray:
     """``frame`` with ``text`` in white on a dark band along its top."""
-    from PIL import Image, ImageDraw, ImageFont
+    from PIL import Image, ImageDraw
 
     image = Image.fromarray(frame)
     height = max(16, frame.shape[0] // 16)
     draw = ImageDraw.Draw(image)
     draw.rectangle((0, 0, frame.shape[1], int(1.5 * height)), fill=(20, 20, 20))
-    draw.text((height // 2, height // 4), text, fill=(255, 255, 255), font=ImageFont.load_default(size=height))
+    draw.text((height // 2, height // 4), text, fill=(255, 255, 255), font=_font(height))
     return np.asarray(image)
 
 
