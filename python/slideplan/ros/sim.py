@@ -228,6 +228,94 @@ class Sim:
         move.apply(self.built)
 
 
+class _SimNode:
+    """The node ``slideplan_sim`` around a :class:`Sim`: its publishers, the trajectory subscription, the
+    gripper service, and the physics loop that steps and publishes (run in a thread of its own)."""
+
+    def __init__(self, sim: Sim, cloud_hz: float, ros_args: list[str]) -> None:
+        import rclpy
+        from rclpy.callback_groups import ReentrantCallbackGroup
+        from rclpy.node import Node
+        from rclpy.qos import qos_profile_sensor_data
+        from builtin_interfaces.msg import Time
+        from geometry_msgs.msg import PoseStamped
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import JointState, PointCloud2
+        from std_msgs.msg import Header
+        from std_srvs.srv import SetBool
+        from trajectory_msgs.msg import JointTrajectory
+
+        from .guards import rcl_errors
+
+        self.sim, self.cloud_hz, self.stop = sim, cloud_hz, threading.Event()
+        self._Time, self._Header, self._Clock, self._JointState = Time, Header, Clock, JointState  # rclpy is imported here only
+        with rcl_errors():
+            rclpy.init(args=["slideplan_sim", *ros_args])
+            self.node = Node("slideplan_sim")
+        node, group = self.node, ReentrantCallbackGroup()
+        self.joint_pub = node.create_publisher(JointState, "/joint_states", 10)
+        self.cloud_pub = node.create_publisher(PointCloud2, "/camera/points", qos_profile_sensor_data)
+        self.pose_pub = node.create_publisher(PoseStamped, "/slideplan_sim/object_pose", 10)
+        self.clock_pub = node.create_publisher(Clock, "/clock", 10)
+        node.create_subscription(JointTrajectory, "/joint_trajectory_controller/joint_trajectory",
+                                 self._on_trajectory, 10, callback_group=group)
+        node.create_service(SetBool, "/gripper/set", self._on_gripper, callback_group=group)
+
+    def _on_trajectory(self, message) -> None:
+        from .messages import trajectory_arrays
+
+        try:
+            path, times = trajectory_arrays(message, self.sim.joint_names)
+        except InputError as error:
+            self.node.get_logger().error(f"trajectory ignored: {error.problem}")
+            return
+        self.sim.command(path, times)
+
+    def _on_gripper(self, request, response):
+        done = self.sim.set_gripper(request.data)
+        response.success = done.wait(timeout=10.0)
+        response.message = ("closed" if request.data else "opened") if response.success else "the hand did not finish"
+        return response
+
+    def _stamp(self):
+        """Simulated time: what the planning node runs on with use_sim_time."""
+        nanoseconds = int(round(self.sim.data.time * 1e9))
+        return self._Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+
+    def _header(self, frame: str):
+        return self._Header(stamp=self._stamp(), frame_id=frame)
+
+    def physics(self) -> None:
+        """Step 10 ms of simulated time at a time, no faster than the wall clock (slower where the
+        physics cannot keep up: the arm follows its trajectories in simulated time); publish the joint
+        states after each, a cloud and the object's pose every 1 / cloud_hz."""
+        import rclpy
+
+        from .messages import WORLD_FRAME, cloud_message, pose_message
+
+        sim, stop = self.sim, self.stop
+        start, next_cloud, period = time.perf_counter(), 0.0, 1.0 / JOINT_STATE_HZ
+        try:
+            while not stop.is_set():
+                sim.step_to(sim.data.time + period)
+                self.clock_pub.publish(self._Clock(clock=self._stamp()))
+                positions, velocities = sim.joint_state()
+                self.joint_pub.publish(self._JointState(
+                    header=self._header(""), name=sim.joint_names, position=positions.tolist(),
+                    velocity=velocities.tolist()))
+                if sim.data.time >= next_cloud:
+                    next_cloud += 1.0 / self.cloud_hz
+                    self.cloud_pub.publish(cloud_message(sim.optical_points(sim.depth()), self._header("slideplan_camera")))
+                    self.pose_pub.publish(pose_message(sim.object_pose(), self._header(WORLD_FRAME)))
+                stop.wait(max(0.0, sim.data.time - (time.perf_counter() - start)))
+        except Exception as error:  # the node must say why it stopped stepping (unless it is shutting down)
+            if rclpy.ok() and not stop.is_set():
+                self.node.get_logger().error(f"simulation stopped: {error}")
+            stop.set()
+        finally:
+            sim.close()
+
+
 def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=print) -> None:
     """Run ``sim`` as the node ``slideplan_sim`` until interrupted; say its discovery range first (a
     warning where other hosts can reach it unsecured: :func:`slideplan.ros.guards.discovery_notice`).
@@ -242,93 +330,23 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
         InputError: ROS arguments rcl cannot parse, or a security set-up it cannot meet.
     """
     import rclpy
-    from rclpy.callback_groups import ReentrantCallbackGroup
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
-    from rclpy.node import Node
-    from rclpy.qos import qos_profile_sensor_data
-    from builtin_interfaces.msg import Time
-    from geometry_msgs.msg import PoseStamped
-    from rosgraph_msgs.msg import Clock
-    from sensor_msgs.msg import JointState, PointCloud2
-    from std_msgs.msg import Header
-    from std_srvs.srv import SetBool
-    from trajectory_msgs.msg import JointTrajectory
 
-    from .guards import discovery_notice, rcl_errors
-    from .messages import WORLD_FRAME, cloud_message, pose_message, trajectory_arrays
+    from .guards import discovery_notice
 
     if not any(name in os.environ for name in ("FASTDDS_DEFAULT_PROFILES_FILE", "FASTRTPS_DEFAULT_PROFILES_FILE")):
         os.environ["FASTDDS_DEFAULT_PROFILES_FILE"] = str(LARGE_SAMPLES_PROFILE)  # read at the first participant
-    with rcl_errors():
-        rclpy.init(args=["slideplan_sim", *ros_args])
-        node = Node("slideplan_sim")
-    group = ReentrantCallbackGroup()
-    joint_pub = node.create_publisher(JointState, "/joint_states", 10)
-    cloud_pub = node.create_publisher(PointCloud2, "/camera/points", qos_profile_sensor_data)
-    pose_pub = node.create_publisher(PoseStamped, "/slideplan_sim/object_pose", 10)
-    clock_pub = node.create_publisher(Clock, "/clock", 10)
-
-    def on_trajectory(message: JointTrajectory) -> None:
-        try:
-            path, times = trajectory_arrays(message, sim.joint_names)
-        except InputError as error:
-            node.get_logger().error(f"trajectory ignored: {error.problem}")
-            return
-        sim.command(path, times)
-
-    def on_gripper(request, response):
-        done = sim.set_gripper(request.data)
-        response.success = done.wait(timeout=10.0)
-        response.message = ("closed" if request.data else "opened") if response.success else "the hand did not finish"
-        return response
-
-    node.create_subscription(JointTrajectory, "/joint_trajectory_controller/joint_trajectory", on_trajectory, 10,
-                             callback_group=group)
-    node.create_service(SetBool, "/gripper/set", on_gripper, callback_group=group)
-    stop = threading.Event()
-
-    def stamp() -> Time:
-        """Simulated time: what the planning node runs on with use_sim_time."""
-        nanoseconds = int(round(sim.data.time * 1e9))
-        return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
-
-    def header(frame: str) -> Header:
-        return Header(stamp=stamp(), frame_id=frame)
-
-    def physics() -> None:
-        """Step 10 ms of simulated time at a time, no faster than the wall clock (slower where the
-        physics cannot keep up: the arm follows its trajectories in simulated time); publish the joint
-        states after each, a cloud and the object's pose every 1 / cloud_hz."""
-        start, next_cloud, period = time.perf_counter(), 0.0, 1.0 / JOINT_STATE_HZ
-        try:
-            while not stop.is_set():
-                sim.step_to(sim.data.time + period)
-                clock_pub.publish(Clock(clock=stamp()))
-                positions, velocities = sim.joint_state()
-                joint_pub.publish(JointState(header=header(""), name=sim.joint_names, position=positions.tolist(),
-                                             velocity=velocities.tolist()))
-                if sim.data.time >= next_cloud:
-                    next_cloud += 1.0 / cloud_hz
-                    cloud_pub.publish(cloud_message(sim.optical_points(sim.depth()), header("slideplan_camera")))
-                    pose_pub.publish(pose_message(sim.object_pose(), header(WORLD_FRAME)))
-                stop.wait(max(0.0, sim.data.time - (time.perf_counter() - start)))
-        except Exception as error:  # the node must say why it stopped stepping (unless it is shutting down)
-            if rclpy.ok() and not stop.is_set():
-                node.get_logger().error(f"simulation stopped: {error}")
-            stop.set()
-        finally:
-            sim.close()
-
-    thread = threading.Thread(target=physics, name="slideplan_sim physics", daemon=True)
+    sim_node = _SimNode(sim, cloud_hz, list(ros_args))
+    thread = threading.Thread(target=sim_node.physics, name="slideplan_sim physics", daemon=True)
     thread.start()
     for line in discovery_notice(os.environ, list(ros_args)):
         log(f"slideplan_sim: {line}")
     log(f"slideplan_sim: {len(sim.joint_names)} joints ({', '.join(sim.joint_names)}); camera_pose "
         + " ".join(f"{value:.6g}" for value in camera_pose_of(sim.camera)))
     executor = MultiThreadedExecutor(num_threads=2)
-    executor.add_node(node)
+    executor.add_node(sim_node.node)
     try:
-        while rclpy.ok() and not stop.is_set():
+        while rclpy.ok() and not sim_node.stop.is_set():
             executor.spin_once(timeout_sec=0.1)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
@@ -336,10 +354,10 @@ def serve(sim: Sim, *, cloud_hz: float = 5.0, ros_args: list[str] = (), log=prin
         if rclpy.ok():  # Ctrl-C shuts the context down under the spinning executor: no error then
             raise
     finally:
-        stop.set()
+        sim_node.stop.set()
         thread.join(timeout=5.0)
         executor.shutdown()
-        node.destroy_node()
+        sim_node.node.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()
 
