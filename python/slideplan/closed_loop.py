@@ -293,6 +293,7 @@ class _Simulated:
         else:
             limits = resolve_limits(result, timing_options(self.settings, self.robot.velocity_limits))
             timing = rest_to_rest(self.robot, path, limits, phase)
+        self.runner.phase = phase
         self.runner.follow(path, timing["time_from_start"], SETTLE_S)
 
     def frames(self):
@@ -324,6 +325,7 @@ def run(
     video: str | Path | None = None,
     video_fps: int = 20,
     progress=None,
+    observe=None,
 ) -> ClosedLoopRun:
     """Perceive, plan, slide (re-planning when the object drifts, if ``closed``), grasp and lift in MuJoCo.
 
@@ -348,6 +350,9 @@ def run(
         video: write a rendering of the run here (``.mp4``, ``.gif``, or ``.png``: a strip of 6 frames).
         video_fps: frames per simulated second.
         progress: called with the simulated time (s) every simulated tenth of a second, or None.
+        observe: called once the world is built, as ``observe(plan, built, runner, robot)`` (the first plan,
+            the MuJoCo model, the servos, the core robot model); returns what to call after every simulated step
+            (a demonstration's :class:`slideplan.demos.frames.Frames`), or None.
 
     Returns:
         The report, judged by the world (:mod:`slideplan.verdict`). A run that cannot plan at first, or
@@ -387,7 +392,8 @@ def run(
     if disturbance is not None and disturbance.after_s > slide_s:
         raise InputError(f"{disturbance.after_s} s is after the planned slide ends ({slide_s:.2f} s)", field="--disturb")
     settings = execution_settings(setting, draws, float(first.params["dz_min"]))
-    world = _World(first, settings, truth, camera, mounted, draws["depth_noise_at_1m"], seed, (video, video_fps, progress))
+    world = _World(first, settings, truth, camera, mounted, draws["depth_noise_at_1m"], seed, (video, video_fps, progress),
+                   observe)
     watch = Watch(scene, perceived, config, camera, threshold, replan_time_limit, table_plane=table_plane)
     push = _Push(disturbance, draws, slide_s, scene.table, world, report)
 
@@ -427,10 +433,10 @@ def _new_report(mode: str, setting: str, draws: dict[str, float], disturbance: D
 class _World:
     """The simulated world of a run: the first plan's model with the object as it really is and the camera
     where it is mounted, the servos (:class:`~slideplan.execute.runner.Runner`), the depth renderer and the
-    video recorder (``video`` is run's video, video_fps and progress)."""
+    video recorder (``video`` is run's video, video_fps and progress), and ``observe``'s listener (see :func:`run`)."""
 
     def __init__(self, first: PlanResult, settings: ExecutionSettings, truth: ThinObject, camera: Camera,
-                 mounted: Camera, depth_noise: float, seed: int, video: tuple) -> None:
+                 mounted: Camera, depth_noise: float, seed: int, video: tuple, observe=None) -> None:
         import mujoco
 
         self.built = build_model(first, settings, world_object=truth, camera=mounted)
@@ -441,7 +447,12 @@ class _World:
         path, fps, progress = video
         self.recorder = Recorder(self.built.model, self.built.data, path, fps, (480, 640), plan_points(first, self.robot),
                                  progress=progress)
-        self.runner = Runner(self.built, settings, self.recorder.after_step if self.recorder.active else None)
+        self.runner = Runner(self.built, settings, None)
+        listeners = [self.recorder.after_step] if self.recorder.active else []
+        if observe is not None:
+            listeners.append(observe(first, self.built, self.runner, self.robot))
+        if listeners:
+            self.runner.on_frame = listeners[0] if len(listeners) == 1 else lambda: [listener() for listener in listeners]
 
     def frames(self) -> tuple[np.ndarray, np.ndarray]:
         """A new depth frame and the fingertip's measured pose."""

@@ -1,5 +1,6 @@
 """Command line: ``slideplan plan``, ``demo``, ``export``, ``view``, ``perceive``, ``execute``, ``run`` (the
-closed loop), ``experiment``, ``plot`` (docs/design.md 5) and ``ros serve`` / ``ros sim`` (docs/ros2.md).
+closed loop), ``experiment``, ``plot`` (docs/design.md 5), ``demos`` (docs/demos.md) and ``ros serve`` / ``ros sim``
+(docs/ros2.md).
 
 Exit codes of ``plan``: 0 solved (and verified), 1 not solved within the time limit,
 2 bad input (one line ``slideplan: error: ...`` on stderr), 3 solved but the plan fails

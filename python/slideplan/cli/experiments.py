@@ -123,3 +123,51 @@ def plot_command(
                                "`slideplan experiment execution|closed-loop --out DIR` draws its own figures in DIR)", source=str(results)))
     for path in paths:
         typer.echo(str(path))
+
+
+@app.command("demos")
+def demos_command(
+    scene: str = typer.Option(..., "--scene", help="Built-in scene name or scene TOML."),
+    episodes: int = typer.Option(..., "--episodes", help="Episodes to attempt (1..1e6)."),
+    out: Path = typer.Option(..., "--out", help="The dataset's folder (new or empty; or this generation's, to resume it)."),
+    objects: list[str] = typer.Option(
+        [], "--objects", help="Objects to draw from (built-in names or outline TOMLs); repeatable; default: "
+        "crescent, square, triangle, circle, irregular."
+    ),
+    setting: str = typer.Option("nominal", "--setting", help="Physics: nominal, stress, random or hard (pushes mid-slide)."),
+    closed: bool = typer.Option(True, "--closed-loop/--open-loop", help="Re-plan from the camera (default) or execute blind."),
+    cameras: list[str] = typer.Option(
+        [], "--cameras", help="NAME:WxH, an RGB video per camera: front (across the table) or scene (the loop's "
+        "depth camera's view); repeatable; default: none (state only)."
+    ),
+    fps: int = typer.Option(10, "--fps", help="Frames per simulated second."),
+    keep: str = typer.Option("success", "--keep", help="success (drop failed episodes) or all."),
+    seed: int = typer.Option(0, "--seed", help="Episodes' draws and seeds derive from it."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local worker processes (default: all cores)."),
+    scheduler: Optional[str] = typer.Option(
+        None, "--scheduler", help="Run on a Dask cluster at this scheduler address instead (e.g. tcp://host:8786)."
+    ),
+) -> None:
+    """Record closed-loop episodes in MuJoCo as a LeRobotDataset v3.0 (needs the lerobot extra; docs/demos.md).
+
+    Exit codes: 0 every episode attempted and the kept ones merged, 1 some episodes lost (a worker died:
+    run the same command again to redo them), 2 bad input.
+    """
+    try:
+        from ..demos.generate import Request, generate
+
+        request = Request(scene=scene, episodes=episodes, setting=setting, closed=closed, cameras=tuple(cameras), fps=fps,
+                          keep=keep, seed=seed, **({"objects": tuple(objects)} if objects else {})).checked()
+        executor = _experiment_executor(workers, scheduler)
+        typer.echo(f"demos: {episodes} episodes on {executor.description}, dataset in {out}")
+        summary = generate(request, out, executor)
+    except InputError as error:
+        raise _fail(InputError(error.problem, source=error.source, field=_OPTION_OF_FIELD.get(error.field, error.field))) from None
+    except (ImportError, OSError) as error:
+        raise _fail(error) from None
+    share = summary["kept"] / summary["episodes"] if summary["episodes"] else 0.0
+    typer.echo(f"{summary['episodes']} episodes attempted: {summary['successes']} succeeded (the world's verdict), "
+               f"{summary['kept']} kept ({100 * share:.0f}%), {summary['lost']} lost")
+    if summary["lost"]:
+        typer.echo(f"slideplan: {summary['lost']} episodes lost; rerun the same command to redo them", err=True)
+        raise typer.Exit(EXIT_NOT_SOLVED)

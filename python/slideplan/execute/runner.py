@@ -74,6 +74,7 @@ class Runner:
         # its references late (settings.reference_lag_s) reads them that much behind.
         self.lead = 1.0 / (math.pi * settings.servo_bandwidth_hz) - settings.reference_lag_s
         self.hold: list[tuple[float, float, bool]] = []  # (s into the hold, object's lowest z, in the hand): the verdict's record
+        self.phase = "slide"  # what the arm is doing: slide, a move's phase (reach, ...), approach, grasp, lift, hold
         self._is_object = None  # per geom: part of the object (built on the first force sample)
         self._object_ids = None  # the object's geoms, sorted (built on the first hold sample)
 
@@ -160,6 +161,7 @@ class Runner:
 
         if depth_override is not None:
             model.qpos_spring[spring] = depths[0] - depth_override
+        self.phase = "slide"
         return self.follow(path, times, extra_s, during)
 
     def grasp(self, approach: np.ndarray, approach_times: np.ndarray, grasp_config: np.ndarray, robot, limits: dict[str, Any],
@@ -191,6 +193,7 @@ class Runner:
             if step % _SAMPLE_EVERY == 0 and data.geom_xpos[built.pad_geom][2] > top + 0.02:
                 enable_hand_collisions(built, True)
 
+        self.phase = "approach"
         if len(approach):
             self.follow(approach, approach_times, SETTLE_S, during_approach)
         enable_hand_collisions(built, True)
@@ -211,6 +214,7 @@ class Runner:
         # fingers strike a thin object so hard that it flies out, and a finger arriving first (the
         # straight one under a splayed one) lifts the object off the table before the other holds it.
         ramp_s = gripper.ramp_s(settings)
+        self.phase = "grasp"
 
         def closing(elapsed: float, step: int) -> None:
             data.ctrl[gripper.actuators] = gripper.target(elapsed / ramp_s)
@@ -224,9 +228,12 @@ class Runner:
         lift_s = float(lift_times[-1])
 
         def holding(elapsed: float, step: int) -> None:
-            if elapsed >= lift_s - 1e-9 and step % _HOLD_SAMPLE_EVERY == 0:
-                self.hold.append(self.hold_sample(elapsed - lift_s))
+            if elapsed >= lift_s - 1e-9:
+                self.phase = "hold"
+                if step % _HOLD_SAMPLE_EVERY == 0:
+                    self.hold.append(self.hold_sample(elapsed - lift_s))
 
+        self.phase = "lift"
         self.follow(lift_path, lift_times, settings.hold_s, holding)
         self.hold.append(self.hold_sample(settings.hold_s))
         self.lifted = self.object_pose()[2] >= rest_z + _LIFTED_FRACTION * settings.lift_height
