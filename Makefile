@@ -10,7 +10,7 @@ APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev lib
 # chromium: the 3D view's browser test; the last three: Mesa's software EGL, for MuJoCo's headless renderer.
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps install test test-cpp test-python test-physics test-sanitize fuzz demo view bench clean
+.PHONY: all deps install install-lerobot test test-cpp test-python test-physics test-sanitize fuzz demo view bench clean
 
 all: install
 
@@ -27,10 +27,16 @@ $(PYTHON):
 
 # Builds the extension and the C++ tests in one CMake tree (build/py), installs the package. setuptools
 # >= 70.1 builds the ros extra's sdists (empy) without build isolation: older ones need the wheel package.
+EXTRAS := experiments,robots,view,perception,execution,ros,test
 install: deps $(PYTHON)
 	$(PYTHON) -m pip install -q scikit-build-core pybind11 "setuptools>=70.1"
 	$(PYTHON) -m pip install -q --no-build-isolation -C build-dir=$(BUILD_DIR) \
-	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[experiments,robots,view,perception,execution,ros,test]"
+	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[$(EXTRAS)]"
+
+# The lerobot extra too (torch: a download of several GB the first time): the demonstrations' tests need it.
+install-lerobot: install
+	$(PYTHON) -m pip install -q --no-build-isolation -C build-dir=$(BUILD_DIR) \
+	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[$(EXTRAS),lerobot]"
 
 test-cpp: install
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2
@@ -44,8 +50,9 @@ test: install
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2 && $(PYTHON) -m pytest -q -m "not physics" tests/python; \
 	status=$$?; echo "make test: $$(( $$(date +%s) - start )) s (set-up excluded)"; exit $$status
 
-# The whole MuJoCo episodes (tests marked physics): executions, closed-loop runs, the calibrated facts.
-test-physics: install
+# The whole MuJoCo episodes (tests marked physics): executions, closed-loop runs, the calibrated facts,
+# the demonstrations (with the lerobot extra).
+test-physics: install-lerobot
 	@start=$$(date +%s); \
 	$(PYTHON) -m pytest -q -m physics tests/python; \
 	status=$$?; echo "make test-physics: $$(( $$(date +%s) - start )) s (set-up excluded)"; exit $$status

@@ -1,0 +1,182 @@
+"""slideplan demos: episodes recorded as a LeRobotDataset v3.0. The checks of the request, the draw and the
+folder run without MuJoCo or lerobot; the whole generations (marked physics) need the lerobot extra, which
+`make test-physics` installs."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from slideplan.cli import app
+from slideplan.demos import dataset as demos_dataset
+from slideplan.demos.draw import draw, episode_seed
+from slideplan.demos.frames import CameraSpec
+from slideplan.demos.generate import REQUEST_FILE, Request, prepare
+from slideplan.errors import InputError
+from slideplan.objects import load_outline, place_outline
+from slideplan.scenes import load_scene
+
+runner = CliRunner()
+
+
+def bad_input(*args) -> str:
+    result = runner.invoke(app, ["demos", *args])
+    assert result.exit_code == 2, (result.exit_code, result.output, result.stderr)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("slideplan: error: "), result.stderr
+    return lines[0]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--episodes", "0"], ["--episodes", "1..1000000", "got 0"]),
+    (["--episodes", "1000001"], ["--episodes", "got 1000001"]),
+    (["--episodes", "3", "--cameras", "wrist:64x64"], ["--cameras", "unknown camera 'wrist'"]),
+    (["--episodes", "3", "--cameras", "front:64"], ["--cameras", "NAME:WxH"]),
+    (["--episodes", "3", "--cameras", "front:8x8"], ["--cameras", "16..1024"]),
+    (["--episodes", "3", "--setting", "windy"], ["--setting", "windy"]),
+    (["--episodes", "3", "--keep", "some"], ["--keep", "success, all"]),
+    (["--episodes", "3", "--objects", "nothing_like_it"], ["nothing_like_it"]),
+])
+def test_bad_options_are_one_line_naming_the_option(tmp_path, args, words):
+    line = bad_input("--scene", "square", "--out", str(tmp_path / "d"), "--workers", "1", *args)
+    for word in words:
+        assert word in line, line
+
+
+def test_an_unknown_scene_is_named(tmp_path):
+    assert "no_such_scene" in bad_input("--scene", "no_such_scene", "--episodes", "2", "--out", str(tmp_path / "d"))
+
+
+def test_a_folder_holding_a_dataset_or_other_files_is_refused(tmp_path):
+    (tmp_path / "d" / "meta").mkdir(parents=True)
+    (tmp_path / "d" / "meta" / "info.json").write_text("{}")
+    assert "holds a dataset" in bad_input("--scene", "square", "--episodes", "2", "--out", str(tmp_path / "d"))
+    (tmp_path / "e").mkdir()
+    (tmp_path / "e" / "notes.txt").write_text("mine")
+    line = bad_input("--scene", "square", "--episodes", "2", "--out", str(tmp_path / "e"))
+    assert "--out" in line and "other files" in line
+
+
+def test_a_generation_resumes_only_with_the_same_request(tmp_path):
+    out = tmp_path / "d"
+    prepare(Request(scene="square", episodes=4), out)
+    prepare(Request(scene="square", episodes=4), out)  # the same request: resumed
+    with pytest.raises(InputError, match="episodes, seed") as caught:
+        prepare(Request(scene="square", episodes=5, seed=3), out)
+    assert caught.value.field == "--out"
+    assert json.loads((out / REQUEST_FILE).read_text())["phases"][0] == "slide"
+
+
+def test_without_the_extra_the_command_says_how_to_install_it(tmp_path, monkeypatch):
+    real = demos_dataset.importlib.import_module
+
+    def missing(name, *args):
+        if name.startswith("lerobot"):
+            raise ImportError("No module named 'lerobot'")
+        return real(name, *args)
+
+    monkeypatch.setattr(demos_dataset.importlib, "import_module", missing)
+    line = bad_input("--scene", "square", "--episodes", "2", "--out", str(tmp_path / "d"), "--workers", "1")
+    assert 'pip install "slideplan[lerobot]"' in line
+
+
+def test_the_draw_is_the_seeds_and_lies_wholly_on_the_table():
+    scene = load_scene("square")
+    objects = ("crescent", "square", "triangle")
+    drawn = [draw(scene, objects, "nominal", episode_seed(7, index)) for index in range(30)]
+    assert drawn == [draw(scene, objects, "nominal", episode_seed(7, index)) for index in range(30)]
+    assert len({d.object for d in drawn}) == 3 and len({d.pose for d in drawn}) == 30
+    for d in drawn:
+        outline, _, _ = load_outline(d.object)
+        assert scene.table.polygon.buffer(-0.009).contains(place_outline(outline, d.pose))
+    assert episode_seed(7, 1) != episode_seed(8, 1) and episode_seed(7, 1) != episode_seed(7, 2)
+
+
+def test_camera_specs():
+    assert CameraSpec.parse("front:256x128") == CameraSpec("front", 256, 128)  # width x height
+
+
+# ---- whole generations: MuJoCo and the lerobot extra ----
+
+def generate(out: Path, *extra: str, episodes: int = 3, workers: int = 2) -> subprocess.CompletedProcess:
+    command = [sys.executable, "-m", "slideplan.cli", "demos", "--scene", "square", "--episodes", str(episodes),
+               "--out", str(out), "--workers", str(workers), "--seed", "5", *extra]
+    return subprocess.run(command, capture_output=True, text=True, timeout=900, env={**os.environ, "MUJOCO_GL": "egl"})
+
+
+def load(root: Path):
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    return LeRobotDataset("slideplan/demos", root=root, video_backend="pyav")  # PyAV: no system FFmpeg needed
+
+
+def frames_of(root: Path):
+    import pandas as pd
+
+    return pd.concat([pd.read_parquet(path) for path in sorted((root / "data").rglob("*.parquet"))], ignore_index=True)
+
+
+@pytest.mark.physics
+def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path):
+    import torch
+
+    first = generate(tmp_path / "a", "--cameras", "front:64x64")
+    assert first.returncode == 0, first.stderr
+    records = json.loads((tmp_path / "a" / "meta" / "slideplan_episodes.json").read_text())
+    kept = records["episodes"]
+    assert records["attempts"] == 3 and kept and all(episode["success"] for episode in kept)
+    assert f"{len(kept)} kept" in first.stdout
+    dataset = load(tmp_path / "a")
+    assert dataset.num_episodes == len(kept) and dataset.meta.stats["observation.state"]["mean"].shape == (14,)
+    item = dataset[0]
+    assert item["observation.images.front"].shape == (3, 64, 64) and item["action"].shape == (8,)
+    assert item["task"].startswith(f"slide the {kept[0]['object']}")
+    batches = list(torch.utils.data.DataLoader(dataset, batch_size=32))
+    assert sum(len(batch["index"]) for batch in batches) == dataset.num_frames
+    phases = frames_of(tmp_path / "a")["phase"].tolist()
+    assert phases[0] == 0 and {4, 5, 6} <= set(phases)  # slide first; grasp, lift and hold recorded
+    second = generate(tmp_path / "b", "--cameras", "front:64x64", workers=1)
+    assert second.returncode == 0, second.stderr
+    a, b = frames_of(tmp_path / "a"), frames_of(tmp_path / "b")
+    for column in ("observation.state", "action", "ee_delta_action", "phase", "episode_index", "frame_index"):
+        assert np.array_equal(np.stack(a[column]), np.stack(b[column])), column
+
+
+@pytest.mark.physics
+def test_a_killed_worker_loses_one_episode_and_the_rerun_completes_without_duplicates(tmp_path):
+    out = tmp_path / "d"
+    command = [sys.executable, "-m", "slideplan.cli", "demos", "--scene", "square", "--episodes", "4", "--out", str(out),
+               "--workers", "1", "--seed", "9", "--keep", "all"]
+    driver = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              env={**os.environ, "MUJOCO_GL": "egl"})
+    deadline = time.monotonic() + 600
+    while not list(out.glob("episodes/*/record.json")) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert list(out.glob("episodes/*/record.json")), "no episode finished"
+    children = Path(f"/proc/{driver.pid}/task/{driver.pid}/children").read_text().split()
+    workers = [int(pid) for pid in children if "spawn" in Path(f"/proc/{pid}/cmdline").read_text()]
+    assert workers, children
+    os.kill(workers[0], signal.SIGKILL)  # mid-episode: the next one had started
+    _, stderr = driver.communicate(timeout=600)
+    assert driver.returncode == 1 and "lost" in stderr, stderr
+    done = len(list(out.glob("episodes/*/record.json")))
+    assert 1 <= done < 4
+    rerun = subprocess.run(command, capture_output=True, text=True, timeout=900, env={**os.environ, "MUJOCO_GL": "egl"})
+    assert rerun.returncode == 0, rerun.stderr
+    records = json.loads((out / "meta" / "slideplan_episodes.json").read_text())["episodes"]
+    assert [r["index"] for r in records] == [0, 1, 2, 3]  # --keep all: every attempt, once each
+    dataset = load(out)
+    assert dataset.num_episodes == 4
+    frames = frames_of(out)
+    assert sorted(set(frames["episode_index"])) == [0, 1, 2, 3]
+    for index, record in enumerate(records):
+        assert (frames["episode_index"] == index).sum() == record["frames"]  # whole episodes, none twice
