@@ -307,6 +307,58 @@ class _Simulated:
         self.mark(f"re-plan {replans} ({trigger}): {outcome}")
 
 
+@dataclasses.dataclass
+class Start:
+    """How a run starts, before any physics: the setting's draws, the object as it really is and as the
+    camera (where it is mounted) perceives it, and the first plan, made for the perceived object. The closed
+    loop's :func:`run` and the environment of :mod:`slideplan.demos.env` start alike from this.
+
+    Attributes:
+        draws: the setting's draws (:func:`~slideplan.closed_loop_settings.setting_draws`).
+        truth, perceived: the object as it is, and as perceived.
+        table_plane: the table plane perception fitted.
+        camera, mounted: where the camera is believed to be, and where it is.
+        config: the planner's parameters.
+        first: the first plan (None if unsolved).
+        unsolved: why there is no first plan (an object perceived over an edge, no plan found), or None.
+    """
+
+    draws: dict[str, float]
+    truth: ThinObject
+    perceived: ThinObject
+    table_plane: tuple[float, float, float]
+    camera: Camera
+    mounted: Camera
+    config: PlannerConfig
+    first: PlanResult | None
+    unsolved: str | None
+
+    @classmethod
+    def of(cls, scene: Scene, object_name, pose, *, seed: int, setting: str, config: PlannerConfig | None = None,
+           camera: Camera | None = None) -> Start:
+        """Perceive and plan for an object at ``pose`` (arguments as :func:`run`'s).
+
+        Raises:
+            InputError: the object is not wholly on the table, or cannot be read; an unknown setting.
+        """
+        draws = setting_draws(setting, seed)
+        config = config or PlannerConfig.for_scene(scene, seed=seed)
+        camera = camera or default_camera(scene)
+        truth = load_object(object_name, table_height=scene.table.height, pose=pose)
+        if not scene.table.polygon.contains(truth.outline):
+            raise InputError(f"the object at {pose} is not wholly on the table", field="--pose")
+        os.environ.setdefault("MUJOCO_GL", "egl")
+        mounted = camera_as_mounted(camera, draws)
+        perceived, table_plane = _perceived_object(scene, object_name, camera, pose, draws["depth_noise_at_1m"], seed, mounted)
+        first = None
+        try:  # the object as perceived (a camera mounted off moves it) may lie over an edge: a failed run, not bad input
+            first = plan(scene, perceived, config)
+            unsolved = None if first.solved else f"no plan for the object as perceived ({first.status})"
+        except InputError as error:
+            unsolved = f"no plan for the object as perceived: {error.problem}"
+        return cls(draws, truth, perceived, table_plane, camera, mounted, config, first if unsolved is None else None, unsolved)
+
+
 def run(
     scene: Scene | str | Path,
     object_name: str | Path,
@@ -364,26 +416,15 @@ def run(
             or object that cannot be read (each naming the field).
     """
     wall_start = time.perf_counter()
-    draws = setting_draws(setting, seed)
     pose, threshold = _checked_arguments(pose, replan_period, replan_time_limit, threshold, disturbance)
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
-    config = config or PlannerConfig.for_scene(scene, seed=seed)
     camera = camera or default_camera(scene)
-    truth = load_object(object_name, table_height=scene.table.height, pose=pose)
-    if not scene.table.polygon.contains(truth.outline):
-        raise InputError(f"the object at {pose} is not wholly on the table", field="--pose")
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    mounted = camera_as_mounted(camera, draws)
-    perceived, table_plane = _perceived_object(scene, object_name, camera, pose, draws["depth_noise_at_1m"], seed, mounted)
-
+    begun = Start.of(scene, object_name, pose, seed=seed, setting=setting, config=config, camera=camera)
+    draws, truth, perceived, mounted, first = begun.draws, begun.truth, begun.perceived, begun.mounted, begun.first
+    config, table_plane = begun.config, begun.table_plane
     report = _new_report("closed" if closed else "open", setting, draws, disturbance)
-    try:  # the object as perceived (a camera mounted off moves it) may lie over an edge: a failed run, not bad input
-        first = plan(scene, perceived, config)
-        unsolved = None if first.solved else f"no plan for the object as perceived ({first.status})"
-    except InputError as error:
-        unsolved = f"no plan for the object as perceived: {error.problem}"
-    if unsolved is not None:
-        return ClosedLoopRun(**{**report, "failed_stage": "plan", "failure": unsolved}, sim_time_s=0.0,
+    if begun.unsolved is not None:
+        return ClosedLoopRun(**{**report, "failed_stage": "plan", "failure": begun.unsolved}, sim_time_s=0.0,
                              wall_time_s=time.perf_counter() - wall_start)
 
     top = scene.table.height + perceived.thickness

@@ -100,26 +100,41 @@ class Frames:
         return float(np.mean((targets - gripper.opened) / np.where(span == 0.0, 1.0, span)))
 
     def after_step(self) -> None:
-        data = self.built.data
-        if data.time * self.fps < len(self.rows) - 1e-9:
-            return
-        built, robot = self.built, self.robot
+        if self.built.data.time * self.fps >= len(self.rows) - 1e-9:
+            row = self.snapshot()
+            if self.rows:  # a frame's action is what the servos are told next: the targets at the next frame
+                previous = self.rows[-1]
+                previous["action"] = row["action"]
+                previous["ee_delta"] = _ee_delta(previous["tip"], self.robot.fk(row["action"][:-1]), row["action"][-1])
+            self.rows.append(row)
+
+    def snapshot(self) -> dict:
+        """The frame now: ``state``, ``action`` (the servos' targets now), ``ee_delta``, ``phase``, ``tip`` (the
+        fingertip's 4x4 pose) and an image per camera (by its name)."""
+        built, robot, data = self.built, self.robot, self.built.data
         q = np.array(data.qpos[built.arm_qpos])
         target = np.array(data.ctrl[built.arm_actuators])
-        tip, goal = np.asarray(robot.fk(q)), np.asarray(robot.fk(target))
+        tip, goal = np.asarray(robot.fk(q)), robot.fk(target)
         gripper = self.closing(data.qpos[self._gripper_qpos]) if self._gripper_qpos is not None else 0.0
         command = self.closing(data.ctrl[built.gripper.actuators]) if len(built.gripper) else 0.0
         row = {
             "state": np.concatenate([q, [gripper], tip[:3, 3], rotation_vector(tip[:3, :3])]),
             "action": np.concatenate([target, [command]]),
-            "ee_delta": np.concatenate([goal[:3, 3] - tip[:3, 3], rotation_vector(goal[:3, :3] @ tip[:3, :3].T), [command]]),
+            "ee_delta": _ee_delta(tip, goal, command),
             "phase": PHASES.index(self.runner.phase),
+            "tip": tip,
         }
         for spec, renderer, view in self._cameras:
             renderer.update_scene(data, camera=view)
             row[spec.name] = renderer.render().copy()
-        self.rows.append(row)
+        return row
 
     def close(self) -> None:
         for _, renderer, _ in self._cameras:
             renderer.close()
+
+
+def _ee_delta(tip: np.ndarray, goal, command: float) -> np.ndarray:
+    """The end-effector action: the fingertip's step from ``tip`` to ``goal`` (world m, rotation vector rad), the gripper."""
+    goal = np.asarray(goal)
+    return np.concatenate([goal[:3, 3] - tip[:3, 3], rotation_vector(goal[:3, :3] @ tip[:3, :3].T), [command]])

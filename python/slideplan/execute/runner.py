@@ -14,7 +14,7 @@ from .model import Model, enable_hand_collisions
 from .settings import ExecutionSettings
 
 SETTLE_S = 0.3  # held after the slide, and after the approach, for the object and the arm to come to rest
-_CLOSE_S = 0.8
+CLOSE_S = 0.8  # the hand held closed this long before the lift
 _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
@@ -181,10 +181,8 @@ class Runner:
             None if the object was lifted and held, else ``(stage, message)`` of the first failure
             (``"release"``: it fell off the table when the finger let go; ``"grasp"``: not lifted).
         """
-        model, data, built, settings = self.built.model, self.built.data, self.built, self.settings
-        model.qpos_spring[built.spring_qpos] = 0.0
-        if built.contacts.noslip_after_slide is not None:
-            model.opt.noslip_iterations = built.contacts.noslip_after_slide
+        data, built, settings = self.built.data, self.built, self.settings
+        self.let_go()
         failure = None
 
         def during_approach(elapsed: float, step: int) -> None:
@@ -207,9 +205,7 @@ class Runner:
         # Straight up; an arm with fewer than six joints takes the yaw its posture gives (the SO-101's
         # offsets leave the same orientation 5 cm higher just out of reach).
         lift_way = straight_up(robot, grasp_config, settings.lift_height)
-        # Close: the finger's flexure stiffens (the hand squeezes with the closing servos), the grip capped.
-        model.jnt_stiffness[built.spring_joint] *= 50.0
-        gripper.grip(model, settings, closing=True)
+        self.start_closing()
         # The fingers close at the hand's speed and meet at the grasp plane together: a step lets the light
         # fingers strike a thin object so hard that it flies out, and a finger arriving first (the
         # straight one under a splayed one) lifts the object off the table before the other holds it.
@@ -219,7 +215,7 @@ class Runner:
         def closing(elapsed: float, step: int) -> None:
             data.ctrl[gripper.actuators] = gripper.target(elapsed / ramp_s)
 
-        self.follow(grasp_config[None, :], np.zeros(1), ramp_s + _CLOSE_S, closing)
+        self.follow(grasp_config[None, :], np.zeros(1), ramp_s + CLOSE_S, closing)
         on_table = self.robot_bodies_on_table()
         if lift_way is None:
             return failure or ("grasp", f"no inverse kinematics for the {100 * settings.lift_height:.0f} cm lift")
@@ -241,6 +237,19 @@ class Runner:
             blocked = f" ({', '.join(on_table)} stopped by the table when closing)" if on_table else ""
             failure = failure or ("grasp", f"the grasp did not lift the object{blocked}")
         return failure
+
+    def let_go(self) -> None:
+        """The slide is over: the finger's spring back at rest, the contact solver as after a slide."""
+        model, built = self.built.model, self.built
+        model.qpos_spring[built.spring_qpos] = 0.0
+        if built.contacts.noslip_after_slide is not None:
+            model.opt.noslip_iterations = built.contacts.noslip_after_slide
+
+    def start_closing(self) -> None:
+        """Close: the finger's flexure stiffens (the hand squeezes with the closing servos), the grip capped."""
+        model, built = self.built.model, self.built
+        model.jnt_stiffness[built.spring_joint] *= 50.0
+        built.gripper.grip(model, self.settings, closing=True)
 
     def object_pose(self) -> tuple[np.ndarray, float, float]:
         """The object's centre of mass xy, yaw and height."""

@@ -1,0 +1,325 @@
+"""``slideplan/SlideToEdge-v0``: the slide, grasp and lift as a Gymnasium environment, to evaluate the
+policies trained on ``slideplan demos`` datasets in the same physics.
+
+An episode starts as a demonstration does (:class:`slideplan.closed_loop.Start`: the same draw for the same
+seed, the object perceived, the first plan made, the finger pressed at its first contact). A step holds an
+action for ``1 / fps`` simulated seconds. Success is the world's verdict: the object held in the hand, its
+lowest point at least half the lift height above the table, for the hold time.
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ..closed_loop import Start
+from ..closed_loop_settings import execution_settings
+from ..errors import InputError
+from ..execute.model import DEPTH_CAMERA, build_model, enable_hand_collisions
+from ..execute.runner import CLOSE_S, SETTLE_S, Runner, instability, timing_options
+from ..geometry import Ending
+from ..motions import plan_times, reference, rest_to_rest, straight_up
+from ..plan.robot import build_robot, robot_model
+from ..rendering import camera_depth
+from ..scenes import Scene, load_scene
+from ..timing import resolve_limits
+from ..transforms import rotation_vector
+from .draw import draw
+from .frames import CameraSpec, Frames, state_names
+from .generate import Request, front_points
+
+OBS_TYPES = ("state", "pixels", "depth")
+ACTION_TYPES = ("joint", "ee_delta")
+REWARD_TYPES = ("sparse", "dense")
+_EE_STEP = (0.02, 0.1)  # the largest fingertip step an ee_delta action may ask for: m, rad
+_FELL_M = 0.05  # the object's centre this far below the table top: off the table, the episode over
+
+
+class SlideToEdgeEnv(gym.Env):
+    """The slide to the edge, the grasp and the lift, in MuJoCo.
+
+    Args:
+        scene: a built-in scene name or a scene TOML.
+        objects: the objects reset draws from (as ``slideplan demos --objects``).
+        setting: nominal, stress, random or hard (its physics; the hard setting's push is not applied here).
+        obs_type: ``state`` (``agent_pos`` and ``environment_state``: the object's true x, y, yaw, z),
+            ``pixels`` (``pixels``: the front camera's RGB, and ``agent_pos``: LeRobot's keys) or ``depth``
+            (``depth``: the scene camera's depth in m, 0 where nothing is seen, and ``agent_pos``).
+        action_type: ``joint`` (each joint's servo target and the gripper's closing, 0 open .. 1 closed) or
+            ``ee_delta`` (the fingertip's step in the world, dx dy dz m and a rotation vector rad, and the gripper).
+        reward_type: ``sparse`` (1 on success) or ``dense`` (the overhang's progress to u*, the centre of mass's
+            margin, the lift's progress, and 1 on success).
+        render_mode: None or ``rgb_array`` (the front camera).
+        fps: steps per simulated second.
+        image_size: (width, height) of the pixels and depth images.
+        max_episode_steps: steps before the episode is truncated.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(self, scene: str | Scene = "square", objects: tuple[str, ...] = Request.objects, setting: str = "nominal",
+                 obs_type: str = "state", action_type: str = "joint", reward_type: str = "sparse",
+                 render_mode: str | None = None, fps: int = 10, image_size: tuple[int, int] = (128, 128),
+                 max_episode_steps: int = 400) -> None:
+        for name, value, allowed in (("obs_type", obs_type, OBS_TYPES), ("action_type", action_type, ACTION_TYPES),
+                                     ("reward_type", reward_type, REWARD_TYPES),
+                                     ("render_mode", render_mode, (None, "rgb_array"))):
+            if value not in allowed:
+                raise InputError(f"must be one of {', '.join(map(str, allowed))}, got {value!r}", field=name)
+        self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
+        self.objects, self.setting, self.fps = tuple(objects), setting, int(fps)
+        self.obs_type, self.action_type, self.reward_type, self.render_mode = obs_type, action_type, reward_type, render_mode
+        self.image_size, self._max_episode_steps = tuple(image_size), int(max_episode_steps)
+        self.metadata = {**self.metadata, "render_fps": self.fps}
+        robot = robot_model(self.scene)
+        self.dof, self.lower, self.upper = robot.dof, np.asarray(robot.lower_limits), np.asarray(robot.upper_limits)
+        self.task_description = f"slide the object to the edge of the {self.scene.name} table, then grasp and lift it"
+        self.observation_space = self._observation_space()
+        if action_type == "joint":
+            self.action_space = spaces.Box(np.append(self.lower, 0.0).astype(np.float32),
+                                           np.append(self.upper, 1.0).astype(np.float32), dtype=np.float32)
+        else:
+            step = np.array([_EE_STEP[0]] * 3 + [_EE_STEP[1]] * 3 + [1.0], dtype=np.float32)
+            self.action_space = spaces.Box(np.append(-step[:6], 0.0).astype(np.float32), step, dtype=np.float32)
+        self._world = None
+
+    def _observation_space(self) -> spaces.Dict:
+        agent = spaces.Box(-np.inf, np.inf, (len(state_names(["q"] * self.dof)),), dtype=np.float64)
+        width, height = self.image_size
+        if self.obs_type == "state":
+            return spaces.Dict({"agent_pos": agent, "environment_state": spaces.Box(-np.inf, np.inf, (4,), dtype=np.float64)})
+        if self.obs_type == "pixels":
+            return spaces.Dict({"pixels": spaces.Box(0, 255, (height, width, 3), dtype=np.uint8), "agent_pos": agent})
+        return spaces.Dict({"depth": spaces.Box(0.0, np.inf, (height, width, 1), dtype=np.float32), "agent_pos": agent})
+
+    # ---- an episode ----
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Draw the episode of ``seed`` (:func:`slideplan.demos.draw.draw`, as ``slideplan demos`` does), perceive
+        and plan, and press the finger at the plan's first contact. A draw that cannot be planned is drawn again
+        from the next seed (said in ``info["redrawn"]``)."""
+        super().reset(seed=seed)
+        self.close()
+        episode_seed = int(self.np_random.integers(2**31)) if seed is None else int(seed)
+        for attempt in range(20):
+            drawn = draw(self.scene, self.objects, self.setting, episode_seed + attempt)
+            start = Start.of(self.scene, drawn.object, drawn.pose, seed=drawn.seed, setting=self.setting)
+            if start.first is not None:
+                break
+        else:
+            raise RuntimeError(f"no plan for 20 draws from seed {episode_seed}")
+        self._world = _World(self.scene, start, self.setting, self.fps, self.image_size, self.obs_type)
+        self._steps, self._held_s, self._done = 0, 0.0, False
+        return self._observation(), {**self._info(), "redrawn": attempt, "object": drawn.object, "pose": drawn.pose,
+                                     "seed": drawn.seed}
+
+    def step(self, action):
+        if self._world is None:
+            raise RuntimeError("call reset() first")
+        world = self._world
+        action = np.asarray(action, dtype=float)
+        if action.shape != self.action_space.shape or not np.isfinite(action).all():
+            raise InputError(f"must be {self.action_space.shape[0]} finite numbers, got shape {action.shape}", field="action")
+        target, grip = self._targets(action)
+        failure = world.hold(target, grip, 1.0 / self.fps)
+        self._steps += 1
+        lifted = world.lifted()
+        self._held_s = self._held_s + 1.0 / self.fps if lifted else 0.0
+        success = self._held_s >= world.settings.hold_s - 1e-9
+        fell = world.object_height() < self.scene.table.height - _FELL_M
+        terminated = success or fell or failure is not None
+        truncated = not terminated and self._steps >= self._max_episode_steps
+        reward = float(success) if self.reward_type == "sparse" else world.progress() + float(success)
+        info = {**self._info(), "is_success": success}
+        if failure is not None:
+            info["failure"] = failure
+        return self._observation(), reward, terminated, truncated, info
+
+    def _targets(self, action: np.ndarray) -> tuple[np.ndarray, float]:
+        """The joints' servo targets and the gripper's closing an action asks for."""
+        grip = float(np.clip(action[-1], 0.0, 1.0))
+        if self.action_type == "joint":
+            return np.clip(action[:-1], self.lower, self.upper), grip
+        world = self._world
+        q = world.joints()
+        step = np.clip(action[:6], self.action_space.low[:6], self.action_space.high[:6])
+        jacobian = np.asarray(world.robot.jacobian(q))
+        damping = 1e-4  # damped least squares: no wild joint steps near a singularity
+        dq = jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + damping * np.eye(6), step)
+        return np.clip(q + dq, self.lower, self.upper), grip
+
+    def expert_action(self) -> np.ndarray:
+        """The planner's action now: the first plan's reference one step ahead (the slide, the approach, the
+        closing and the lift as ``slideplan execute`` times them), in this environment's action type."""
+        world = self._world
+        if world is None:
+            raise RuntimeError("call reset() first")
+        target, grip = world.expert(world.time() + 1.0 / self.fps)
+        if self.action_type == "joint":
+            return np.append(target, grip).astype(np.float32)
+        tip, goal = np.asarray(world.robot.fk(world.joints())), np.asarray(world.robot.fk(target))
+        delta = np.concatenate([goal[:3, 3] - tip[:3, 3], rotation_vector(goal[:3, :3] @ tip[:3, :3].T)])
+        return np.append(np.clip(delta, self.action_space.low[:6], self.action_space.high[:6]), grip).astype(np.float32)
+
+    def _observation(self) -> dict:
+        world = self._world
+        snap = world.frames.snapshot()
+        if self.obs_type == "state":
+            return {"agent_pos": snap["state"], "environment_state": world.object_state()}
+        if self.obs_type == "pixels":
+            return {"pixels": snap["front"], "agent_pos": snap["state"]}
+        return {"depth": world.depth(), "agent_pos": snap["state"]}
+
+    def _info(self) -> dict:
+        return {"is_success": False, "task_description": self.task_description}
+
+    def render(self):
+        if self.render_mode == "rgb_array" and self._world is not None:
+            return self._world.view()
+        return None
+
+    def close(self) -> None:
+        if self._world is not None:
+            self._world.close()
+            self._world = None
+
+
+class _World:
+    """An episode's MuJoCo world: the first plan's model with the object as it is, the servos, the expert's
+    timed reference, and the cameras."""
+
+    def __init__(self, scene: Scene, start: Start, setting: str, fps: int, image_size: tuple[int, int], obs_type: str) -> None:
+        import mujoco
+
+        first = start.first
+        self.scene, self.start = scene, start
+        self.settings = execution_settings(setting, start.draws, float(first.params["dz_min"]))
+        self.built = build_model(first, self.settings, world_object=start.truth, camera=start.mounted)
+        self.robot = build_robot(first.robot)
+        self.runner = Runner(self.built, self.settings, None)
+        self.top = scene.table.height + start.perceived.thickness
+        depths = self.top - np.asarray(first.fingertip_poses)[:, 2]
+        self.runner.press(np.asarray(first.trajectory[0], dtype=float), float(depths[0]))
+        self.released = self.closing = False
+        width, height = image_size
+        cameras = (CameraSpec("front", width, height),) if obs_type == "pixels" else ()
+        self.frames = Frames(self.built, self.runner, self.robot, fps, cameras, front_points(scene))
+        self.viewer = Frames(self.built, self.runner, self.robot, fps, (CameraSpec("front", 320, 240),), front_points(scene))
+        self.depth_renderer = None
+        if obs_type == "depth":
+            self.depth_renderer = mujoco.Renderer(self.built.model, height, width)
+            self.depth_renderer.enable_depth_rendering()
+        com, yaw, _ = self.runner.object_pose()
+        self.start_pose = (np.asarray(com, dtype=float), yaw)
+        self._expert_reference(first)
+
+    def _expert_reference(self, first) -> None:
+        """The open loop's joint reference and gripper command over the episode's time."""
+        slide = np.asarray(first.trajectory, dtype=float)
+        slide_t = plan_times(first, "trajectory", len(slide))
+        approach = np.asarray(first.grasp["approach"], dtype=float)
+        approach_t = plan_times(first, "approach", len(approach)) if len(approach) else np.zeros(0)
+        grasp = np.asarray(first.grasp["config"], dtype=float)
+        limits = resolve_limits(first, timing_options(self.settings, self.robot.velocity_limits))
+        lift = straight_up(self.robot, grasp, self.settings.lift_height)
+        lift = grasp[None, :] if lift is None else lift
+        lift_t = rest_to_rest(self.robot, lift, limits, "lift")["time_from_start"]
+        ramp = self.built.gripper.ramp_s(self.settings) if len(self.built.gripper) else 0.0
+        paths, times, clock = [slide], [slide_t], float(slide_t[-1]) + SETTLE_S
+        if len(approach):
+            paths.append(approach)
+            times.append(clock + approach_t)
+            clock += float(approach_t[-1]) + SETTLE_S
+        self.close_at, self.ramp_s = clock, max(ramp, 1e-6)
+        clock += ramp + CLOSE_S
+        paths.append(lift)
+        times.append(clock + lift_t)
+        self.reference = (np.vstack(paths), np.concatenate(times))
+
+    def expert(self, t: float) -> tuple[np.ndarray, float]:
+        """The expert's joint targets and gripper closing at episode time ``t``."""
+        path, times = self.reference
+        return reference(path, times, t), float(np.clip((t - self.close_at) / self.ramp_s, 0.0, 1.0))
+
+    def hold(self, target: np.ndarray, grip: float, duration: float) -> str | None:
+        """Hold the servo targets for ``duration`` s; returns why the simulation stopped, or None."""
+        import mujoco
+
+        model, data, built, runner = self.built.model, self.built.data, self.built, self.runner
+        gripper = built.gripper
+        if grip > 0.5 and not self.closing and len(gripper):
+            self._release()
+            runner.start_closing()
+            enable_hand_collisions(built, True)
+            self.closing = True
+            runner.phase = "grasp"
+        end = data.time + duration - 1e-9
+        while data.time < end:
+            data.ctrl[built.arm_actuators] = target
+            if len(gripper):
+                data.ctrl[gripper.actuators] = gripper.target(grip) if self.closing else gripper.opened
+            mujoco.mj_step(model, data)
+            if not self.released and data.geom_xpos[built.pad_geom][2] > self.top + 0.02:
+                self._release()
+        bad = instability(data)  # MuJoCo's warnings count up: one look per action sees any step's
+        return f"simulation unstable ({bad}) at t = {data.time:.3f} s" if bad else None
+
+    def _release(self) -> None:
+        """The finger has left the object (or the hand closes): as ``slideplan execute`` after the slide."""
+        if not self.released:
+            self.runner.let_go()
+            enable_hand_collisions(self.built, True)
+            self.released = True
+            self.runner.phase = "approach"
+
+    def time(self) -> float:
+        return float(self.built.data.time)
+
+    def joints(self) -> np.ndarray:
+        return np.array(self.built.data.qpos[self.built.arm_qpos])
+
+    def object_height(self) -> float:
+        return self.runner.object_pose()[2]
+
+    def object_state(self) -> np.ndarray:
+        com, yaw, z = self.runner.object_pose()
+        return np.array([com[0], com[1], yaw, z], dtype=float)
+
+    def lifted(self) -> bool:
+        """In the hand, its lowest point at least half the lift height above the table."""
+        _, lowest, touching = self.runner.hold_sample(0.0)
+        return touching and lowest >= self.scene.table.height + 0.5 * self.settings.lift_height
+
+    def progress(self) -> float:
+        """The dense reward's shaping: the overhang's progress to u* (0..1), less the centre of mass's shortfall
+        inside the edge (m x 10), plus the lift's progress (0..1)."""
+        com, yaw, _ = self.runner.object_pose()
+        (com0, yaw0), truth = self.start_pose, self.start.truth
+        turn = yaw - yaw0
+        rotation = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+        moved = (np.asarray(truth.points)[:, :2] - com0) @ rotation.T + com
+        ending = Ending.at(self.scene.table, moved, com)
+        u_star, margin = float(self.start.first.params["u_star"]), float(self.start.first.params["com_margin"])
+        _, lowest, _ = self.runner.hold_sample(0.0)
+        lift = np.clip((lowest - self.scene.table.height) / self.settings.lift_height, 0.0, 1.0)
+        return float(np.clip(ending.overhang / u_star, 0.0, 1.0) - 10.0 * max(0.0, margin - ending.com_margin) + lift)
+
+    def depth(self) -> np.ndarray:
+        depth = camera_depth(self.depth_renderer, self.built.model, self.built.data, DEPTH_CAMERA)
+        return np.nan_to_num(depth, nan=0.0)[:, :, None].astype(np.float32)
+
+    def view(self) -> np.ndarray:
+        return self.viewer.snapshot()["front"]
+
+    def close(self) -> None:
+        self.frames.close()
+        self.viewer.close()
+        if self.depth_renderer is not None:
+            self.depth_renderer.close()
+
+
+# gym.make("slideplan/SlideToEdge-v0") once this module is imported (or gym.make("slideplan.demos.env:slideplan/SlideToEdge-v0")).
+gym.register(id="slideplan/SlideToEdge-v0", entry_point=SlideToEdgeEnv, max_episode_steps=400)
