@@ -15,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from ..bounds import MAX_SLIDE_S
 from ..closed_loop import Start
 from ..closed_loop_settings import execution_settings
 from ..errors import InputError
@@ -35,6 +36,8 @@ OBS_TYPES = ("state", "pixels", "depth")
 ACTION_TYPES = ("joint", "ee_delta")
 REWARD_TYPES = ("sparse", "dense")
 _EE_STEP = (0.02, 0.1)  # the largest fingertip step an ee_delta action may ask for: m, rad
+# As long as a run may take: its slide bounded by slideplan.bounds (60 s), then the approach, grasp, lift and hold.
+EPISODE_S = MAX_SLIDE_S + 20.0
 _FELL_M = 0.05  # the object's centre this far below the table top: off the table, the episode over
 
 
@@ -55,7 +58,7 @@ class SlideToEdgeEnv(gym.Env):
         render_mode: None or ``rgb_array`` (the front camera).
         fps: steps per simulated second.
         image_size: (width, height) of the pixels and depth images.
-        max_episode_steps: steps before the episode is truncated.
+        max_episode_steps: steps before the episode is truncated (default: :data:`EPISODE_S` at ``fps``).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -63,7 +66,7 @@ class SlideToEdgeEnv(gym.Env):
     def __init__(self, scene: str | Scene = "square", objects: tuple[str, ...] = Request.objects, setting: str = "nominal",
                  obs_type: str = "state", action_type: str = "joint", reward_type: str = "sparse",
                  render_mode: str | None = None, fps: int = 10, image_size: tuple[int, int] = (128, 128),
-                 max_episode_steps: int = 400) -> None:
+                 max_episode_steps: int | None = None) -> None:
         for name, value, allowed in (("obs_type", obs_type, OBS_TYPES), ("action_type", action_type, ACTION_TYPES),
                                      ("reward_type", reward_type, REWARD_TYPES),
                                      ("render_mode", render_mode, (None, "rgb_array"))):
@@ -72,7 +75,8 @@ class SlideToEdgeEnv(gym.Env):
         self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
         self.objects, self.setting, self.fps = tuple(objects), setting, int(fps)
         self.obs_type, self.action_type, self.reward_type, self.render_mode = obs_type, action_type, reward_type, render_mode
-        self.image_size, self._max_episode_steps = tuple(image_size), int(max_episode_steps)
+        self.image_size = tuple(image_size)
+        self._max_episode_steps = int(max_episode_steps or round(EPISODE_S * self.fps))
         self.metadata = {**self.metadata, "render_fps": self.fps}
         robot = robot_model(self.scene)
         self.dof, self.lower, self.upper = robot.dof, np.asarray(robot.lower_limits), np.asarray(robot.upper_limits)
@@ -322,4 +326,4 @@ class _World:
 
 
 # gym.make("slideplan/SlideToEdge-v0") once this module is imported (or gym.make("slideplan.demos.env:slideplan/SlideToEdge-v0")).
-gym.register(id="slideplan/SlideToEdge-v0", entry_point=SlideToEdgeEnv, max_episode_steps=400)
+gym.register(id="slideplan/SlideToEdge-v0", entry_point=SlideToEdgeEnv)

@@ -1,0 +1,124 @@
+"""The Gymnasium environment slideplan/SlideToEdge-v0: Gymnasium's own checker in every observation mode,
+two copies under AsyncVectorEnv, the expert lifting the object, success as the world's state, and the
+demonstrations' joint actions replayed to their recorded outcome. Whole episodes: marked physics."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import slideplan.demos.env  # noqa: F401 - registers slideplan/SlideToEdge-v0
+from slideplan.demos.env import SlideToEdgeEnv
+from slideplan.errors import InputError
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+
+@pytest.mark.parametrize("name, value", [("obs_type", "lidar"), ("action_type", "torque"), ("reward_type", "shaped"),
+                                         ("render_mode", "human")])
+def test_unknown_modes_are_named(name, value):
+    with pytest.raises(InputError, match=value) as caught:
+        SlideToEdgeEnv(**{name: value})
+    assert caught.value.field == name
+
+
+@pytest.mark.physics
+@pytest.mark.parametrize("obs_type", ["state", "pixels", "depth"])
+def test_gymnasiums_checker_passes(obs_type):
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make("slideplan/SlideToEdge-v0", obs_type=obs_type, image_size=(48, 32), render_mode="rgb_array")
+    check_env(env.unwrapped, skip_render_check=False)
+    observation, info = env.reset(seed=4)
+    assert info["is_success"] is False and info["task_description"].startswith("slide the object")
+    key = {"state": "environment_state", "pixels": "pixels", "depth": "depth"}[obs_type]
+    assert key in observation and "agent_pos" in observation
+    if obs_type == "pixels":
+        assert observation["pixels"].shape == (32, 48, 3) and observation["pixels"].std() > 5  # a picture, not a blank
+    if obs_type == "depth":
+        assert 0.3 < np.median(observation["depth"][observation["depth"] > 0]) < 1.5  # the table, about a metre off
+    assert env.render().shape == (240, 320, 3)
+    env.close()
+
+
+def _make():
+    import slideplan.demos.env  # noqa: F401 - a spawned worker registers the id itself
+
+    return gym.make("slideplan/SlideToEdge-v0")
+
+
+@pytest.mark.physics
+def test_two_copies_step_under_async_vector_env():
+    # spawn, not fork: a process forked after MuJoCo's EGL context (or torch) started threads can deadlock.
+    envs = gym.vector.AsyncVectorEnv([_make] * 2, context="spawn")
+    try:
+        observations, infos = envs.reset(seed=[1, 2])
+        assert observations["agent_pos"].shape[0] == 2
+        assert not np.allclose(observations["environment_state"][0], observations["environment_state"][1])
+        held = np.concatenate([observations["agent_pos"][:, :7], np.zeros((2, 1))], axis=1)  # the joints where they are
+        for _ in range(3):
+            observations, rewards, terminated, truncated, infos = envs.step(held)
+        assert rewards.shape == (2,) and not terminated.any() and "is_success" in infos
+    finally:
+        envs.close()
+
+
+@pytest.mark.physics
+@pytest.mark.parametrize("action_type", ["joint", "ee_delta"])
+def test_the_expert_lifts_the_object_and_success_is_the_worlds(action_type):
+    env = gym.make("slideplan/SlideToEdge-v0", action_type=action_type, reward_type="dense")
+    observation, _ = env.reset(seed=3)
+    start_z = observation["environment_state"][3]
+    rewards, info = [], {}
+    for _ in range(400):
+        observation, reward, terminated, truncated, info = env.step(env.unwrapped.expert_action())
+        rewards.append(reward)
+        if terminated or truncated:
+            break
+    assert info["is_success"] and terminated, info
+    assert observation["environment_state"][3] > start_z + 0.04  # the object's true height: lifted
+    assert rewards[-1] > rewards[0]  # the dense reward grew with the overhang and the lift
+    env.close()
+
+
+@pytest.mark.physics
+def test_holding_still_is_no_success():
+    env = SlideToEdgeEnv()
+    observation, _ = env.reset(seed=3)
+    still = np.append(observation["agent_pos"][:7], 1.0)  # close the hand where it is: on the table, not lifted
+    for _ in range(40):
+        observation, reward, terminated, truncated, info = env.step(still)
+    assert not info["is_success"] and reward == 0.0
+    env.close()
+
+
+@pytest.mark.physics
+def test_demonstrations_replayed_by_their_joint_actions_end_as_recorded(tmp_path):
+    import pandas as pd
+
+    out = tmp_path / "d"
+    command = [sys.executable, "-m", "slideplan.cli", "demos", "--scene", "square", "--episodes", "6", "--out", str(out),
+               "--workers", "2", "--keep", "all", "--seed", "2"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr
+    request = json.loads((out / "slideplan_demos.json").read_text())
+    episodes = json.loads((out / "meta" / "slideplan_episodes.json").read_text())["episodes"]
+    frames = pd.concat([pd.read_parquet(path) for path in sorted((out / "data").rglob("*.parquet"))])
+    env = SlideToEdgeEnv(request["scene"], objects=tuple(request["objects"]), setting=request["setting"])
+    same = 0
+    for episode in episodes:
+        actions = np.stack(frames[frames["episode_index"] == episode["episode_index"]]["action"])
+        env.reset(seed=episode["seed"])
+        for step in range(len(actions) + 50):  # then the last action held
+            _, _, terminated, truncated, info = env.step(actions[min(step, len(actions) - 1)])
+            if terminated or truncated:
+                break
+        same += info["is_success"] == episode["success"]
+    assert same >= 0.95 * len(episodes), (same, len(episodes))
+    env.close()
