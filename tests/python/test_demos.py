@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -26,6 +28,7 @@ from slideplan.objects import load_outline, place_outline
 from slideplan.scenes import load_scene
 
 runner = CliRunner()
+DEMOS_DOC = Path(__file__).resolve().parents[2] / "docs" / "demos.md"
 
 
 def bad_input(*args) -> str:
@@ -116,7 +119,7 @@ def generate(out: Path, *extra: str, episodes: int = 3, workers: int = 2) -> sub
 def load(root: Path):
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
-    return LeRobotDataset("slideplan/demos", root=root, video_backend="pyav")  # PyAV: no system FFmpeg needed
+    return LeRobotDataset("slideplan/demos", root=root)  # as a user loads it: torchcodec decodes (make install-lerobot)
 
 
 def frames_of(root: Path):
@@ -126,7 +129,7 @@ def frames_of(root: Path):
 
 
 @pytest.mark.physics
-def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path):
+def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path, monkeypatch):
     import torch
 
     first = generate(tmp_path / "a", "--cameras", "front:64x64")
@@ -142,6 +145,14 @@ def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path):
     assert item["task"].startswith(f"slide the {kept[0]['object']}")
     batches = list(torch.utils.data.DataLoader(dataset, batch_size=32))
     assert sum(len(batch["index"]) for batch in batches) == dataset.num_frames
+    # docs/demos.md's examples, as written, where the document's first command put the dataset.
+    (tmp_path / "user" / "demos").mkdir(parents=True)
+    shutil.copytree(tmp_path / "a", tmp_path / "user" / "demos" / "square")
+    monkeypatch.chdir(tmp_path / "user")
+    namespace: dict = {}
+    for index, block in enumerate(re.findall(r"```python\n(.*?)```", DEMOS_DOC.read_text(), re.S)):
+        exec(compile(block, f"demos.md example {index + 1}", "exec"), namespace)
+    assert len(namespace["dataset"]) == dataset.num_frames and namespace["info"]["is_success"]
     phases = frames_of(tmp_path / "a")["phase"].tolist()
     assert phases[0] == 0 and {4, 5, 6} <= set(phases)  # slide first; grasp, lift and hold recorded
     second = generate(tmp_path / "b", "--cameras", "front:64x64", workers=1)
