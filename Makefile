@@ -14,12 +14,17 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 all: install
 
-deps:
-	@missing=$$(for p in $(APT_PACKAGES); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q 'ok installed' || echo $$p; done); \
+# The Debian packages of $(1) that are not installed yet.
+define apt_install
+	@missing=$$(for p in $(1); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q 'ok installed' || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
 	  echo "Installing Debian packages:" $$missing; \
 	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
 	fi
+endef
+
+deps:
+	$(call apt_install,$(APT_PACKAGES))
 
 $(PYTHON):
 	python3 -m venv $(VENV)
@@ -34,7 +39,9 @@ install: deps $(PYTHON)
 	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[$(EXTRAS)]"
 
 # The lerobot extra too (torch: a download of several GB the first time): the demonstrations' tests need it.
+# ffmpeg: the FFmpeg libraries lerobot's video decoder (torchcodec) loads.
 install-lerobot: install
+	$(call apt_install,ffmpeg)
 	$(PYTHON) -m pip install -q --no-build-isolation -C build-dir=$(BUILD_DIR) \
 	  -C cmake.define.SLIDEPLAN_BUILD_TESTS=ON ".[$(EXTRAS),lerobot]"
 
@@ -93,6 +100,7 @@ bench: install
 	$(PYTHON) benchmarks/timing_bench.py
 	$(PYTHON) benchmarks/cli_bench.py
 	$(PYTHON) benchmarks/perceive_bench.py
+	$(MAKE) install-lerobot && $(PYTHON) benchmarks/demos_bench.py
 	$(PYTHON) benchmarks/execute_bench.py
 	$(PYTHON) benchmarks/video_bench.py
 	$(PYTHON) benchmarks/tracking_bench.py
