@@ -191,3 +191,26 @@ def test_a_killed_worker_loses_one_episode_and_the_rerun_completes_without_dupli
     assert sorted(set(frames["episode_index"])) == [0, 1, 2, 3]
     for index, record in enumerate(records):
         assert (frames["episode_index"] == index).sum() == record["frames"]  # whole episodes, none twice
+
+
+def test_lerobots_so101_convention_names_and_units():
+    from types import SimpleNamespace
+
+    from slideplan.demos.dataset import convention_for, features
+
+    so101 = ["shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll"]
+    convention = convention_for(so101, ["gripper"])
+    assert convention is not None and convention.robot_type == "so101_follower"
+    assert convention_for(so101[:4], ["gripper"]) is None and convention_for(so101, []) is None
+    names = features(so101, (), convention)["observation.state"]["names"]
+    assert names[:6] == ["shoulder_pan.pos", "shoulder_lift.pos", "elbow_flex.pos", "wrist_flex.pos", "wrist_roll.pos",
+                         "gripper.pos"]
+    # the hand open at 0.6 rad and closed at -0.12 rad of a joint ranging -0.2..1.8 rad
+    gripper = SimpleNamespace(opened=np.array([0.6]), closed=np.array([-0.12]), limits=np.array([[-0.2, 1.8]]))
+    row = {"state": np.array([1.0, 0, 0, 0, -0.5, 0.0, *np.zeros(6)]), "action": np.array([1.0, 0, 0, 0, -0.5, 1.0]),
+           "ee_delta": np.zeros(7)}
+    convention.apply([row], gripper)
+    assert row["state"][0] == pytest.approx(57.2958, abs=1e-3) and row["action"][4] == pytest.approx(-28.6479, abs=1e-3)
+    assert row["state"][5] == pytest.approx(40.0) and row["action"][5] == pytest.approx(4.0)  # open 40 %, closed 4 %
+    assert row["ee_delta"][-1] == pytest.approx(4.0)
+    assert convention_for(["j1", "j2"], ["gripper"]) is None  # other arms keep their URDF names

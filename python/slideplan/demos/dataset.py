@@ -6,16 +6,20 @@ loses that episode only, and a stopped generation resumes), then all are merged 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import importlib
 import io
 import json
+import math
 import os
 import shutil
+import tomllib
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
+from ..paths import data_dir
 from .frames import EE_ACTION_NAMES, CameraSpec, action_names, state_names
 
 REPO_ID = "slideplan/demos"  # the datasets' name; they live under the output folder, nothing is uploaded
@@ -38,18 +42,61 @@ def require_lerobot() -> None:
         raise InputError(f"needs {EXTRA}; importing it failed: {error}", field="lerobot") from None
 
 
-def features(joint_names: list[str], cameras: tuple[CameraSpec, ...], names: dict[str, str] | None = None) -> dict:
+@dataclasses.dataclass(frozen=True)
+class Convention:
+    """LeRobot's names and units for a robot it drives (``data/lerobot/conventions.toml``)."""
+
+    robot_type: str
+    joints: tuple[str, ...]
+    gripper: str
+    suffix: str
+    unit: str
+
+    def names(self, joint_names: list[str]) -> list[str]:
+        return [f"{name}{self.suffix}" for name in joint_names]
+
+    def apply(self, rows: list[dict], gripper) -> None:
+        """Rewrite the rows' joints in the convention's unit and the gripper's closing as 0..100 of its joint's
+        range (``gripper``: the model's :class:`~slideplan.execute.model.Gripper`, one joint)."""
+        scale = math.degrees(1.0) if self.unit == "deg" else 1.0
+        opened, closed = float(gripper.opened[0]), float(gripper.closed[0])
+        low, high = (float(value) for value in gripper.limits[0])
+        joints = len(self.joints)
+
+        def percent(closing: float) -> float:
+            return 100.0 * (opened + closing * (closed - opened) - low) / (high - low)
+
+        for row in rows:
+            for key in ("state", "action"):
+                row[key][:joints] *= scale
+                row[key][joints] = percent(row[key][joints])
+            row["ee_delta"][-1] = row["action"][joints]
+
+
+def convention_for(joint_names: list[str], gripper_joints: list[str]) -> Convention | None:
+    """The convention whose joints are the plan's and whose gripper is the hand's only one, or None."""
+    table = tomllib.loads((data_dir() / "lerobot" / "conventions.toml").read_text())
+    for entry in table.get("convention", []):
+        if list(entry["joints"]) == list(joint_names) and list(gripper_joints) == [entry["gripper"]]:
+            return Convention(entry["robot_type"], tuple(entry["joints"]), entry["gripper"], entry["suffix"], entry["unit"])
+    return None
+
+
+def features(joint_names: list[str], cameras: tuple[CameraSpec, ...], convention: Convention | None = None) -> dict:
     """The dataset's per-frame features (LeRobot's ``features`` dict).
 
     Args:
         joint_names: the arm's joints, in the plan's order.
         cameras: the cameras: a video feature ``observation.images.NAME`` each.
-        names: joint name -> the feature name a robot's LeRobot convention gives it (data/lerobot), or None.
+        convention: LeRobot's names for this robot (:func:`convention_for`), or None: the URDF's joint names.
     """
-    shown = [(names or {}).get(name, name) for name in joint_names]
+    shown = convention.names(joint_names) if convention else list(joint_names)
+    gripper = f"{convention.gripper}{convention.suffix}" if convention else "gripper"
+    state, action = state_names(shown), action_names(shown)
+    state[len(shown)] = action[len(shown)] = gripper
     out = {
-        "observation.state": {"dtype": "float32", "shape": (len(shown) + 7,), "names": state_names(shown)},
-        "action": {"dtype": "float32", "shape": (len(shown) + 1,), "names": action_names(shown)},
+        "observation.state": {"dtype": "float32", "shape": (len(shown) + 7,), "names": state},
+        "action": {"dtype": "float32", "shape": (len(shown) + 1,), "names": action},
         "ee_delta_action": {"dtype": "float32", "shape": (len(EE_ACTION_NAMES),), "names": EE_ACTION_NAMES},
         "phase": {"dtype": "int64", "shape": (1,), "names": ["phase"]},
     }
@@ -59,8 +106,7 @@ def features(joint_names: list[str], cameras: tuple[CameraSpec, ...], names: dic
     return out
 
 
-def write_episode(root: Path, fps: int, feature_set: dict, robot_type: str, task: str, rows: list[dict],
-                  scale: np.ndarray | None = None) -> None:
+def write_episode(root: Path, fps: int, feature_set: dict, robot_type: str, task: str, rows: list[dict]) -> None:
     """One episode as a finalized dataset at ``root`` (which must not exist): written beside it and renamed
     into place, so ``root`` exists only whole.
 
@@ -71,7 +117,6 @@ def write_episode(root: Path, fps: int, feature_set: dict, robot_type: str, task
         robot_type: the robot's name (LeRobot's ``robot_type``).
         task: the episode's task string.
         rows: the frames (:class:`slideplan.demos.frames.Frames`'s rows).
-        scale: per state/action joint entry, the factor into the convention's units (None: as simulated).
     """
     _quiet()
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
@@ -81,13 +126,8 @@ def write_episode(root: Path, fps: int, feature_set: dict, robot_type: str, task
         shutil.rmtree(partial)
     dataset = LeRobotDataset.create(REPO_ID, fps, feature_set, root=partial, robot_type=robot_type,
                                     use_videos=True, streaming_encoding=True)
-    joints = len(feature_set["action"]["names"]) - 1
-    factor = np.ones(joints) if scale is None else scale
     for row in rows:
-        state, action = row["state"].copy(), row["action"].copy()
-        state[:joints] *= factor
-        action[:joints] *= factor
-        frame = {"observation.state": state.astype(np.float32), "action": action.astype(np.float32),
+        frame = {"observation.state": row["state"].astype(np.float32), "action": row["action"].astype(np.float32),
                  "ee_delta_action": row["ee_delta"].astype(np.float32), "phase": np.array([row["phase"]], dtype=np.int64),
                  "task": task}
         for key in feature_set:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 
@@ -18,7 +19,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..provenance import build_info
-from .dataset import features, merge, require_lerobot, write_episode, write_json_atomic
+from .dataset import convention_for, features, merge, require_lerobot, write_episode, write_json_atomic
 from .draw import SETTINGS, draw, episode_seed
 from .frames import PHASES, CameraSpec, Frames
 
@@ -115,7 +116,7 @@ def run_episode(episode: Episode) -> dict:
 
     def observe(plan, built, runner, robot):
         taken["frames"] = Frames(built, runner, robot, request.fps, request.camera_specs(), front_points(scene))
-        taken["plan"], taken["joints"], taken["robot"] = plan_hash(plan), list(plan.joint_names), Path(plan.robot["urdf"]).stem
+        taken["plan"], taken["joints"], taken["gripper"] = plan_hash(plan), list(plan.joint_names), built.gripper
         return taken["frames"].after_step
 
     record = {"index": episode.index, "seed": drawn.seed, "object": drawn.object, "pose": list(drawn.pose),
@@ -136,10 +137,15 @@ def run_episode(episode: Episode) -> dict:
     record.update(plan_hash=taken.get("plan"), frames=len(frames.rows) if frames else 0, kept=kept)
     folder = episode_dir(out, episode.index)
     folder.mkdir(parents=True, exist_ok=True)
+    if (folder / "dataset").exists():  # written by a worker killed before the record: done again
+        shutil.rmtree(folder / "dataset")
     if kept:
-        task = drawn.task(scene.name)
-        write_episode(folder / "dataset", request.fps, features(taken["joints"], request.camera_specs()),
-                      taken["robot"], task, frames.rows)
+        convention = convention_for(taken["joints"], list(scene.hand.gripper_joints))
+        if convention is not None:
+            convention.apply(frames.rows, taken["gripper"])
+        robot_type = convention.robot_type if convention else scene.urdf_path.stem
+        write_episode(folder / "dataset", request.fps, features(taken["joints"], request.camera_specs(), convention),
+                      robot_type, drawn.task(scene.name), frames.rows)
     write_json_atomic(folder / "record.json", record)  # last: an episode with a record is done
     return record
 
