@@ -21,7 +21,9 @@ from .errors import InputError
 from .motions import Unreachable, collision_world, dense, reach_path, straight_line, straight_up
 from .objects import ThinObject
 from .pipeline import Checked, plan_checked
+from .plan.config import PlannerConfig
 from .plan.result import PlanResult
+from .scenes import Scene
 from .watch import Replan, Segment, Watch, slide_segment
 
 CLEAR_LIFT_M = 0.1  # when the arm hides the object at the end of a slide, the finger rises this far to look
@@ -101,6 +103,29 @@ class Arm(Protocol):
 
     def replanned(self, trigger: str, outcome: str, replans: int) -> None:
         """A new plan is followed (``replans`` so far)."""
+
+
+def plan_anew(scene: Scene, seen: ThinObject, planner: PlannerConfig, robot, config: np.ndarray) -> Checked:
+    """A verified plan (:class:`~slideplan.pipeline.Checked`) for the object ``seen`` wherever it lies: a new
+    slide when it is wholly on the table; else (partly over an edge, the finger off it: it slid on ahead of the
+    finger) from the finger set down on it, turned and pressed as at ``config``, at the object's point nearest
+    its centre, since the planner takes such an object only from a state: the grasp where the object already
+    overhangs enough, or else the rest of the slide.
+
+    Raises:
+        Unreachable: no inverse kinematics puts the finger on the object.
+        InputError: that configuration is not a valid contact (``start_config``: why), or the object is off the table.
+    """
+    if scene.table.polygon.contains(seen.outline):
+        return plan_checked(scene, seen, planner)
+    points = seen.points[:, :2]
+    point = points[np.argmin(np.linalg.norm(points - seen.centroid_xy, axis=1))]
+    target = np.asarray(robot.fk(config))
+    target[:2, 3] = point
+    on = robot.ik(target, seed=config, rng_seed=0, options=_core.contact_ik_options(robot))
+    if on is None:
+        raise Unreachable(f"no inverse kinematics puts the finger on the object at ({point[0]:.3f}, {point[1]:.3f})")
+    return plan_checked(scene, seen, planner, start_config=on)
 
 
 class SlideLoop:
@@ -273,25 +298,6 @@ class SlideLoop:
                 best, most = np.vstack([up, aside[1:]]), count
         return best
 
-    def touch(self, seen: ThinObject, config: np.ndarray) -> Checked:
-        """A verified plan (:class:`~slideplan.pipeline.Checked`) for the object ``seen`` partly over an edge, the finger off it (it slid on ahead of the
-        finger): the planner takes such an object only from a state, so the state is the finger set down on
-        it, turned and pressed as at ``config``, at the object's point nearest its centre; from there the
-        plan is the grasp where the object already overhangs enough, or else the rest of the slide.
-
-        Raises:
-            Unreachable: no inverse kinematics puts the finger there.
-            InputError: that configuration is not a valid contact (``start_config``: why).
-        """
-        points = seen.points[:, :2]
-        point = points[np.argmin(np.linalg.norm(points - seen.centroid_xy, axis=1))]
-        target = np.asarray(self.robot.fk(config))
-        target[:2, 3] = point
-        on = self.robot.ik(target, seed=config, rng_seed=0, options=_core.contact_ik_options(self.robot))
-        if on is None:
-            raise Unreachable(f"no inverse kinematics puts the finger on the object at ({point[0]:.3f}, {point[1]:.3f})")
-        return plan_checked(self.watch.scene, seen, self.watch.replan_config, start_config=on)
-
     def new_contact(self, motion, config: np.ndarray) -> PlanResult | None:
         """A whole new slide for the object seen at ``motion`` (verified) and the reach to its first contact
         from ``config`` (the finger lifted off first, every link checked), followed; None when there is none
@@ -301,8 +307,7 @@ class SlideLoop:
         seen = watch.perceived.moved(motion)
         checked = reach = None
         try:
-            checked = (plan_checked(watch.scene, seen, watch.replan_config) if watch.scene.table.polygon.contains(seen.outline)
-                       else self.touch(seen, config))
+            checked = plan_anew(watch.scene, seen, watch.replan_config, self.robot, config)
             if checked.verification is not None and not checked.ok:
                 event.detail = f"the new plan fails verification: {checked.verification.violations[0]}"
             elif checked.ok:

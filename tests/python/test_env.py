@@ -122,3 +122,23 @@ def test_demonstrations_replayed_by_their_joint_actions_end_as_recorded(tmp_path
         same += info["is_success"] == episode["success"]
     assert same >= 0.95 * len(episodes), (same, len(episodes))
     env.close()
+
+
+@pytest.mark.physics
+def test_the_expert_replans_after_a_push_and_still_lifts():
+    from slideplan.closed_loop_settings import Disturbance
+
+    env = SlideToEdgeEnv()
+    env.reset(seed=3)
+    for _ in range(15):  # 1.5 s into the slide
+        env.step(env.unwrapped.expert_action())
+    world = env.unwrapped._world
+    Disturbance(dx=0.0, dy=0.04, dyaw=0.3, after_s=0.0).apply(world.built)  # pushed 4 cm from under the finger
+    info, terminated = {}, False
+    for _ in range(800):
+        _, _, terminated, truncated, info = env.step(env.unwrapped.expert_action())
+        if terminated or truncated:
+            break
+    assert world.replans >= 1  # the plan it had no longer reached the object
+    assert info["is_success"] and terminated, info
+    env.close()

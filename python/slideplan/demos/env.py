@@ -9,25 +9,25 @@ lowest point at least half the lift height above the table, for the hold time.
 
 from __future__ import annotations
 
-import math
-
+import dataclasses
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ..bounds import MAX_SLIDE_S
+from ..bounds import MAX_REPLANS, MAX_SLIDE_S
 from ..closed_loop import Start
 from ..closed_loop_settings import execution_settings
 from ..errors import InputError
 from ..execute.model import DEPTH_CAMERA, build_model, enable_hand_collisions
 from ..execute.runner import CLOSE_S, SETTLE_S, Runner, instability, timing_options
 from ..geometry import Ending
-from ..motions import plan_times, reference, rest_to_rest, straight_up
+from ..motions import Unreachable, plan_times, reach_path, reference, rest_to_rest, straight_up
+from ..loop import plan_anew
 from ..plan.robot import build_robot, robot_model
 from ..rendering import camera_depth
 from ..scenes import Scene, load_scene
 from ..timing import resolve_limits
-from ..transforms import rotation_vector
+from ..transforms import rotation_2d, rotation_vector
 from .draw import draw
 from .frames import CameraSpec, Frames, state_names
 from .generate import Request, front_points
@@ -38,7 +38,8 @@ REWARD_TYPES = ("sparse", "dense")
 _EE_STEP = (0.02, 0.1)  # the largest fingertip step an ee_delta action may ask for: m, rad
 # As long as a run may take: its slide bounded by slideplan.bounds (60 s), then the approach, grasp, lift and hold.
 EPISODE_S = MAX_SLIDE_S + 20.0
-_FELL_M = 0.05  # the object's centre this far below the table top: off the table, the episode over
+_FELL_M = 0.05
+_OFF_REFERENCE_RAD = 0.2  # a joint this far from the expert's reference: a policy took the arm elsewhere  # the object's centre this far below the table top: off the table, the episode over
 
 
 class SlideToEdgeEnv(gym.Env):
@@ -156,12 +157,14 @@ class SlideToEdgeEnv(gym.Env):
         return np.clip(q + dq, self.lower, self.upper), grip
 
     def expert_action(self) -> np.ndarray:
-        """The planner's action now: the first plan's reference one step ahead (the slide, the approach, the
-        closing and the lift as ``slideplan execute`` times them), in this environment's action type."""
+        """The planner's action now: its reference one step ahead (the slide, the approach, the closing and the
+        lift as ``slideplan execute`` times them), in this environment's action type. It re-plans from the
+        object's true pose when a slide has ended short of graspable or the arm is off its reference (DAgger:
+        the expert's label for wherever a policy has brought the episode)."""
         world = self._world
         if world is None:
             raise RuntimeError("call reset() first")
-        target, grip = world.expert(world.time() + 1.0 / self.fps)
+        target, grip = world.expert(world.time(), 1.0 / self.fps)
         if self.action_type == "joint":
             return np.append(target, grip).astype(np.float32)
         tip, goal = np.asarray(world.robot.fk(world.joints())), np.asarray(world.robot.fk(target))
@@ -207,7 +210,7 @@ class _World:
         self.top = scene.table.height + start.perceived.thickness
         depths = self.top - np.asarray(first.fingertip_poses)[:, 2]
         self.runner.press(np.asarray(first.trajectory[0], dtype=float), float(depths[0]))
-        self.released = self.closing = False
+        self.closing, self.replans = False, 0
         width, height = image_size
         cameras = (CameraSpec("front", width, height),) if obs_type == "pixels" else ()
         self.frames = Frames(self.built, self.runner, self.robot, fps, cameras, front_points(scene))
@@ -220,19 +223,28 @@ class _World:
         self.start_pose = (np.asarray(com, dtype=float), yaw)
         self._expert_reference(first)
 
-    def _expert_reference(self, first) -> None:
-        """The open loop's joint reference and gripper command over the episode's time."""
-        slide = np.asarray(first.trajectory, dtype=float)
-        slide_t = plan_times(first, "trajectory", len(slide))
-        approach = np.asarray(first.grasp["approach"], dtype=float)
-        approach_t = plan_times(first, "approach", len(approach)) if len(approach) else np.zeros(0)
-        grasp = np.asarray(first.grasp["config"], dtype=float)
-        limits = resolve_limits(first, timing_options(self.settings, self.robot.velocity_limits))
+    def _expert_reference(self, result, start_s: float = 0.0, reach: tuple | None = None) -> None:
+        """The joint reference and gripper command from ``start_s`` on: ``reach`` (path, times) to the plan's
+        first contact if given, then the plan's slide, the approach, the closing and the lift."""
+        slide = np.asarray(result.trajectory, dtype=float)
+        slide_t = plan_times(result, "trajectory", len(slide))
+        approach = np.asarray(result.grasp["approach"], dtype=float)
+        approach_t = plan_times(result, "approach", len(approach)) if len(approach) else np.zeros(0)
+        grasp = np.asarray(result.grasp["config"], dtype=float)
+        limits = resolve_limits(result, timing_options(self.settings, self.robot.velocity_limits))
         lift = straight_up(self.robot, grasp, self.settings.lift_height)
         lift = grasp[None, :] if lift is None else lift
         lift_t = rest_to_rest(self.robot, lift, limits, "lift")["time_from_start"]
         ramp = self.built.gripper.ramp_s(self.settings) if len(self.built.gripper) else 0.0
-        paths, times, clock = [slide], [slide_t], float(slide_t[-1]) + SETTLE_S
+        paths, times, clock = [], [], start_s
+        if reach is not None:
+            paths.append(reach[0])
+            times.append(clock + reach[1])
+            clock += float(reach[1][-1]) + SETTLE_S
+        paths.append(slide)
+        times.append(clock + slide_t)
+        clock += float(slide_t[-1]) + SETTLE_S
+        self.slide_end, self.looked = clock, False
         if len(approach):
             paths.append(approach)
             times.append(clock + approach_t)
@@ -241,12 +253,42 @@ class _World:
         clock += ramp + CLOSE_S
         paths.append(lift)
         times.append(clock + lift_t)
-        self.reference = (np.vstack(paths), np.concatenate(times))
+        self.result, self.reference = result, (np.vstack(paths), np.concatenate(times))
 
-    def expert(self, t: float) -> tuple[np.ndarray, float]:
-        """The expert's joint targets and gripper closing at episode time ``t``."""
+    def expert(self, t: float, ahead: float) -> tuple[np.ndarray, float]:
+        """The expert's joint targets and gripper closing ``ahead`` s after episode time ``t``. Before the hand
+        closes it re-plans (at most MAX_REPLANS times) when the slide has ended short of graspable, or when the
+        arm is off the reference (a policy took it elsewhere): a new plan for the object where it truly is,
+        reached from where the arm is."""
+        if not self.closing and self.replans < MAX_REPLANS:
+            path, times = self.reference
+            off = np.max(np.abs(self.joints() - reference(path, times, t))) > _OFF_REFERENCE_RAD
+            ended = t >= self.slide_end and not self.looked
+            if ended:
+                self.looked = True
+            if off or (ended and not self.ending().graspable(float(self.result.params["u_star"]),
+                                                            float(self.result.params["com_margin"]))):
+                self._replan(t)
         path, times = self.reference
-        return reference(path, times, t), float(np.clip((t - self.close_at) / self.ramp_s, 0.0, 1.0))
+        return reference(path, times, t + ahead), float(np.clip((t + ahead - self.close_at) / self.ramp_s, 0.0, 1.0))
+
+    def _replan(self, t: float) -> None:
+        """Plan for the object where it is (:func:`slideplan.loop.plan_anew`: over an edge too) and reach its first
+        contact from here; keep the reference if there is none."""
+        self.replans += 1
+        moved = self.moved()
+        config = dataclasses.replace(self.start.config, seed=self.start.config.seed + self.replans, time_limit_s=1.0)
+        try:
+            commanded = reference(*self.reference, t)  # on the contact constraint, as the plan's configurations are
+            checked = plan_anew(self.scene, moved, config, self.robot, commanded)
+            reach = reach_path(checked.result, moved, self.joints(), pressed=True) if checked.ok else None
+        except (InputError, Unreachable):
+            reach = None
+        if reach is None:  # look again in a second, while the hand is open
+            self.slide_end, self.looked = t + 1.0, False
+            return
+        reach_t = rest_to_rest(self.robot, reach, checked.result.timing["limits"], "reach", capped=False)["time_from_start"]
+        self._expert_reference(checked.result, t, (reach, reach_t))
 
     def hold(self, target: np.ndarray, grip: float, duration: float) -> str | None:
         """Hold the servo targets for ``duration`` s; returns why the simulation stopped, or None."""
@@ -255,7 +297,9 @@ class _World:
         model, data, built, runner = self.built.model, self.built.data, self.built, self.runner
         gripper = built.gripper
         if grip > 0.5 and not self.closing and len(gripper):
-            self._release()
+            # The hand closes: from now on the whole hand touches things, as after `slideplan execute`'s slide.
+            # Before, only the pad does (the slide's contact, and a new contact's after a re-plan).
+            runner.let_go()
             runner.start_closing()
             enable_hand_collisions(built, True)
             self.closing = True
@@ -266,18 +310,8 @@ class _World:
             if len(gripper):
                 data.ctrl[gripper.actuators] = gripper.target(grip) if self.closing else gripper.opened
             mujoco.mj_step(model, data)
-            if not self.released and data.geom_xpos[built.pad_geom][2] > self.top + 0.02:
-                self._release()
         bad = instability(data)  # MuJoCo's warnings count up: one look per action sees any step's
         return f"simulation unstable ({bad}) at t = {data.time:.3f} s" if bad else None
-
-    def _release(self) -> None:
-        """The finger has left the object (or the hand closes): as ``slideplan execute`` after the slide."""
-        if not self.released:
-            self.runner.let_go()
-            enable_hand_collisions(self.built, True)
-            self.released = True
-            self.runner.phase = "approach"
 
     def time(self) -> float:
         return float(self.built.data.time)
@@ -297,15 +331,22 @@ class _World:
         _, lowest, touching = self.runner.hold_sample(0.0)
         return touching and lowest >= self.scene.table.height + 0.5 * self.settings.lift_height
 
+    def moved(self):
+        """The object where it truly is now (a :class:`~slideplan.objects.ThinObject`)."""
+        com, yaw, _ = self.runner.object_pose()
+        com0, yaw0 = self.start_pose
+        turn = yaw - yaw0
+        shift = np.asarray(com) - rotation_2d(turn) @ com0  # Eq. 2's motion that took the centre of mass there
+        return self.start.truth.moved((shift[0], shift[1], turn))
+
+    def ending(self) -> Ending:
+        """How the object lies for the grasp now (the overhang, the centre of mass's margin)."""
+        return Ending.at(self.scene.table, np.asarray(self.moved().points)[:, :2], self.runner.object_pose()[0])
+
     def progress(self) -> float:
         """The dense reward's shaping: the overhang's progress to u* (0..1), less the centre of mass's shortfall
         inside the edge (m x 10), plus the lift's progress (0..1)."""
-        com, yaw, _ = self.runner.object_pose()
-        (com0, yaw0), truth = self.start_pose, self.start.truth
-        turn = yaw - yaw0
-        rotation = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
-        moved = (np.asarray(truth.points)[:, :2] - com0) @ rotation.T + com
-        ending = Ending.at(self.scene.table, moved, com)
+        ending = self.ending()
         u_star, margin = float(self.start.first.params["u_star"]), float(self.start.first.params["com_margin"])
         _, lowest, _ = self.runner.hold_sample(0.0)
         lift = np.clip((lowest - self.scene.table.height) / self.settings.lift_height, 0.0, 1.0)
