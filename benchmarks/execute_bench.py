@@ -46,6 +46,8 @@ def main() -> None:
     parser.add_argument("--stride", type=int, default=5)
     parser.add_argument("--count", type=int, default=40)
     parser.add_argument("--closed-loop", action=argparse.BooleanOptionalAction, default=True)
+    parser.add_argument("--conditions", default="the machine's other cores as the run found them: say how with this option",
+                        help="what else the machine ran meanwhile, for the page (wall times depend on it)")
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs/benchmarks/execution.md")
     parser.add_argument("--rows", type=Path, default=execute_fidelity.DEFAULT_OUT)
     args = parser.parse_args()
@@ -64,8 +66,7 @@ def main() -> None:
         "# Execution benchmark: simulated seconds per wall second (issue 52)",
         "",
         f"`benchmarks/execute_bench.py --start {args.start} --stride {args.stride} --count {args.count}`, one process "
-        f"(one core; the machine's other core was busy with another engineer's single-threaded experiment the whole "
-        f"time), {time.perf_counter() - started:.0f} s for the open-loop part. The model before issue 52 "
+        f"(one core; {args.conditions}), {time.perf_counter() - started:.0f} s for the open-loop part. The model before issue 52 "
         f"(`contacts.LEGACY`: the object's boxes on the table, noslip throughout, no sleeping) and today's "
         f"(`contacts.CURRENT`: {contacts.CURRENT}) in the same run. The Python code is the tree at "
         f"{execute_fidelity.tree_commit()} (the rows' `tree_commit`); `build` above names the installed extension it ran over.",
