@@ -90,6 +90,9 @@ def test_without_the_extra_the_command_says_how_to_install_it(tmp_path, monkeypa
     monkeypatch.setattr(demos_dataset.importlib, "import_module", missing)
     line = bad_input("--scene", "square", "--episodes", "2", "--out", str(tmp_path / "d"), "--workers", "1")
     assert 'pip install "slideplan[lerobot]"' in line
+    assert not (tmp_path / "d").exists()  # nothing written
+    # the other options are checked first: a bad one is named, with or without the extra
+    assert "no_such_scene" in bad_input("--scene", "no_such_scene", "--episodes", "2", "--out", str(tmp_path / "e"))
 
 
 def test_the_draw_is_the_seeds_and_lies_wholly_on_the_table():

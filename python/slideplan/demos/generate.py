@@ -159,8 +159,8 @@ def records(out: Path) -> dict[int, dict]:
     return found
 
 
-def prepare(request: Request, out: Path) -> None:
-    """Check the output folder and record the request there.
+def prepare(request: Request, out: Path, *, record: bool = True) -> None:
+    """Check the output folder and (``record``) record the request there.
 
     Raises:
         InputError: the folder holds another dataset, or another generation's request.
@@ -178,6 +178,8 @@ def prepare(request: Request, out: Path) -> None:
     if out.exists() and any(out.iterdir()):
         what = "a dataset" if (out / "meta" / "info.json").exists() else "other files"
         raise InputError(f"{out} holds {what}: give a new or empty folder", field="--out")
+    if not record:
+        return
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(saved, {**wanted, "phases": list(PHASES)})
 
@@ -198,14 +200,15 @@ def generate(request: Request, out: str | Path, executor, progress: Callable[[di
     Raises:
         InputError: bad options, no ``lerobot`` extra, an output folder holding something else.
     """
-    request = request.checked()
-    require_lerobot()
     from ..experiments.tasks import cached_scene
 
+    request = request.checked()
     scene = cached_scene(request.scene)
     for name in request.objects:
         draw(scene, (name,), request.setting, 0)  # an unknown object is named now, not in a worker
     out = Path(out)
+    prepare(request, out, record=False)  # every option checked before the extra, and nothing written without it
+    require_lerobot()
     prepare(request, out)
     done = records(out)
     todo = [Episode(request, index, str(out)) for index in range(request.episodes) if index not in done]
