@@ -214,7 +214,7 @@ class _World:
         width, height = image_size
         cameras = (CameraSpec("front", width, height),) if obs_type == "pixels" else ()
         self.frames = Frames(self.built, self.runner, self.robot, fps, cameras, front_points(scene))
-        self.viewer = Frames(self.built, self.runner, self.robot, fps, (CameraSpec("front", 320, 240),), front_points(scene))
+        self.viewer = None  # render()'s camera, made at its first frame
         self.depth_renderer = None
         if obs_type == "depth":
             self.depth_renderer = mujoco.Renderer(self.built.model, height, width)
@@ -357,11 +357,15 @@ class _World:
         return np.nan_to_num(depth, nan=0.0)[:, :, None].astype(np.float32)
 
     def view(self) -> np.ndarray:
+        if self.viewer is None:
+            self.viewer = Frames(self.built, self.runner, self.robot, 1, (CameraSpec("front", 320, 240),),
+                                 front_points(self.scene))
         return self.viewer.snapshot()["front"]
 
     def close(self) -> None:
         self.frames.close()
-        self.viewer.close()
+        if self.viewer is not None:
+            self.viewer.close()
         if self.depth_renderer is not None:
             self.depth_renderer.close()
 
