@@ -8,11 +8,11 @@ import dataclasses
 
 import numpy as np
 
+from ..closed_loop_settings import SETTINGS
 from ..errors import InputError
 from ..objects import load_outline, sample_pose_on_table
 from ..scenes import Scene
 
-SETTINGS = ("nominal", "stress", "random", "hard")  # slideplan.closed_loop_settings' settings
 # An object kept this far inside the table's edges: one drawn overhanging already is no demonstration.
 EDGE_MARGIN_M = 0.01
 
@@ -36,6 +36,12 @@ def object_label(object_name: str) -> str:
     return object_name.rsplit("/", 1)[-1].rsplit(".", 1)[0]
 
 
+def check_setting(setting: str) -> None:
+    """Raises InputError (``--setting``) for a setting that is not one of the closed loop's."""
+    if setting not in SETTINGS:
+        raise InputError(f"unknown setting {setting!r} (one of {', '.join(SETTINGS)})", field="--setting")
+
+
 def draw(scene: Scene, objects: tuple[str, ...], setting: str, seed: int) -> Draw:
     """The episode of ``seed``: an object drawn from ``objects`` and a pose with it wholly on the table
     (uniform, :func:`slideplan.objects.sample_pose_on_table`, kept :data:`EDGE_MARGIN_M` inside).
@@ -51,8 +57,7 @@ def draw(scene: Scene, objects: tuple[str, ...], setting: str, seed: int) -> Dra
     """
     if not objects:
         raise InputError("no objects to draw from", field="--objects")
-    if setting not in SETTINGS:
-        raise InputError(f"unknown setting {setting!r} (one of {', '.join(SETTINGS)})", field="--setting")
+    check_setting(setting)
     if seed < 0:
         raise InputError(f"must be >= 0, got {seed}", field="--seed")
     rng = np.random.default_rng(np.random.SeedSequence([seed, 0x5EED]))

@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import InputError
 from ..provenance import build_info
 from .dataset import convention_for, features, merge, require_lerobot, write_episode, write_json_atomic
-from .draw import SETTINGS, draw, episode_seed
+from .draw import check_setting, draw, episode_seed
 from .frames import PHASES, CameraSpec, Frames
 
 REQUEST_FILE = "slideplan_demos.json"
@@ -54,8 +54,7 @@ class Request:
             raise InputError(f"must be 1..{MAX_EPISODES}, got {self.episodes}", field="--episodes")
         if not 1 <= self.fps <= 100:
             raise InputError(f"must be 1..100, got {self.fps}", field="--fps")
-        if self.setting not in SETTINGS:
-            raise InputError(f"unknown setting {self.setting!r} (one of {', '.join(SETTINGS)})", field="--setting")
+        check_setting(self.setting)
         if self.keep not in KEEP:
             raise InputError(f"must be one of {', '.join(KEEP)}, got {self.keep!r}", field="--keep")
         if self.seed < 0:
