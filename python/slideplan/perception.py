@@ -36,7 +36,7 @@ from .errors import InputError
 from .geometry import SupportSurface, area_centroid
 from .objects import checked_cloud
 from .scenes import BoxObstacle, Scene, load_scene
-from .transforms import move_planar
+from .transforms import rotation_2d
 
 _PLANE_SAMPLE = 20_000  # RANSAC runs on this many random points: plenty for a plane, fast for any cloud
 _MAX_PLANES = 4  # floor, table, and a couple of box tops are all a tabletop scene has
@@ -578,12 +578,15 @@ def register_outline(points_xy, outline: Polygon, *, resolution: float = 0.002) 
     points_xy = np.asarray(points_xy, dtype=float)[:, :2]
     centroid = points_xy.mean(axis=0)
     sample_xy = ThinObject.from_outline(outline, thickness=1.0, table_height=0.0, pose=(0, 0, 0), resolution=resolution).points[:, :2]
-    perceived_tree = cKDTree(points_xy)
+    # Distances are rigid-invariant: the points are brought into the outline's frame instead of the sample
+    # being posed and a tree built for it at every evaluation (both trees are built once).
+    perceived_tree, sample_tree = cKDTree(points_xy), cKDTree(sample_xy)
 
     def cost(pose) -> float:
-        posed = move_planar(sample_xy, pose)
-        to_points = perceived_tree.query(posed)[0]
-        to_outline = cKDTree(posed).query(points_xy)[0]
+        x, y, yaw = pose
+        rotation = rotation_2d(yaw)
+        to_points = perceived_tree.query(sample_xy @ rotation.T + (x, y))[0]
+        to_outline = sample_tree.query((points_xy - (x, y)) @ rotation)[0]
         return float(np.mean(to_points**2) + np.mean(to_outline**2))
 
     coarse = [(*centroid, yaw) for yaw in np.radians(np.arange(-180.0, 180.0, 2.0))]
