@@ -217,3 +217,25 @@ def test_lerobots_so101_convention_names_and_units():
     assert row["state"][5] == pytest.approx(40.0) and row["action"][5] == pytest.approx(4.0)  # open 40 %, closed 4 %
     assert row["ee_delta"][-1] == pytest.approx(4.0)
     assert convention_for(["j1", "j2"], ["gripper"]) is None  # other arms keep their URDF names
+
+
+@pytest.mark.physics  # needs the lerobot extra, which make test-physics installs
+def test_an_episode_written_without_lerobots_image_embedding_has_the_same_parquet(tmp_path, monkeypatch):
+    import contextlib
+
+    import pyarrow.parquet as pq
+
+    from slideplan.demos.dataset import features, write_episode
+
+    rng = np.random.default_rng(3)
+    rows = [{"state": rng.normal(size=14), "action": rng.normal(size=8), "ee_delta": rng.normal(size=7), "phase": index // 10}
+            for index in range(40)]
+    feature_set = features([f"j{index}" for index in range(7)], ())
+    write_episode(tmp_path / "skipped", 10, feature_set, "arm", "slide", rows)
+    monkeypatch.setattr(demos_dataset, "_without_image_embedding", lambda _features: contextlib.nullcontext())
+    write_episode(tmp_path / "embedded", 10, feature_set, "arm", "slide", rows)
+    tables = [pq.read_table(next((tmp_path / name / "data").rglob("*.parquet"))) for name in ("skipped", "embedded")]
+    assert tables[0].num_rows == 40 and tables[0].equals(tables[1])
+    # the features lerobot records there too; the map adds only its cache's fingerprint (random per map)
+    recorded = [json.loads(table.schema.metadata[b"huggingface"]) for table in tables]
+    assert recorded[0]["info"] == recorded[1]["info"] and recorded[1].keys() - recorded[0].keys() == {"fingerprint"}
