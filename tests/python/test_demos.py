@@ -80,14 +80,8 @@ def test_a_generation_resumes_only_with_the_same_request(tmp_path):
 
 
 def test_without_the_extra_the_command_says_how_to_install_it(tmp_path, monkeypatch):
-    real = demos_dataset.importlib.import_module
-
-    def missing(name, *args):
-        if name.startswith("lerobot"):
-            raise ImportError("No module named 'lerobot'")
-        return real(name, *args)
-
-    monkeypatch.setattr(demos_dataset.importlib, "import_module", missing)
+    real = demos_dataset.importlib.util.find_spec
+    monkeypatch.setattr(demos_dataset.importlib.util, "find_spec", lambda name, *args: None if name == "lerobot" else real(name, *args))
     line = bad_input("--scene", "square", "--episodes", "2", "--out", str(tmp_path / "d"), "--workers", "1")
     assert 'pip install "slideplan[lerobot]"' in line
     assert not (tmp_path / "d").exists()  # nothing written
@@ -106,6 +100,22 @@ def test_the_draw_is_the_seeds_and_lies_wholly_on_the_table():
         assert scene.table.polygon.buffer(-0.009).contains(place_outline(outline, d.pose))
     assert episode_seed(7, 1) != episode_seed(8, 1) and episode_seed(7, 1) != episode_seed(7, 2)
 
+
+
+def test_a_broken_lerobot_install_is_named_once_the_episodes_are_done(monkeypatch):
+    real_find, real_import = demos_dataset.importlib.util.find_spec, demos_dataset.importlib.import_module
+
+    def broken(name, *args):
+        if name.startswith("lerobot"):
+            raise ImportError("libtorch_cpu.so: cannot open shared object file")
+        return real_import(name, *args)
+
+    monkeypatch.setattr(demos_dataset.importlib.util, "find_spec", lambda name, *args: object() if name == "lerobot" else real_find(name, *args))
+    monkeypatch.setattr(demos_dataset.importlib, "import_module", broken)
+    loaded = demos_dataset.require_lerobot()  # installed: no error yet (the import runs beside the episodes)
+    with pytest.raises(InputError, match="libtorch_cpu.so") as caught:
+        loaded()
+    assert caught.value.field == "lerobot" and 'pip install "slideplan[lerobot]"' in str(caught.value)
 
 def test_camera_specs():
     assert CameraSpec.parse("front:256x128") == CameraSpec("front", 256, 128)  # width x height

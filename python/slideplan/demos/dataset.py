@@ -8,12 +8,15 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import importlib
+import importlib.util
 import io
 import json
 import math
 import os
 import shutil
+import threading
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -34,12 +37,31 @@ def _quiet() -> None:
     os.environ.setdefault("HF_DATASETS_DISABLE_PROGRESS_BARS", "1")
 
 
-def require_lerobot() -> None:
-    """Raises InputError, naming the extra, when ``lerobot`` cannot be imported."""
-    try:
-        importlib.import_module("lerobot.datasets.lerobot_dataset")
-    except ImportError as error:
-        raise InputError(f"needs {EXTRA}; importing it failed: {error}", field="lerobot") from None
+def require_lerobot() -> Callable[[], None]:
+    """Raises InputError, naming the extra, when ``lerobot`` is not installed; otherwise starts importing it
+    in a thread (torch's import takes seconds of one core: done while the workers run episodes, not before
+    them). Returns a function that waits for that import and raises InputError if it failed (an install
+    that is there but broken)."""
+    if importlib.util.find_spec("lerobot") is None:
+        raise InputError(f"needs {EXTRA}; it is not installed", field="lerobot")
+    failed: list[ImportError] = []
+
+    def load() -> None:
+        _quiet()
+        try:
+            importlib.import_module("lerobot.datasets.aggregate")  # what merge needs (it imports the dataset)
+        except ImportError as error:
+            failed.append(error)
+
+    loading = threading.Thread(target=load, name="import lerobot", daemon=True)
+    loading.start()
+
+    def loaded() -> None:
+        loading.join()
+        if failed:
+            raise InputError(f"needs {EXTRA}; importing it failed: {failed[0]}", field="lerobot")
+
+    return loaded
 
 
 @dataclasses.dataclass(frozen=True)

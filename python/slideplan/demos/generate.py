@@ -207,7 +207,7 @@ def generate(request: Request, out: str | Path, executor, progress: Callable[[di
         draw(scene, (name,), request.setting, 0)  # an unknown object is named now, not in a worker
     out = Path(out)
     prepare(request, out, record=False)  # every option checked before the extra, and nothing written without it
-    require_lerobot()
+    lerobot_loaded = require_lerobot()
     prepare(request, out)
     done = records(out)
     todo = [Episode(request, index, str(out)) for index in range(request.episodes) if index not in done]
@@ -219,6 +219,7 @@ def generate(request: Request, out: str | Path, executor, progress: Callable[[di
         done[outcome["index"]] = outcome
         if progress is not None:
             progress(outcome)
+    lerobot_loaded()  # a broken install is named, not only its lost episodes
     kept = [index for index in sorted(done) if done[index]["kept"]]
     if lost == 0 and kept:
         merge([episode_dir(out, index) / "dataset" for index in kept], out)
