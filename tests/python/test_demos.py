@@ -119,6 +119,10 @@ def test_a_broken_lerobot_install_is_named_once_the_episodes_are_done(monkeypatc
 
 def test_camera_specs():
     assert CameraSpec.parse("front:256x128") == CameraSpec("front", 256, 128)  # width x height
+    assert CameraSpec.parse("scene:64x64:depth") == CameraSpec("scene", 64, 64, depth=True)
+    for bad in ("front:64x64:rgb", "front:64x64:depth:depth", "front:64"):
+        with pytest.raises(InputError, match="NAME:WxH:depth"):
+            CameraSpec.parse(bad)
 
 
 # ---- whole generations: MuJoCo and the lerobot extra ----
@@ -145,7 +149,7 @@ def frames_of(root: Path):
 def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path, monkeypatch):
     import torch
 
-    first = generate(tmp_path / "a", "--cameras", "front:64x64")
+    first = generate(tmp_path / "a", "--cameras", "front:64x64:depth")
     assert first.returncode == 0, first.stderr
     records = json.loads((tmp_path / "a" / "meta" / "slideplan_episodes.json").read_text())
     kept = records["episodes"]
@@ -155,6 +159,10 @@ def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path, mo
     assert dataset.num_episodes == len(kept) and dataset.meta.stats["observation.state"]["mean"].shape == (14,)
     item = dataset[0]
     assert item["observation.images.front"].shape == (3, 64, 64) and item["action"].shape == (8,)
+    # depth as grey levels over 0..depth_max_m: the table and arm nearer than the range's end, the void at its end
+    depth = item["observation.images.front_depth"]
+    assert depth.shape == (3, 64, 64) and float((depth[0] - depth[2]).abs().max()) <= 4 / 255
+    assert 0.5 <= kept[0]["depth_max_m"]["front"] <= 5.0 and float(depth.min()) < 0.9 and float(depth.max()) > 0.98
     assert item["task"].startswith(f"slide the {kept[0]['object']}")
     batches = list(torch.utils.data.DataLoader(dataset, batch_size=32))
     assert sum(len(batch["index"]) for batch in batches) == dataset.num_frames
@@ -168,7 +176,7 @@ def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path, mo
     assert len(namespace["dataset"]) == dataset.num_frames and namespace["info"]["is_success"]
     phases = frames_of(tmp_path / "a")["phase"].tolist()
     assert phases[0] == 0 and {4, 5, 6} <= set(phases)  # slide first; grasp, lift and hold recorded
-    second = generate(tmp_path / "b", "--cameras", "front:64x64", workers=1)
+    second = generate(tmp_path / "b", "--cameras", "front:64x64:depth", workers=1)
     assert second.returncode == 0, second.stderr
     a, b = frames_of(tmp_path / "a"), frames_of(tmp_path / "b")
     for column in ("observation.state", "action", "ee_delta_action", "phase", "episode_index", "frame_index"):

@@ -138,7 +138,7 @@ def demos_command(
     closed: bool = typer.Option(True, "--closed-loop/--open-loop", help="Re-plan from the camera (default) or execute blind."),
     cameras: list[str] = typer.Option(
         [], "--cameras", help="NAME:WxH, an RGB video per camera: front (across the table) or scene (the loop's "
-        "depth camera's view); repeatable; default: none (state only)."
+        "depth camera's view); NAME:WxH:depth adds its depth video (NAME_depth); repeatable; default: none (state only)."
     ),
     fps: int = typer.Option(10, "--fps", help="Frames per simulated second."),
     keep: str = typer.Option("success", "--keep", help="success (drop failed episodes) or all."),

@@ -109,7 +109,8 @@ def features(joint_names: list[str], cameras: tuple[CameraSpec, ...], convention
 
     Args:
         joint_names: the arm's joints, in the plan's order.
-        cameras: the cameras: a video feature ``observation.images.NAME`` each.
+        cameras: the cameras: a video feature ``observation.images.NAME`` each, and ``NAME_depth`` for its
+            depth (grey levels: :meth:`slideplan.demos.frames.Frames._depth`).
         convention: LeRobot's names for this robot (:func:`convention_for`), or None: the URDF's joint names.
     """
     shown = convention.names(joint_names) if convention else list(joint_names)
@@ -123,8 +124,9 @@ def features(joint_names: list[str], cameras: tuple[CameraSpec, ...], convention
         "phase": {"dtype": "int64", "shape": (1,), "names": ["phase"]},
     }
     for camera in cameras:
-        out[f"observation.images.{camera.name}"] = {"dtype": "video", "shape": (camera.height, camera.width, 3),
-                                                    "names": ["height", "width", "channels"]}
+        for name in (camera.name, f"{camera.name}_depth") if camera.depth else (camera.name,):
+            out[f"observation.images.{name}"] = {"dtype": "video", "shape": (camera.height, camera.width, 3),
+                                                 "names": ["height", "width", "channels"]}
     return out
 
 

@@ -14,34 +14,35 @@ from ..transforms import rotation_vector
 
 PHASES = ("slide", "clear", "reach", "approach", "grasp", "lift", "hold")  # execute.runner's and the loop's moves'
 CAMERAS = ("front", "scene")  # front: facing the robot across the table; scene: the closed loop's depth camera, in colour
-_SPEC = re.compile(r"^(?P<name>[a-z]+):(?P<width>\d+)x(?P<height>\d+)$")
+_SPEC = re.compile(r"^(?P<name>[a-z]+):(?P<width>\d+)x(?P<height>\d+)(?P<depth>:depth)?$")
 _MAX_SIDE = 1024
 
 
 @dataclasses.dataclass(frozen=True)
 class CameraSpec:
-    """A camera of the dataset (RGB): ``NAME:WxH`` on the command line."""
+    """A camera of the dataset: ``NAME:WxH`` on the command line (RGB), or ``NAME:WxH:depth`` (RGB and depth)."""
 
     name: str
     width: int
     height: int
+    depth: bool = False
 
     @classmethod
     def parse(cls, text: str) -> CameraSpec:
-        """Read ``NAME:WxH``.
+        """Read ``NAME:WxH`` or ``NAME:WxH:depth``.
 
         Raises:
             InputError: not that form, an unknown name (one of :data:`CAMERAS`) or a side outside 16..1024.
         """
         match = _SPEC.match(text.strip())
         if match is None:
-            raise InputError(f"{text!r} is not NAME:WxH (e.g. front:256x256)", field="--cameras")
+            raise InputError(f"{text!r} is not NAME:WxH or NAME:WxH:depth (e.g. front:256x256)", field="--cameras")
         name, width, height = match["name"], int(match["width"]), int(match["height"])
         if name not in CAMERAS:
             raise InputError(f"unknown camera {name!r} (one of {', '.join(CAMERAS)})", field="--cameras")
         if not (16 <= width <= _MAX_SIDE and 16 <= height <= _MAX_SIDE):
             raise InputError(f"{text!r}: each side must be 16..{_MAX_SIDE} pixels", field="--cameras")
-        return cls(name, width, height)
+        return cls(name, width, height, bool(match["depth"]))
 
 
 def state_names(joint_names: list[str]) -> list[str]:
@@ -82,6 +83,8 @@ class Frames:
         gripper = built.gripper
         self._gripper_qpos = model.jnt_qposadr[model.actuator_trnid[gripper.actuators, 0]] if len(gripper) else None
         self.rows: list[dict] = []
+        self.front_points = np.asarray(front_points, dtype=float)
+        self.depth_max_m: dict[str, float] = {}  # a depth camera's range: 0..255 in its video is 0..this (m)
         self._cameras = []
         for spec in cameras:
             renderer = mujoco.Renderer(model, spec.height, spec.width)
@@ -127,7 +130,26 @@ class Frames:
         for spec, renderer, view in self._cameras:
             renderer.update_scene(data, camera=view)
             row[spec.name] = renderer.render().copy()
+            if spec.depth:
+                row[f"{spec.name}_depth"] = self._depth(spec.name, renderer)
         return row
+
+    def _depth(self, name: str, renderer) -> np.ndarray:
+        """The camera's depth image (its scene already updated) as a video frame: each pixel's distance along
+        the optical axis, 0..``depth_max_m[name]`` as grey levels 0..255 (nothing in view: 255). The range is
+        set at the first frame: 1.25 times the farthest of ``front_points`` from the camera, in 0.1 m steps
+        (about 4-6 mm a level for a table at arm's length)."""
+        if name not in self.depth_max_m:
+            eye = np.mean([renderer.scene.camera[index].pos for index in range(2)], axis=0)
+            farthest = float(np.max(np.linalg.norm(self.front_points - eye, axis=1)))
+            self.depth_max_m[name] = math.ceil(12.5 * farthest) / 10.0
+        renderer.enable_depth_rendering()
+        try:
+            depth = renderer.render()
+        finally:
+            renderer.disable_depth_rendering()
+        levels = np.clip(np.rint(255.0 * depth / self.depth_max_m[name]), 0, 255).astype(np.uint8)
+        return np.repeat(levels[:, :, None], 3, axis=2)  # grey: lerobot's videos are 3-channel
 
     def close(self) -> None:
         for _, renderer, _ in self._cameras:

@@ -133,7 +133,8 @@ def run_episode(episode: Episode) -> dict:
             taken["frames"].close()
     frames = taken.get("frames")
     kept = frames is not None and bool(frames.rows) and (request.keep == "all" or record["success"])
-    record.update(plan_hash=taken.get("plan"), frames=len(frames.rows) if frames else 0, kept=kept)
+    record.update(plan_hash=taken.get("plan"), frames=len(frames.rows) if frames else 0, kept=kept,
+                  depth_max_m=dict(frames.depth_max_m) if frames else {})
     folder = episode_dir(out, episode.index)
     folder.mkdir(parents=True, exist_ok=True)
     if (folder / "dataset").exists():  # written by a worker killed before the record: done again
