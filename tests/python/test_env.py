@@ -142,3 +142,26 @@ def test_the_expert_replans_after_a_push_and_still_lifts():
     assert world.replans >= 1  # the plan it had no longer reached the object
     assert info["is_success"] and terminated, info
     env.close()
+
+
+@pytest.mark.physics
+def test_the_hard_setting_pushes_the_object_mid_slide_as_a_run_does():
+    env = SlideToEdgeEnv(setting="hard")
+    for seed in range(40):  # a draw with a push (the hard setting draws one in half of its episodes)
+        env.reset(seed=seed)
+        if env.unwrapped._world.pushes is not None:
+            break
+    world = env.unwrapped._world
+    due = world.pushes[0].after_s
+    info = {}
+    for _ in range(int(due * env.unwrapped.fps) + 2):
+        before = world.object_state()
+        _, _, terminated, truncated, info = env.step(env.unwrapped.expert_action())
+        if "pushed" in info or terminated or truncated:
+            break
+    pushed = info["pushed"]
+    assert due <= world.time() <= due + 1.0 / env.unwrapped.fps + 1e-6
+    moved = world.object_state()[:2] - before[:2]
+    assert np.hypot(pushed["dx"], pushed["dy"]) >= 0.01
+    assert np.hypot(*(moved - (pushed["dx"], pushed["dy"]))) < 0.006  # the push, and what the finger slid in the step
+    env.close()

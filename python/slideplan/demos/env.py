@@ -16,7 +16,7 @@ from gymnasium import spaces
 
 from ..bounds import MAX_REPLANS, MAX_SLIDE_S
 from ..closed_loop import Start
-from ..closed_loop_settings import execution_settings
+from ..closed_loop_settings import execution_settings, hard_push, push_candidates
 from ..errors import InputError
 from ..execute.model import DEPTH_CAMERA, build_model, enable_hand_collisions
 from ..execute.runner import CLOSE_S, SETTLE_S, Runner, instability, timing_options
@@ -38,8 +38,8 @@ REWARD_TYPES = ("sparse", "dense")
 _EE_STEP = (0.02, 0.1)  # the largest fingertip step an ee_delta action may ask for: m, rad
 # As long as a run may take: its slide bounded by slideplan.bounds (60 s), then the approach, grasp, lift and hold.
 EPISODE_S = MAX_SLIDE_S + 20.0
-_FELL_M = 0.05
-_OFF_REFERENCE_RAD = 0.2  # a joint this far from the expert's reference: a policy took the arm elsewhere  # the object's centre this far below the table top: off the table, the episode over
+_FELL_M = 0.05  # the object's centre this far below the table top: off the table, the episode over
+_OFF_REFERENCE_RAD = 0.2  # a joint this far from the expert's reference: a policy took the arm elsewhere
 
 
 class SlideToEdgeEnv(gym.Env):
@@ -48,7 +48,8 @@ class SlideToEdgeEnv(gym.Env):
     Args:
         scene: a built-in scene name or a scene TOML.
         objects: the objects reset draws from (as ``slideplan demos --objects``).
-        setting: nominal, stress, random or hard (its physics; the hard setting's push is not applied here).
+        setting: nominal, stress, random or hard (its physics and, when drawn, its push mid-slide, as a run's:
+            ``info["pushed"]`` on the step it happens).
         obs_type: ``state`` (``agent_pos`` and ``environment_state``: the object's true x, y, yaw, z),
             ``pixels`` (``pixels``: the front camera's RGB, and ``agent_pos``: LeRobot's keys) or ``depth``
             (``depth``: the scene camera's depth in m, 0 where nothing is seen, and ``agent_pos``).
@@ -129,6 +130,7 @@ class SlideToEdgeEnv(gym.Env):
         if action.shape != self.action_space.shape or not np.isfinite(action).all():
             raise InputError(f"must be {self.action_space.shape[0]} finite numbers, got shape {action.shape}", field="action")
         target, grip = self._targets(action)
+        pushed_before = world.pushed
         failure = world.hold(target, grip, 1.0 / self.fps)
         self._steps += 1
         lifted = world.lifted()
@@ -139,6 +141,8 @@ class SlideToEdgeEnv(gym.Env):
         truncated = not terminated and self._steps >= self._max_episode_steps
         reward = float(success) if self.reward_type == "sparse" else world.progress() + float(success)
         info = {**self._info(), "is_success": success}
+        if world.pushed is not pushed_before:
+            info["pushed"] = dataclasses.asdict(world.pushed)
         if failure is not None:
             info["failure"] = failure
         return self._observation(), reward, terminated, truncated, info
@@ -222,6 +226,11 @@ class _World:
         com, yaw, _ = self.runner.object_pose()
         self.start_pose = (np.asarray(com, dtype=float), yaw)
         self._expert_reference(first)
+        # The hard setting's push, as a run's (closed_loop._Push): at its share of the planned slide's time,
+        # the first candidate that leaves the centre of mass inside the table.
+        draws, slide_s = start.draws, float(plan_times(first, "trajectory", len(first.trajectory))[-1])
+        self.pushes = push_candidates(int(draws["push_seed"]), draws["push_fraction"] * slide_s) if draws.get("push") else None
+        self.pushed = None
 
     def _expert_reference(self, result, start_s: float = 0.0, reach: tuple | None = None) -> None:
         """The joint reference and gripper command from ``start_s`` on: ``reach`` (path, times) to the plan's
@@ -310,6 +319,11 @@ class _World:
             if len(gripper):
                 data.ctrl[gripper.actuators] = gripper.target(grip) if self.closing else gripper.opened
             mujoco.mj_step(model, data)
+            if self.pushes is not None and data.time >= self.pushes[0].after_s:
+                self.pushed = hard_push(self.pushes, self.scene.table, runner.object_pose()[0])
+                if self.pushed is not None:
+                    self.pushed.apply(built)
+                self.pushes = None
         bad = instability(data)  # MuJoCo's warnings count up: one look per action sees any step's
         return f"simulation unstable ({bad}) at t = {data.time:.3f} s" if bad else None
 
