@@ -9,7 +9,7 @@ Each part is one `slideplan demos` command in a new process on all cores (--work
 seed. Prints and writes docs/benchmarks/demos.md (build, CPU, date named) and every command as a row
 (docs/benchmarks/demos.parquet, with the build). Not a test: `make bench`.
 
-    python benchmarks/demos_bench.py [--episodes 40] [--setting-episodes 20]
+    python benchmarks/demos_bench.py [--episodes 100] [--setting-episodes 20]
     python benchmarks/demos_bench.py --from-rows      # the page again from the committed rows, running nothing
 """
 
@@ -81,7 +81,8 @@ def report(table: pd.DataFrame, workers: int) -> list[str]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--episodes", type=int, default=40, help="episodes per throughput command")
+    parser.add_argument("--episodes", type=int, default=100, help="episodes per throughput command (a generation of "
+                        "hundreds, as docs/demos.md's examples: the command's start-up and merge are in its wall time)")
     parser.add_argument("--setting-episodes", type=int, default=20, help="episodes per setting for the kept share")
     parser.add_argument("--out", type=Path, default=Path("docs/benchmarks/demos.md"))
     parser.add_argument("--rows", type=Path, default=Path("docs/benchmarks/demos.parquet"))

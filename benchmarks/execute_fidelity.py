@@ -4,6 +4,8 @@ before issue 52 (``contacts.LEGACY``) and with today's (``contacts.CURRENT``).
 
     python benchmarks/execute_fidelity.py run [--start 0] [--stride 5] [--count 40] [--out docs/benchmarks/execution_fidelity.parquet]
     python benchmarks/execute_fidelity.py compare [--model current] [docs/benchmarks/execution_fidelity*.parquet]
+    python benchmarks/execute_fidelity.py closed --models "current;label=ContactModel(...)" --out ROWS [--settings nominal,hard]
+    python benchmarks/execute_fidelity.py compare-closed ROWS --model label
 
 ``run`` plans each task of ``build_spec("execution").tasks[start::stride][:count]`` (as the execution
 experiment does: planned, verified) and writes one row per task and model: the slide's final planar
@@ -13,6 +15,8 @@ mass and the yaw), lifted, success, the failed stage, sim and wall time, the mod
 columns (``slideplan.provenance.run_provenance()``). ``compare`` reads the rows and checks, over the
 tasks both models executed: the final pose within 3 mm and 2 deg of the old model's in >= 95% of
 runs, and the lifted outcome the same in >= 98%. The checks are the issue's; they are not tuned here.
+``closed`` runs the same tasks closed loop (``closed_loop.run``, its own seed and setting) with each model;
+``compare-closed`` prints each model's lifted share with its Wilson 95% interval, and the runs that agree.
 """
 
 from __future__ import annotations
@@ -80,6 +84,46 @@ def run(args) -> None:
         compare_rows(pd.DataFrame(rows))
 
 
+def closed(args) -> None:
+    """Closed-loop runs (``closed_loop.run``, the nominal and hard settings) of the same tasks with each model."""
+    from slideplan.closed_loop import run as run_closed
+    from slideplan.execute import contacts
+    from slideplan.experiments import build_spec
+    from slideplan.provenance import run_provenance
+
+    tasks = build_spec("execution").tasks[args.start::args.stride][: args.count]
+    tree, rows = tree_commit(), []
+    for number, task in enumerate(tasks):
+        for setting in args.settings.split(","):
+            for name in args.models.split(";"):
+                label, _, expression = name.partition("=")
+                model = {"legacy": contacts.LEGACY, "current": contacts.CURRENT}.get(label) or eval(  # noqa: S307
+                    expression, {"ContactModel": contacts.ContactModel})
+                contacts.ACTIVE[0] = model
+                try:
+                    report = run_closed(task.scene, task.object, (task.x, task.y, task.yaw), seed=task.seed, setting=setting)
+                finally:
+                    contacts.ACTIVE[0] = contacts.CURRENT
+                rows.append({"task_index": args.start + number * args.stride, "scene": task.scene, "object": task.object,
+                             "setting": setting, "model": label, "contact_model": str(model), "success": report.success,
+                             "failed_stage": report.failed_stage, "replans": report.replans, "sim_time_s": report.sim_time_s,
+                             "wall_time_s": report.wall_time_s, **run_provenance(), "tree_commit": tree})
+                print(f"{number + 1}/{len(tasks)} {task.scene} {task.object} {setting} {label}: {report.summary()}", flush=True)
+            pd.DataFrame(rows).to_parquet(args.out, index=False)
+
+
+def compare_closed(rows: pd.DataFrame, model: str) -> None:
+    """Each setting's success rate per model with its Wilson 95% interval, and how many runs agree."""
+    from slideplan.experiments import wilson_interval
+
+    for setting, group in rows.groupby("setting"):
+        table = group.pivot_table(index="task_index", columns="model", values="success", aggfunc="first").dropna()
+        for name in ("current", model):
+            low, high = wilson_interval(int(table[name].sum()), len(table))
+            print(f"{setting} {name}: {int(table[name].sum())}/{len(table)} lifted (95% interval {100 * low:.0f}-{100 * high:.0f}%)")
+        print(f"{setting}: the same outcome in {int((table['current'] == table[model]).sum())}/{len(table)} runs")
+
+
 def tree_commit() -> str:
     """The commit of the working tree this script runs from (``+dirty`` when the execution code differs
     from it): the Python code may be newer than the installed extension that ``build`` names."""
@@ -141,9 +185,23 @@ def main() -> None:
     comparer = commands.add_parser("compare")
     comparer.add_argument("rows", type=Path, nargs="*", default=[DEFAULT_OUT], help="row files, compared together")
     comparer.add_argument("--model", default="current", help="the model compared with the legacy one (a run's label)")
+    closer = commands.add_parser("closed", help="closed-loop runs of the same tasks with each model")
+    closer.add_argument("--start", type=int, default=0)
+    closer.add_argument("--stride", type=int, default=5)
+    closer.add_argument("--count", type=int, default=40)
+    closer.add_argument("--settings", default="nominal,hard")
+    closer.add_argument("--out", type=Path, required=True)
+    closer.add_argument("--models", default="current", help="as run's; compared with current by compare-closed")
+    closed_comparer = commands.add_parser("compare-closed")
+    closed_comparer.add_argument("rows", type=Path)
+    closed_comparer.add_argument("--model", required=True)
     args = parser.parse_args()
     if args.command == "run":
         run(args)
+    elif args.command == "closed":
+        closed(args)
+    elif args.command == "compare-closed":
+        compare_closed(pd.read_parquet(args.rows), args.model)
     else:
         sys.exit(0 if compare_rows(pd.concat([pd.read_parquet(path) for path in args.rows], ignore_index=True), args.model) else 1)
 
