@@ -465,3 +465,29 @@ def test_a_capped_closed_loop_re_plans_no_more_and_says_so(monkeypatch):
     report = run(*DEMO, seed=1, closed=True, disturbance=PUSHED)
     assert report.replans == 0 and report.slide_stop == "replan_cap", report.summary()
     assert report.seen_frames and report.slide_s > 0
+
+
+def test_a_task_that_raised_counts_its_unfinished_runs_as_failures():
+    import pandas as pd
+
+    from slideplan.experiments import closed_loop as experiment
+
+    def row(task_id, error=None, finished=None):
+        out = {field.name: None for field in experiment.CLOSED_LOOP_ROW_SCHEMA} | {"task_id": task_id, "error": error}
+        for setting in experiment.SETTINGS:
+            for mode in experiment.MODES:
+                if finished is None or (setting, mode) in finished:
+                    out[f"{setting}_{mode}_success"], out[f"{setting}_{mode}_replans"] = True, 1
+        return out
+
+    tasks = pd.DataFrame([row("ok"), row("broke", "RuntimeError: mesh", finished={("nominal", "open")})])
+    runs = experiment.closed_loop_runs(tasks)
+    assert len(runs) == 2 * len(experiment.SETTINGS) * len(experiment.MODES)  # none left out
+    broke = runs[runs["task_id"] == "broke"]
+    finished = broke[(broke["setting"] == "nominal") & (broke["mode"] == "open")]
+    assert bool(finished["success"].iloc[0]) and finished["failed_stage"].isna().all()  # the run it finished is kept
+    unfinished = broke.drop(finished.index)
+    assert (~unfinished["success"].astype(bool)).all() and (unfinished["failed_stage"] == "error").all()
+    assert (unfinished["failure"] == "RuntimeError: mesh").all()
+    summary = experiment.summarize_closed_loop(runs)
+    assert summary.set_index(["setting", "mode"]).loc[("hard", "closed"), "success"] == 0.5

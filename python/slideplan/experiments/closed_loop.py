@@ -106,20 +106,28 @@ def closed_loop_runs(tasks: pd.DataFrame) -> pd.DataFrame:
     task's provenance columns.
 
     Args:
-        tasks: :func:`load_closed_loop` rows; tasks that raised are left out, and the settings they did not
-            run (rows from before a setting existed).
+        tasks: :func:`load_closed_loop` rows. A task that raised keeps the runs it finished, and each run it
+            did not finish is a failure (``failed_stage`` ``error``, ``failure`` the error): never left out,
+            which would raise the success rate. Settings no finished task ran (rows from before a setting
+            existed) are left out.
     """
-    tasks = tasks[tasks["error"].isna()]
+    raised = tasks["error"].notna().to_numpy()
     task_columns = [field.name for field in TASK_COLUMNS] + ["task_set"]
     parts = []
     for setting, mode in itertools.product(SETTINGS, MODES):
-        if len(tasks) and tasks[f"{setting}_{mode}_success"].isna().all():
+        if (~raised).any() and tasks.loc[~raised, f"{setting}_{mode}_success"].isna().all():
             continue
         part = tasks[task_columns].copy()
         part.insert(len(task_columns), "setting", setting)
         part.insert(len(task_columns) + 1, "mode", mode)
         for name, _ in _RUN_COLUMNS:
             part[name] = tasks[f"{setting}_{mode}_{name}"].to_numpy()
+        unfinished = raised & part["success"].isna().to_numpy()
+        if unfinished.any():
+            part["success"] = part["success"].astype(object)
+            part.loc[unfinished, "success"] = False
+            part.loc[unfinished, "failed_stage"] = "error"
+            part.loc[unfinished, "failure"] = tasks["error"].to_numpy()[unfinished]
         for name in PROVENANCE_COLUMNS:
             part[name] = tasks[name].to_numpy()
         parts.append(part)
@@ -142,7 +150,7 @@ def summarize_closed_loop(runs: pd.DataFrame) -> pd.DataFrame:
         rows.append({
             "setting": setting, "mode": mode, "runs": len(group), "success": successes / max(len(group), 1),
             "low": float(low), "high": float(high), "replans_mean": float(group["replans"].mean()),
-            "replans_max": int(group["replans"].max()),
+            "replans_max": int(group["replans"].max()) if group["replans"].notna().any() else 0,  # none: all raised
             "latency_ms_median": float(1000 * latency.median()) if len(latency) else float("nan"),
             "latency_ms_p95": float(1000 * latency.quantile(0.95)) if len(latency) else float("nan"),
         })
