@@ -69,6 +69,31 @@ def test_two_copies_step_under_async_vector_env():
         envs.close()
 
 
+def test_an_ee_delta_step_moves_the_fingertip_and_holds_a_joint_at_its_limit():
+    # A redundant arm's least-squares steps drift its joints into a limit; clipped there, the fingertip stopped
+    # following and the ee_delta expert re-planned until it ran out of re-plans.
+    from slideplan.demos.env import _fingertip_step
+    from slideplan.plan.robot import robot_model
+    from slideplan.scenes import load_scene
+
+    robot = robot_model(load_scene("square"))
+    lower, upper = np.asarray(robot.lower_limits), np.asarray(robot.upper_limits)
+    q = np.array([-0.21, 1.03, 0.44, 2.8, 0.87, -1.25, -1.2])  # a slide's first contact: no singularity
+    jacobian = np.asarray(robot.jacobian(q))
+    step = np.array([0.01, -0.005, 0.008, 0.02, 0.0, -0.03])
+    free = _fingertip_step(jacobian, step, q, q, lower, upper)
+    np.testing.assert_allclose(jacobian @ free, step, atol=2e-4)
+    pushed = int(np.argmax(np.abs(free)))  # the joint the step moves most, put at the limit it moves toward
+    q[pushed] = upper[pushed] if free[pushed] > 0 else lower[pushed]
+    jacobian = np.asarray(robot.jacobian(q))
+    held = _fingertip_step(jacobian, step, q, q, lower, upper)
+    assert held[pushed] == 0.0  # held at its limit
+    np.testing.assert_allclose(jacobian @ held, step, atol=2e-4)  # the other joints made up the step
+    posture = q + 0.1
+    still = _fingertip_step(jacobian, np.zeros(6), q, posture, lower, upper)
+    assert np.linalg.norm(jacobian @ still) < 1e-3 and still @ (posture - q) > 0  # toward the posture, tip kept
+
+
 @pytest.mark.physics
 @pytest.mark.parametrize("action_type", ["joint", "ee_delta"])
 def test_the_expert_lifts_the_object_and_success_is_the_worlds(action_type):
@@ -82,6 +107,7 @@ def test_the_expert_lifts_the_object_and_success_is_the_worlds(action_type):
         if terminated or truncated:
             break
     assert info["is_success"] and terminated, info
+    assert env.unwrapped._world.replans <= 2  # it follows its plan (ee_delta: its joints drifted, 20 re-plans)
     assert observation["environment_state"][3] > start_z + 0.04  # the object's true height: lifted
     assert rewards[-1] > rewards[0]  # the dense reward grew with the overhang and the lift
     env.close()

@@ -35,11 +35,16 @@ from .generate import Request, front_points
 OBS_TYPES = ("state", "pixels", "depth")
 ACTION_TYPES = ("joint", "ee_delta")
 REWARD_TYPES = ("sparse", "dense")
-_EE_STEP = (0.02, 0.1)  # the largest fingertip step an ee_delta action may ask for: m, rad
+# The fastest fingertip an ee_delta action may ask for (m/s, rad/s; a step's bound is this over fps): above
+# the expert's plans' fastest (1.07 m/s and 3.1 rad/s on the default scene's draws 0-8), so that the
+# demonstrations' ee_delta actions lie in the action space.
+_EE_SPEED = (1.2, 3.5)
+_POSTURE_GAIN = 0.2  # the share of its way back to the reset posture an ee_delta step takes in the null space
 # As long as a run may take: its slide bounded by slideplan.bounds (60 s), then the approach, grasp, lift and hold.
 EPISODE_S = MAX_SLIDE_S + 20.0
 _FELL_M = 0.05  # the object's centre this far below the table top: off the table, the episode over
-_OFF_REFERENCE_RAD = 0.2  # a joint this far from the expert's reference: a policy took the arm elsewhere
+# The fingertip this far from where the expert's reference has it (m, rad): a policy took the arm elsewhere.
+_OFF_REFERENCE = (0.03, 0.3)
 
 
 class SlideToEdgeEnv(gym.Env):
@@ -54,7 +59,8 @@ class SlideToEdgeEnv(gym.Env):
             ``pixels`` (``pixels``: the front camera's RGB, and ``agent_pos``: LeRobot's keys) or ``depth``
             (``depth``: the scene camera's depth in m, 0 where nothing is seen, and ``agent_pos``).
         action_type: ``joint`` (each joint's servo target and the gripper's closing, 0 open .. 1 closed) or
-            ``ee_delta`` (the fingertip's step in the world, dx dy dz m and a rotation vector rad, and the gripper).
+            ``ee_delta`` (the fingertip's step in the world, dx dy dz m and a rotation vector rad, and the gripper;
+            a redundant arm's null space is pulled toward its posture at reset).
         reward_type: ``sparse`` (1 on success) or ``dense`` (the overhang's progress to u*, the centre of mass's
             margin, the lift's progress, and 1 on success).
         render_mode: None or ``rgb_array`` (the front camera).
@@ -88,7 +94,7 @@ class SlideToEdgeEnv(gym.Env):
             self.action_space = spaces.Box(np.append(self.lower, 0.0).astype(np.float32),
                                            np.append(self.upper, 1.0).astype(np.float32), dtype=np.float32)
         else:
-            step = np.array([_EE_STEP[0]] * 3 + [_EE_STEP[1]] * 3 + [1.0], dtype=np.float32)
+            step = np.array([_EE_SPEED[0] / self.fps] * 3 + [_EE_SPEED[1] / self.fps] * 3 + [1.0], dtype=np.float32)
             self.action_space = spaces.Box(np.append(-step[:6], 0.0).astype(np.float32), step, dtype=np.float32)
         self._world = None
 
@@ -155,10 +161,7 @@ class SlideToEdgeEnv(gym.Env):
         world = self._world
         q = world.joints()
         step = np.clip(action[:6], self.action_space.low[:6], self.action_space.high[:6])
-        jacobian = np.asarray(world.robot.jacobian(q))
-        damping = 1e-4  # damped least squares: no wild joint steps near a singularity
-        dq = jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + damping * np.eye(6), step)
-        return np.clip(q + dq, self.lower, self.upper), grip
+        return q + _fingertip_step(np.asarray(world.robot.jacobian(q)), step, q, world.posture, self.lower, self.upper), grip
 
     def expert_action(self) -> np.ndarray:
         """The planner's action now: its reference one step ahead (the slide, the approach, the closing and the
@@ -198,6 +201,27 @@ class SlideToEdgeEnv(gym.Env):
             self._world = None
 
 
+def _fingertip_step(jacobian: np.ndarray, step: np.ndarray, q: np.ndarray, posture: np.ndarray,
+                    lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """The joint step that moves the fingertip by ``step`` (damped least squares), its null space pulled
+    toward ``posture``, and a joint that would pass its limit held at it while the others make up the step:
+    else a redundant arm's joints drift into a limit (a radian in a few seconds of slide) and, clipped there,
+    the fingertip no longer follows."""
+    dq, free = np.zeros_like(q), np.ones(len(q), dtype=bool)
+    for _ in range(len(q)):
+        sub = jacobian[:, free]
+        inverse = sub.T @ np.linalg.inv(sub @ sub.T + 1e-4 * np.eye(6))  # damped: no wild steps near a singularity
+        null = np.eye(int(free.sum())) - inverse @ sub
+        wanted = step - jacobian[:, ~free] @ dq[~free]
+        dq[free] = inverse @ wanted + null @ (_POSTURE_GAIN * (posture - q)[free])
+        over = free & ((q + dq > upper) | (q + dq < lower))
+        if not over.any():
+            break
+        dq[over] = np.clip(q + dq, lower, upper)[over] - q[over]
+        free &= ~over
+    return np.clip(q + dq, lower, upper) - q
+
+
 class _World:
     """An episode's MuJoCo world: the first plan's model with the object as it is, the servos, the expert's
     timed reference, and the cameras."""
@@ -213,8 +237,9 @@ class _World:
         self.runner = Runner(self.built, self.settings, None)
         self.top = scene.table.height + start.perceived.thickness
         depths = self.top - np.asarray(first.fingertip_poses)[:, 2]
-        self.runner.press(np.asarray(first.trajectory[0], dtype=float), float(depths[0]))
-        self.closing, self.replans = False, 0
+        self.posture = np.asarray(first.trajectory[0], dtype=float)  # pressed at the first contact
+        self.runner.press(self.posture, float(depths[0]))
+        self.closing, self.replans, self.quiet_until = False, 0, 0.0
         width, height = image_size
         cameras = (CameraSpec("front", width, height),) if obs_type == "pixels" else ()
         self.frames = Frames(self.built, self.runner, self.robot, fps, cameras, front_points(scene))
@@ -269,9 +294,8 @@ class _World:
         closes it re-plans (at most MAX_REPLANS times) when the slide has ended short of graspable, or when the
         arm is off the reference (a policy took it elsewhere): a new plan for the object where it truly is,
         reached from where the arm is."""
-        if not self.closing and self.replans < MAX_REPLANS:
-            path, times = self.reference
-            off = np.max(np.abs(self.joints() - reference(path, times, t))) > _OFF_REFERENCE_RAD
+        if not self.closing and self.replans < MAX_REPLANS and t >= self.quiet_until:
+            off = self._off_reference(t)
             ended = t >= self.slide_end and not self.looked
             if ended:
                 self.looked = True
@@ -280,6 +304,14 @@ class _World:
                 self._replan(t)
         path, times = self.reference
         return reference(path, times, t + ahead), float(np.clip((t + ahead - self.close_at) / self.ramp_s, 0.0, 1.0))
+
+    def _off_reference(self, t: float) -> bool:
+        """The fingertip off the reference's. Measured in the fingertip's space, not the joints': an ee_delta
+        policy (the expert's own included) moves the fingertip and leaves a redundant arm free in its null space,
+        so its joints drift from the reference's while the finger follows the plan."""
+        want, tip = (np.asarray(self.robot.fk(q)) for q in (reference(*self.reference, t), self.joints()))
+        turned = np.linalg.norm(rotation_vector(want[:3, :3] @ tip[:3, :3].T))
+        return bool(np.linalg.norm(want[:3, 3] - tip[:3, 3]) > _OFF_REFERENCE[0] or turned > _OFF_REFERENCE[1])
 
     def _replan(self, t: float) -> None:
         """Plan for the object where it is (:func:`slideplan.loop.plan_anew`: over an edge too) and reach its first
@@ -294,7 +326,7 @@ class _World:
         except (InputError, Unreachable):
             reach = None
         if reach is None:  # look again in a second, while the hand is open
-            self.slide_end, self.looked = t + 1.0, False
+            self.slide_end, self.looked, self.quiet_until = t + 1.0, False, t + 1.0
             return
         reach_t = rest_to_rest(self.robot, reach, checked.result.timing["limits"], "reach", capped=False)["time_from_start"]
         self._expert_reference(checked.result, t, (reach, reach_t))
