@@ -189,6 +189,9 @@ def default_camera(scene: Scene) -> Camera:
     return Camera((centre.x - offset, centre.y - offset, scene.table.height + 0.6), (centre.x, centre.y, scene.table.height))
 
 
+TABLE_VIEW_MARGIN_M = 0.05  # the cloud perceived before the slide: the table and this much around it
+
+
 def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: float, seed: int,
                       mounted: Camera | None = None) -> tuple[ThinObject, tuple[float, float, float]]:
     """The object as the camera sees it before the slide: its known outline registered to the object
@@ -201,7 +204,12 @@ def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: fl
     mounted = mounted or camera
     depth = depth_image(scene_spec(scene.table, [placed], [], mounted), mounted)
     points = back_project(noisy_depth(depth, noise, DEPTH_DROPOUT, np.random.default_rng(seed)), camera)
-    perception = perceive(points, seed=seed, source="the rendered scene")
+    # The scene's table is known: the cloud is cut to it and a margin around it, and a plane half its size is
+    # a table. Else a small arm's table (the SO-101's, 14 x 20 cm: 5% of the frame, under perceive's 0.04 m^2)
+    # is lost to the floor around it, and the whole table is taken for clutter on the floor.
+    table = scene.table.polygon
+    points = points[shapely.contains_xy(table.buffer(TABLE_VIEW_MARGIN_M), points[:, 0], points[:, 1])]
+    perception = perceive(points, seed=seed, source="the rendered scene", min_table_area=min(0.04, 0.5 * table.area))
     if not perception.objects:
         raise InputError("the camera does not see the object", field="--pose")
     outline, thickness, _ = load_outline(object_name)

@@ -214,6 +214,25 @@ def test_a_killed_worker_loses_one_episode_and_the_rerun_completes_without_dupli
         assert (frames["episode_index"] == index).sum() == record["frames"]  # whole episodes, none twice
 
 
+@pytest.mark.physics
+def test_an_so101_generation_is_written_in_lerobots_so101_convention(tmp_path):
+    out = tmp_path / "so101"
+    command = [sys.executable, "-m", "slideplan.cli", "demos", "--scene", "so101_square", "--episodes", "1", "--out", str(out),
+               "--workers", "1", "--seed", "2", "--keep", "all"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=900, env={**os.environ, "MUJOCO_GL": "egl"})
+    assert done.returncode == 0, done.stderr
+    info = json.loads((out / "meta" / "info.json").read_text())
+    assert info["robot_type"] == "so101_follower"
+    assert info["features"]["observation.state"]["names"][:6] == [
+        "shoulder_pan.pos", "shoulder_lift.pos", "elbow_flex.pos", "wrist_flex.pos", "wrist_roll.pos", "gripper.pos"]
+    record = json.loads((out / "meta" / "slideplan_episodes.json").read_text())["episodes"][0]
+    assert record["frames"] > 0 and record["failed_stage"] != "plan", record  # perceived and planned on its small table
+    state, action = (np.stack(frames_of(out)[column]) for column in ("observation.state", "action"))
+    assert np.abs(state[:, :5]).max() > 10.0  # degrees: in radians no joint of the arm reaches 10
+    for gripper in (state[:, 5], action[:, 5]):  # 0..100 over the joint's range (to float rounding at its ends)
+        assert -1e-6 <= gripper.min() and gripper.max() <= 100.0 + 1e-6 and np.ptp(gripper) > 10.0
+
+
 def test_lerobots_so101_convention_names_and_units():
     from types import SimpleNamespace
 
