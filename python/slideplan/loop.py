@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Callable, Protocol
 
 import numpy as np
+import shapely
 
 from . import _core
 from .bounds import MAX_REPLANS, MAX_SLIDE_S, Progress
@@ -31,6 +32,7 @@ CLEAR_ASIDE_M = 0.15  # and where the arm still hides it from there (a camera be
 SIGHT_LINES = 24  # lines of sight from the camera to the object's points that tell whether the arm hides it
 SIGHT_RADIUS_M = 0.005  # each a capsule of this radius (CollisionWorld.hidden_lines)
 HIDDEN_SHARE = 0.25  # a pose that hides at most this share of them shows the tracker enough of the object
+SET_DOWN_TRIES = 8  # points of an object partly over an edge tried for the finger's new contact, nearest its centre first
 BLIND_S = 1.0  # a slide no look has seen the object in for this long stops, and the finger rises clear to look
 
 
@@ -108,24 +110,33 @@ class Arm(Protocol):
 def plan_anew(scene: Scene, seen: ThinObject, planner: PlannerConfig, robot, config: np.ndarray) -> Checked:
     """A verified plan (:class:`~slideplan.pipeline.Checked`) for the object ``seen`` wherever it lies: a new
     slide when it is wholly on the table; else (partly over an edge, the finger off it: it slid on ahead of the
-    finger) from the finger set down on it, turned and pressed as at ``config``, at the object's point nearest
-    its centre, since the planner takes such an object only from a state: the grasp where the object already
+    finger) from the finger set down on it, turned and pressed as at ``config``, at the object's point over the
+    table nearest its centre from which the finger can rise as a reach comes down (else the next of
+    SET_DOWN_TRIES out to the median distance), since the planner takes such an object only from a state: the grasp where the object already
     overhangs enough, or else the rest of the slide.
 
     Raises:
-        Unreachable: no inverse kinematics puts the finger on the object.
+        Unreachable: no inverse kinematics puts the finger on the object where it can rise from.
         InputError: that configuration is not a valid contact (``start_config``: why), or the object is off the table.
     """
     if scene.table.polygon.contains(seen.outline):
         return plan_checked(scene, seen, planner)
     points = seen.points[:, :2]
-    point = points[np.argmin(np.linalg.norm(points - seen.centroid_xy, axis=1))]
+    points = points[shapely.contains_xy(scene.table.polygon, points[:, 0], points[:, 1])]  # the finger on the table
+    if not len(points):
+        raise InputError("the object is off the table", field="object")
+    order = np.argsort(np.linalg.norm(points - seen.centroid_xy, axis=1))
+    nearest = points[order[np.linspace(0, len(order) // 2, SET_DOWN_TRIES).astype(int)]]  # out to the median
     target = np.asarray(robot.fk(config))
-    target[:2, 3] = point
-    on = robot.ik(target, seed=config, rng_seed=0, options=_core.contact_ik_options(robot))
-    if on is None:
-        raise Unreachable(f"no inverse kinematics puts the finger on the object at ({point[0]:.3f}, {point[1]:.3f})")
-    return plan_checked(scene, seen, planner, start_config=on)
+    for point in nearest:
+        target[:2, 3] = point
+        on = robot.ik(target, seed=config, rng_seed=0, options=_core.contact_ik_options(robot))
+        # The reach to it comes down from approach_height above (motions.reach_path): a contact the finger
+        # cannot rise straight up from (a joint at its limit) is no start, though the planner would take it.
+        if on is not None and straight_up(robot, on, planner.approach_height) is not None:
+            return plan_checked(scene, seen, planner, start_config=on)
+    raise Unreachable(f"no inverse kinematics puts the finger on the object near ({nearest[0][0]:.3f}, "
+                      f"{nearest[0][1]:.3f}) and lifts it straight up from there")
 
 
 class SlideLoop:

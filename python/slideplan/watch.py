@@ -122,7 +122,7 @@ def slide_segment(result: PlanResult, top: float, base) -> Segment:
                     top - np.asarray(result.fingertip_poses)[:, 2], tuple(float(value) for value in base))
 
 
-def _pose_error(obj: ThinObject, first, second) -> tuple[float, float]:
+def pose_error(obj: ThinObject, first, second) -> tuple[float, float]:
     """Distance (m) between the object's centre of mass under two motions, and their yaw difference (rad)
     less the nearest turn that leaves the footprint as it was (a disc's yaw is no error)."""
     com = np.asarray(obj.centroid_xy, dtype=float)[None, :]
@@ -169,7 +169,7 @@ class Watch:
 
     def error(self, first, second) -> tuple[float, float]:
         """Distance (m) between the object's centre of mass under two motions, and their yaw difference (rad)."""
-        return _pose_error(self.perceived, first, second)
+        return pose_error(self.perceived, first, second)
 
     def agree(self, first, second, factor: float = AGREE) -> bool:
         """Two poses within ``factor`` thresholds of each other (two seen poses agree within AGREE: the

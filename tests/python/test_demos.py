@@ -219,7 +219,9 @@ def test_an_so101_generation_is_written_in_lerobots_so101_convention(tmp_path):
     out = tmp_path / "so101"
     command = [sys.executable, "-m", "slideplan.cli", "demos", "--scene", "so101_square", "--episodes", "1", "--out", str(out),
                "--workers", "1", "--seed", "2", "--keep", "all"]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=900, env={**os.environ, "MUJOCO_GL": "egl"})
+    # Its own cache: the arm's convex parts would join the ones test_execute counts in the session's.
+    environment = {**os.environ, "MUJOCO_GL": "egl", "SLIDEPLAN_CACHE_DIR": str(tmp_path / "cache")}
+    done = subprocess.run(command, capture_output=True, text=True, timeout=900, env=environment)
     assert done.returncode == 0, done.stderr
     info = json.loads((out / "meta" / "info.json").read_text())
     assert info["robot_type"] == "so101_follower"

@@ -165,7 +165,10 @@ def test_the_expert_replans_after_a_push_and_still_lifts():
         _, _, terminated, truncated, info = env.step(env.unwrapped.expert_action())
         if terminated or truncated:
             break
-    assert world.replans >= 1  # the plan it had no longer reached the object
+    # The plan it had no longer reached the object. On some first plans the finger slides the pushed object on
+    # to an edge, graspable but turned: the expert saw only "graspable", closed its grasp on nothing, and never
+    # re-planned; and the re-plan from there set the finger down where it could not rise, or off the table.
+    assert world.replans >= 1
     assert info["is_success"] and terminated, info
     env.close()
 

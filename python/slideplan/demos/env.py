@@ -10,6 +10,8 @@ lowest point at least half the lift height above the table, for the hold time.
 from __future__ import annotations
 
 import dataclasses
+import math
+
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
@@ -27,7 +29,8 @@ from ..plan.robot import build_robot, robot_model
 from ..rendering import camera_depth
 from ..scenes import Scene, load_scene
 from ..timing import resolve_limits
-from ..transforms import rotation_2d, rotation_vector
+from ..transforms import compose_planar, planar_motion, rotation_2d, rotation_vector, row_to_pose
+from ..watch import pose_error
 from .draw import draw
 from .frames import CameraSpec, Frames, state_names
 from .generate import Request, front_points
@@ -45,6 +48,9 @@ EPISODE_S = MAX_SLIDE_S + 20.0
 _FELL_M = 0.05  # the object's centre this far below the table top: off the table, the episode over
 # The fingertip this far from where the expert's reference has it (m, rad): a policy took the arm elsewhere.
 _OFF_REFERENCE = (0.03, 0.3)
+# The object this far from where its plan leaves it when the slide ends (m, rad): the plan's grasp is for
+# elsewhere. Unpushed slides end within 3 mm and 3.3 deg (the default scene's draws 0-8).
+_OFF_PLAN = (0.01, math.radians(10.0))
 
 
 class SlideToEdgeEnv(gym.Env):
@@ -250,16 +256,17 @@ class _World:
             self.depth_renderer.enable_depth_rendering()
         com, yaw, _ = self.runner.object_pose()
         self.start_pose = (np.asarray(com, dtype=float), yaw)
-        self._expert_reference(first)
+        self._expert_reference(first, (0.0, 0.0, 0.0))
         # The hard setting's push, as a run's (closed_loop._Push): at its share of the planned slide's time,
         # the first candidate that leaves the centre of mass inside the table.
         draws, slide_s = start.draws, float(plan_times(first, "trajectory", len(first.trajectory))[-1])
         self.pushes = push_candidates(int(draws["push_seed"]), draws["push_fraction"] * slide_s) if draws.get("push") else None
         self.pushed = None
 
-    def _expert_reference(self, result, start_s: float = 0.0, reach: tuple | None = None) -> None:
+    def _expert_reference(self, result, planned_from, start_s: float = 0.0, reach: tuple | None = None) -> None:
         """The joint reference and gripper command from ``start_s`` on: ``reach`` (path, times) to the plan's
-        first contact if given, then the plan's slide, the approach, the closing and the lift."""
+        first contact if given, then the plan's slide, the approach, the closing and the lift. ``planned_from``:
+        the object's motion (:meth:`motion`) when the plan was made, for where its slide leaves it."""
         slide = np.asarray(result.trajectory, dtype=float)
         slide_t = plan_times(result, "trajectory", len(slide))
         approach = np.asarray(result.grasp["approach"], dtype=float)
@@ -277,8 +284,11 @@ class _World:
             clock += float(reach[1][-1]) + SETTLE_S
         paths.append(slide)
         times.append(clock + slide_t)
-        clock += float(slide_t[-1]) + SETTLE_S
+        self.slid = clock + float(slide_t[-1])  # the slide's last configuration reached
+        clock = self.slid + SETTLE_S
         self.slide_end, self.looked = clock, False
+        tips = np.asarray(result.fingertip_poses)
+        self.planned_end = compose_planar(planned_from, planar_motion(row_to_pose(tips[0]), row_to_pose(tips[-1])))
         if len(approach):
             paths.append(approach)
             times.append(clock + approach_t)
@@ -299,11 +309,18 @@ class _World:
             ended = t >= self.slide_end and not self.looked
             if ended:
                 self.looked = True
-            if off or (ended and not self.ending().graspable(float(self.result.params["u_star"]),
-                                                            float(self.result.params["com_margin"]))):
+            if off or (ended and not self._ended_as_planned()):
                 self._replan(t)
         path, times = self.reference
         return reference(path, times, t + ahead), float(np.clip((t + ahead - self.close_at) / self.ramp_s, 0.0, 1.0))
+
+    def _ended_as_planned(self) -> bool:
+        """The slide left the object graspable and where the plan's grasp is for (a push may leave it
+        graspable elsewhere)."""
+        params = self.result.params
+        error_m, error_yaw = pose_error(self.start.truth, self.planned_end, self.motion())
+        return (self.ending().graspable(float(params["u_star"]), float(params["com_margin"]))
+                and error_m <= _OFF_PLAN[0] and abs(error_yaw) <= _OFF_PLAN[1])
 
     def _off_reference(self, t: float) -> bool:
         """The fingertip off the reference's. Measured in the fingertip's space, not the joints': an ee_delta
@@ -317,10 +334,12 @@ class _World:
         """Plan for the object where it is (:func:`slideplan.loop.plan_anew`: over an edge too) and reach its first
         contact from here; keep the reference if there is none."""
         self.replans += 1
-        moved = self.moved()
+        motion = self.motion()
+        moved = self.start.truth.moved(motion)
         config = dataclasses.replace(self.start.config, seed=self.start.config.seed + self.replans, time_limit_s=1.0)
         try:
-            commanded = reference(*self.reference, t)  # on the contact constraint, as the plan's configurations are
+            # On the contact constraint, as the plan's configurations are: the slide's, not the approach's.
+            commanded = reference(*self.reference, min(t, self.slid))
             checked = plan_anew(self.scene, moved, config, self.robot, commanded)
             reach = reach_path(checked.result, moved, self.joints(), pressed=True) if checked.ok else None
         except (InputError, Unreachable):
@@ -329,7 +348,7 @@ class _World:
             self.slide_end, self.looked, self.quiet_until = t + 1.0, False, t + 1.0
             return
         reach_t = rest_to_rest(self.robot, reach, checked.result.timing["limits"], "reach", capped=False)["time_from_start"]
-        self._expert_reference(checked.result, t, (reach, reach_t))
+        self._expert_reference(checked.result, motion, t, (reach, reach_t))
 
     def hold(self, target: np.ndarray, grip: float, duration: float) -> str | None:
         """Hold the servo targets for ``duration`` s; returns why the simulation stopped, or None."""
@@ -377,13 +396,17 @@ class _World:
         _, lowest, touching = self.runner.hold_sample(0.0)
         return touching and lowest >= self.scene.table.height + 0.5 * self.settings.lift_height
 
-    def moved(self):
-        """The object where it truly is now (a :class:`~slideplan.objects.ThinObject`)."""
+    def motion(self) -> tuple[float, float, float]:
+        """Eq. 2's planar motion that took the object from its pose at reset to where it truly is now."""
         com, yaw, _ = self.runner.object_pose()
         com0, yaw0 = self.start_pose
         turn = yaw - yaw0
-        shift = np.asarray(com) - rotation_2d(turn) @ com0  # Eq. 2's motion that took the centre of mass there
-        return self.start.truth.moved((shift[0], shift[1], turn))
+        shift = np.asarray(com) - rotation_2d(turn) @ com0
+        return float(shift[0]), float(shift[1]), float(turn)
+
+    def moved(self):
+        """The object where it truly is now (a :class:`~slideplan.objects.ThinObject`)."""
+        return self.start.truth.moved(self.motion())
 
     def ending(self) -> Ending:
         """How the object lies for the grasp now (the overhang, the centre of mass's margin)."""
