@@ -298,9 +298,9 @@ class _Simulated:
     def move(self, result: PlanResult, path: np.ndarray, phase: str) -> None:
         if phase == "reach":  # under the new plan's own limits, as a reach to a first contact
             timing = rest_to_rest(self.robot, path, result.timing["limits"], phase, capped=False)
-        else:
+        else:  # the look from clear: capped near the object only, as an approach
             limits = resolve_limits(result, timing_options(self.settings, self.robot.velocity_limits))
-            timing = rest_to_rest(self.robot, path, limits, phase)
+            timing = rest_to_rest(self.robot, path, limits, phase, top=result.object_top)
         self.runner.phase = phase
         self.runner.follow(path, timing["time_from_start"], SETTLE_S)
 

@@ -18,7 +18,7 @@ from .errors import InputError
 from .objects import ThinObject
 from .plan.config import PlannerConfig
 from .plan.result import PlanResult
-from .timing import time_path
+from .timing import NEAR_TABLE_M, time_path
 
 def straight_up(robot, config: np.ndarray, height: float) -> np.ndarray | None:
     """Configurations taking the fingertip from where it is at ``config`` ``height`` straight up:
@@ -38,18 +38,24 @@ def straight_line(robot, config: np.ndarray, offset) -> np.ndarray | None:
                                options=_core.contact_ik_options(robot), rng_seed=0)
 
 
-def rest_to_rest(robot, path: np.ndarray, limits: dict[str, Any], name: str, *, capped: bool = True) -> dict[str, np.ndarray]:
+def rest_to_rest(robot, path: np.ndarray, limits: dict[str, Any], name: str, *, capped: bool = True,
+                 top: float | None = None) -> dict[str, np.ndarray]:
     """The timing of ``path``'s configurations from rest to rest under ``limits``
-    (:func:`slideplan.timing.time_path`, the fingertip where ``robot`` puts it), its speed capped all the
-    way unless ``capped`` is False: the moves a plan does not hold (the lift after the grasp, the closed
-    loop's look from clear, its reach to a new contact, a slide re-timed from where it stopped). ``name``
-    names it in a timing error.
+    (:func:`slideplan.timing.time_path`, the fingertip where ``robot`` puts it): the moves a plan does not
+    hold (the lift after the grasp, the closed loop's look from clear, its reach to a new contact, a slide
+    re-timed from where it stopped). ``name`` names it in a timing error.
+
+    Args:
+        capped: the fingertip's speed capped all the way (True) or nowhere (False).
+        top: the object's top (m): capped only where the fingertip is within ``NEAR_TABLE_M`` above it, as a
+            plan's approach is (the look from clear: up off the object, across high above it, and back down).
 
     Returns:
         ``{"time_from_start": (M,), "velocities": (M, dof), "accelerations": (M, dof)}``.
     """
     tips = np.array([np.asarray(robot.fk(config))[:3, 3] for config in path])
-    return time_path(path, tips, np.full(len(path), capped), limits, name)
+    near = np.full(len(path), capped) if top is None else tips[:, 2] < top + NEAR_TABLE_M
+    return time_path(path, tips, near, limits, name)
 
 
 def reference(path: np.ndarray, times: np.ndarray, t: float) -> np.ndarray:

@@ -177,7 +177,7 @@ def parameterize(result: PlanResult, options: TimingOptions | None = None) -> di
             robot=result.robot_model(), trajectory=np.asarray(result.trajectory, dtype=float),
             trajectory_tips=np.asarray(result.fingertip_poses, dtype=float)[:, :3],
             approach=np.asarray(result.grasp["approach"], dtype=float).reshape(-1, len(result.joint_names)),
-            object_top_z=float(result.table["height"]) + float(result.object["thickness"]), limits=core_limits(limits),
+            object_top_z=result.object_top, limits=core_limits(limits),
         )
     except (ValueError, RuntimeError) as error:
         raise InputError(str(error), field="timing") from None

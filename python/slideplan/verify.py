@@ -238,7 +238,7 @@ def check_sliding_path(result: PlanResult, world: PlanWorld) -> list[str]:
 def obstacle_footprints(result: PlanResult):
     """The union of the footprints (shapely, world xy) of the plan's obstacles that reach down to the
     object's top: the sliding object must not overlap them. None if there are none."""
-    top = float(result.table["height"]) + float(result.object["thickness"])
+    top = result.object_top
     shapes = [footprint for footprint, bottom in map(obstacle_footprint, result.obstacles) if bottom < top]
     return shapely.union_all(shapes) if shapes else None
 

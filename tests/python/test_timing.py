@@ -118,6 +118,22 @@ def test_rest_to_rest_times_a_path_the_plan_does_not_hold_as_the_plan_times_its_
     assert error.value.field.startswith("timing")
 
 
+def test_a_look_from_clear_is_capped_only_near_the_object(handmade):
+    # The closed loop's look from clear (up off the object and back) was capped all the way: 10 cm up,
+    # 15 cm across and back took 10 s of a run at the slide's 5 cm/s.
+    from slideplan.motions import dense, straight_up
+
+    robot, limits = handmade.robot_model(), handmade.timing["limits"]
+    path = dense(list(straight_up(robot, np.asarray(handmade.trajectory[-1]), 0.12)))
+    tips = fingertip_positions(handmade, path)
+    near = tips[:, 2] < handmade.object_top + NEAR_TABLE_M
+    assert near.any() and not near.all()
+    look = rest_to_rest(robot, path, limits, "clear", top=handmade.object_top)
+    check_segment(path, look, URDF_VELOCITY, DEFAULT_JOINT_ACCELERATION, tips, near, DEFAULT_FINGERTIP_SPEED)
+    capped, free = (rest_to_rest(robot, path, limits, "clear", capped=flag)["time_from_start"][-1] for flag in (True, False))
+    assert free <= look["time_from_start"][-1] < capped
+
+
 def test_limits_can_be_overridden(handmade):
     slow = parameterize(handmade, TimingOptions(fingertip_speed=0.01, joint_acceleration=[0.5] * 7, joint_velocity=[1.5] * 7))
     assert slow["limits"]["fingertip_speed"] == 0.01

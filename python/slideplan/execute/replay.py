@@ -135,7 +135,7 @@ class _Planned:
     @classmethod
     def of(cls, result: PlanResult) -> _Planned:
         tips = np.asarray(result.fingertip_poses)[:, :3]
-        top = float(result.table["height"]) + float(result.object["thickness"])
+        top = result.object_top
         table = SupportSurface.from_vertices(result.table["polygon"], float(result.table["height"]), field="table.polygon")
         motion = result.object_motion
         predicted = (float(motion["x"]), float(motion["y"]), float(motion["yaw"]))

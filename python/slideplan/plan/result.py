@@ -91,6 +91,11 @@ class PlanResult:
         """Number of arm joints."""
         return len(self.joint_names)
 
+    @property
+    def object_top(self) -> float:
+        """The height of the object's top in the world (m): the table's plus the object's thickness."""
+        return float(self.table["height"]) + float(self.object["thickness"])
+
     def robot_model(self):
         """The plan's robot as a ``_core.RobotModel`` (:func:`plan_robot` of its ``robot`` block, cached).
 

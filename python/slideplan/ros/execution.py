@@ -242,7 +242,10 @@ class _Controlled:
             self.node.move(self.names, stop.config[None, :], _hold(stop.config), "slide", self.delay)
 
     def move(self, result: PlanResult, path: np.ndarray, phase: str) -> None:
-        self.node.move(self.names, path, rest_to_rest(result.robot_model(), path, result.timing["limits"], phase, capped=phase != "reach"), phase)
+        # The reach under the plan's own limits; the look from clear capped near the object only, as an approach.
+        timing = rest_to_rest(result.robot_model(), path, result.timing["limits"], phase, capped=False,
+                              top=None if phase == "reach" else result.object_top)
+        self.node.move(self.names, path, timing, phase)
 
     def record(self, event) -> None:
         self.execution.record(event)
