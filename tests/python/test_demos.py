@@ -184,6 +184,26 @@ def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path, mo
 
 
 @pytest.mark.physics
+def test_a_generation_on_a_dask_cluster_is_the_local_pools(tmp_path, monkeypatch):
+    from distributed import LocalCluster
+
+    monkeypatch.setenv("MUJOCO_GL", "egl")  # the cluster's worker processes inherit it
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+                      local_directory=str(tmp_path / "dask")) as cluster:
+        command = [sys.executable, "-m", "slideplan.cli", "demos", "--scene", "square", "--episodes", "2",
+                   "--out", str(tmp_path / "dask-run"), "--scheduler", cluster.scheduler_address, "--seed", "5"]
+        on_cluster = subprocess.run(command, capture_output=True, text=True, timeout=900)
+    assert on_cluster.returncode == 0, on_cluster.stderr
+    assert f"on Dask scheduler {cluster.scheduler_address}" in on_cluster.stdout
+    local = generate(tmp_path / "local", episodes=2, workers=1)
+    assert local.returncode == 0, local.stderr
+    a, b = frames_of(tmp_path / "dask-run"), frames_of(tmp_path / "local")
+    assert len(a) > 0
+    for column in ("observation.state", "action", "episode_index", "frame_index"):
+        assert np.array_equal(np.stack(a[column]), np.stack(b[column])), column
+
+
+@pytest.mark.physics
 def test_a_killed_worker_loses_one_episode_and_the_rerun_completes_without_duplicates(tmp_path):
     out = tmp_path / "d"
     command = [sys.executable, "-m", "slideplan.cli", "demos", "--scene", "square", "--episodes", "4", "--out", str(out),
