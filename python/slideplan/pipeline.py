@@ -57,7 +57,7 @@ def plan_checked(scene: Scene, obj: ThinObject, config: PlannerConfig | None = N
     result = plan(scene, obj, config, timing, start_config=start_config)
     if not result.solved:
         return Checked(result, None)
-    verification = verify(result)
+    verification = verify(result, given_start=start_config is not None)
     if not verification.ok:
         result = dataclasses.replace(result, status="invalid")
     return Checked(result, verification)

@@ -73,7 +73,8 @@ class Verification:
         return "ok" if self.ok else f"{len(self.violations)} violations:\n" + "\n".join(self.violations)
 
 
-def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_TOLERANCE_M, GRASP_ANGLE_TOLERANCE_RAD)) -> Verification:
+def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_TOLERANCE_M, GRASP_ANGLE_TOLERANCE_RAD),
+           given_start: bool = False) -> Verification:
     """Re-check every claim of a solved plan from its data.
 
     Checks: consistent array shapes; at every trajectory waypoint, that the forward
@@ -92,6 +93,9 @@ def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_
         grasp_tolerance: (m, rad) the grasp frame may lie off ``H_g`` recomputed from the plan's own
             points; wider only to judge a plan against geometry other than what it was planned on
             (e.g. ground truth behind a perceived cloud).
+        given_start: the plan was made from a given start configuration (``plan(..., start_config=q)``: a
+            re-plan from where the finger is), so its first contact was not drawn from Eq. 3's region and
+            ``contact_radius`` does not bound it (the plan file does not record this).
 
     Returns:
         The verification; ``ok`` is False for any plan that is not solved.
@@ -109,7 +113,7 @@ def verify(result: PlanResult, *, grasp_tolerance: tuple[float, float] = (GRASP_
     violations = check_ends(result)
     violations += check_sliding_path(result, world)
     violations += check_object_motion(result)
-    violations += check_turning(result)
+    violations += check_turning(result, given_start)
     violations += check_clutter(result, world)
     violations += check_graspability(result, world.table)
     violations += check_support(result, world.table)
@@ -363,11 +367,12 @@ def check_support(result: PlanResult, table: SupportSurface) -> list[str]:
     return []
 
 
-def check_turning(result: PlanResult) -> list[str]:
+def check_turning(result: PlanResult, given_start: bool = False) -> list[str]:
     """Check the bounds on turning and on the first contact that the plan's parameters claim:
     ``|yaw| <= max_object_yaw``, every step's turn within ``max_yaw_rate`` times its fingertip travel
-    (when > 0), and the first contact within ``contact_radius`` of the closest point to the centre of
-    mass (when > 0). Parameters a plan does not record are the paper's (no bound).
+    (when > 0), and, unless the start was ``given_start``, the first contact within ``contact_radius`` of
+    the closest point to the centre of mass (when > 0). Parameters a plan does not record are the
+    paper's (no bound).
 
     Returns:
         Violations with the numbers.
@@ -387,7 +392,7 @@ def check_turning(result: PlanResult) -> list[str]:
                 violations.append(f"trajectory[{index - 1}]->[{index}]: turns {abs(turn):.6f} rad over {travel:.6f} m, "
                                   f"more than max_yaw_rate {rate} rad/m")
     radius = params.get("contact_radius", 0.0)
-    if radius > 0 and poses:
+    if radius > 0 and poses and not given_start:
         com = np.asarray(result.object["com_xy"], dtype=float)
         closest = float(np.min(np.linalg.norm(np.asarray(result.object["points"])[:, :2] - com, axis=1)))
         contact = float(np.linalg.norm(poses[0][:2, 3] - com))

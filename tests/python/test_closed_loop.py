@@ -406,7 +406,7 @@ def test_an_object_seen_over_the_edge_with_the_finger_off_it_is_grasped_from_a_t
     assert not seen.outline.buffer(0.005).contains(shapely.Point(np.asarray(robot.fk(off))[:2, 3]))
     loop = SlideLoop(watch, robot, scene.table.height + obj.thickness, 3, Arm())
     if verifier_rejects:
-        monkeypatch.setattr(pipeline, "verify", lambda result: pipeline.Verification(["trajectory[2]: planted"]))
+        monkeypatch.setattr(pipeline, "verify", lambda result, **_: pipeline.Verification(["trajectory[2]: planted"]))
         assert loop.new_contact(motion, off) is None and Arm.moves == []
         assert (Arm.events[-1].outcome, Arm.events[-1].detail) == ("refused", "the new plan fails verification: trajectory[2]: planted")
         return

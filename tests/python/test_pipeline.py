@@ -24,7 +24,7 @@ def test_a_solved_plan_comes_verified(task):
 
 
 def test_a_plan_the_verifier_rejects_is_marked_invalid_with_its_violations(task, monkeypatch):
-    monkeypatch.setattr(pipeline, "verify", lambda result: Verification(["trajectory[3]: a planted violation"]))
+    monkeypatch.setattr(pipeline, "verify", lambda result, **_: Verification(["trajectory[3]: a planted violation"]))
     checked = pipeline.plan_checked(*task, PlannerConfig(seed=1, time_limit_s=20))
     assert not checked.ok and checked.result.status == "invalid"
     assert checked.verification.violations == ["trajectory[3]: a planted violation"]
@@ -32,7 +32,7 @@ def test_a_plan_the_verifier_rejects_is_marked_invalid_with_its_violations(task,
 
 
 def test_a_plan_not_solved_is_not_verified(task, monkeypatch):
-    def never(result):
+    def never(result, **_):
         raise AssertionError("an unsolved plan was verified")
 
     monkeypatch.setattr(pipeline, "verify", never)

@@ -91,6 +91,9 @@ def test_turning_and_contact_bounds_are_checked(grasp_plan):
     plan.object_motion["yaw"] = 0.01  # also breaks Eq. 2, reported separately
     plan.params["contact_radius"] = 1e-3  # the slide starts 8 cm from the centre of mass
     assert_reported(plan, "> max_object_yaw", "beyond the closest point")
+    # A re-plan from where the finger is (plan(..., start_config=q)) did not draw its first contact from Eq. 3's
+    # region: the closed loop's re-plans mid-slide were refused for a contact 3.3 cm from the centre of mass.
+    assert not any("closest point" in problem for problem in verify(plan, given_start=True).violations)
 
 
 def test_timing_beyond_its_limits_is_reported(grasp_plan):
