@@ -104,13 +104,15 @@ class Segment:
         rows = np.vstack([pose_to_row(np.asarray(robot.fk(configs[0])))[None, :], np.asarray(self.result.fingertip_poses)[after]])
         return dataclasses.replace(self.result, trajectory=configs, fingertip_poses=rows, start_config=configs[0], timing=timing)
 
-    def still_works(self, perceived: ThinObject, table, config: PlannerConfig, tip: np.ndarray, seen, slack: float) -> bool:
+    def still_works(self, perceived: ThinObject, table, config: PlannerConfig, tip: np.ndarray, seen) -> bool:
         """Whether the rest of this slide still ends graspable from where the object is seen: carried
         from there by Eq. 2 to the plan's last contact, it overhangs by ``u*`` and keeps its centre of
         mass ``com_margin`` inside the table (a slide that ends short as seen then is slid on from its
-        end), and the fingertip is on the object as seen, ``slack`` (the tracker's error) inside its hull."""
+        end), and the fingertip is on the object as seen. On it as the planner takes a start (inside the
+        hull): with the tracker's error as a margin inside it, a finger near the object's edge asked for a
+        re-plan that started from the same contact, again and again (20 re-plans on one nominal slide)."""
         now = perceived.moved(seen)
-        if not shapely.MultiPoint(now.points[:, :2]).convex_hull.buffer(-slack).contains(shapely.Point(tip[:2, 3])):
+        if not shapely.MultiPoint(now.points[:, :2]).convex_hull.contains(shapely.Point(tip[:2, 3])):
             return False
         end = perceived.moved(compose_planar(seen, planar_motion(tip, row_to_pose(self.result.fingertip_poses[-1]))))
         return Ending.at(table, end.points[:, :2], end.centroid_xy).graspable(config.u_star, config.com_margin)
@@ -249,7 +251,7 @@ class Watch:
             self._beyond.append((seen.motion, tip, self.looks - 1))
         if len(self._beyond) < CONFIRM:
             return False
-        if segment.still_works(self.perceived, self.scene.table, self.replan_config, tip, seen.motion, self.threshold[0]):
+        if segment.still_works(self.perceived, self.scene.table, self.replan_config, tip, seen.motion):
             self.kept += 1
             return False
         return True
@@ -296,7 +298,7 @@ class Watch:
         event = Replan(elapsed, trigger, error_m, math.degrees(error_yaw), tracked - started - sensed[0], 0.0, "lost",
                        seen.reason, sensed[0], list(range(first_frame, self.looks)))
         if trigger == "blind" and (not seen.ok or segment.still_works(self.perceived, self.scene.table, self.replan_config, tip,
-                                                                      seen.motion, self.threshold[0])):
+                                                                      seen.motion)):
             # On track, or not seen even from above: the rest of the slide goes on as it would have.
             self.kept += 1
             event.outcome, event.detail = "kept", ("" if seen.ok else f"not seen ({seen.reason})")
