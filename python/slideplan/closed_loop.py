@@ -198,7 +198,8 @@ def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: fl
     :func:`~slideplan.perception.perceive` finds in a rendered frame (the table is the scene's), and the
     table plane perceive fitted (what the tracker measures heights from). The frame is taken from where
     the camera is ``mounted`` (default: ``camera``) and read as if from ``camera``."""
-    from .perception import perceive, register_outline
+    from .perception import perceive
+    from .registration import register_outline
 
     placed = place_objects([(object_name, pose)])[0]
     mounted = mounted or camera

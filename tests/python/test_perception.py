@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 from slideplan import InputError, load_scene, perceive
 from slideplan.cli import app
 from slideplan.objects import ThinObject, load_object, load_outline
-from slideplan.perception import register_outline
+from slideplan.registration import register_outline
 from slideplan.perception_files import write_perception
 from slideplan.plan.config import PlannerConfig
 from slideplan.plan.result import PlanResult
