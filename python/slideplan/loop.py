@@ -32,7 +32,7 @@ CLEAR_ASIDE_M = 0.15  # and where the arm still hides it from there (a camera be
 SIGHT_LINES = 24  # lines of sight from the camera to the object's points that tell whether the arm hides it
 SIGHT_RADIUS_M = 0.005  # each a capsule of this radius (CollisionWorld.hidden_lines)
 HIDDEN_SHARE = 0.25  # a pose that hides at most this share of them shows the tracker enough of the object
-SET_DOWN_TRIES = 8  # points of an object partly over an edge tried for the finger's new contact, nearest its centre first
+SET_DOWN_TRIES = 8  # points of an object over an edge tried for the finger's new contact, nearest its centre first
 BLIND_S = 1.0  # a slide no look has seen the object in for this long stops, and the finger rises clear to look
 
 
@@ -110,10 +110,10 @@ class Arm(Protocol):
 def plan_anew(scene: Scene, seen: ThinObject, planner: PlannerConfig, robot, config: np.ndarray) -> Checked:
     """A verified plan (:class:`~slideplan.pipeline.Checked`) for the object ``seen`` wherever it lies: a new
     slide when it is wholly on the table; else (partly over an edge, the finger off it: it slid on ahead of the
-    finger) from the finger set down on it, turned and pressed as at ``config``, at the object's point over the
-    table nearest its centre from which the finger can rise as a reach comes down (else the next of
-    SET_DOWN_TRIES out to the median distance), since the planner takes such an object only from a state: the grasp where the object already
-    overhangs enough, or else the rest of the slide.
+    finger) from the finger set down on it, turned and pressed as at ``config``, since the planner takes such
+    an object only from a state: the grasp where the object already overhangs enough, or else the rest of the
+    slide. The finger is set down at the object's point over the table nearest its centre from which it can
+    rise as a reach comes down, else the next of SET_DOWN_TRIES points out to the median distance.
 
     Raises:
         Unreachable: no inverse kinematics puts the finger on the object where it can rise from.
