@@ -1,10 +1,10 @@
 """Video benchmark (issue 52: a run with its video costs at most 1.5x the run without): the wall time of
-the demo plan's ``execute`` and of the README's pushed closed-loop ``run``, each without a video, with the
-recorder before issue 52's change (MuJoCo's default render quality, 4x multisampling, every frame kept and
-encoded at the end) and with today's (no multisampling, coarser spheres, the MP4 encoded by ffmpeg as the
-frames come), all in one process, the variants interleaved, from the call to the finished file.
+the demo plan's ``execute`` and of the README's pushed closed-loop ``run``, each without a video, with its
+frames rendered and encoded in the stepping process (:class:`slideplan.execute.video_frames.FrameWriter`, as
+before the render process) and with today's render process (:class:`~slideplan.execute.video_frames.RenderProcess`),
+all in one process, the variants interleaved, from the call to the finished file.
 
-    python benchmarks/video_bench.py [--repeats 3] [--out docs/benchmarks/video.md]
+    python benchmarks/video_bench.py [--repeats 5] [--out docs/benchmarks/video.md]
 
 Not a test (``make bench``).
 """
@@ -12,6 +12,7 @@ Not a test (``make bench``).
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import sys
 import tempfile
@@ -29,36 +30,18 @@ from plan_bench import write_report  # noqa: E402
 PUSH = ("square", "crescent", (0.55, -0.08, 0.4), 1, (0.0, -0.03, 0.17, 2.0))  # the README's closed-loop run
 
 
-def before_recorder():
-    """The recorder as it was before the change: MuJoCo's default quality, frames kept until write()."""
-    import mujoco
-    from slideplan.execute import video
-
-    defaults = mujoco.MjModel.from_xml_string("<mujoco/>").vis.quality
-
-    class Before(video.Recorder):
-        def __init__(self, model, *args, **kwargs):
-            today = dict(video.VIDEO_QUALITY)
-            video.VIDEO_QUALITY.update({name: getattr(defaults, name) for name in today})
-            try:
-                super().__init__(model, *args, **kwargs)
-            finally:
-                video.VIDEO_QUALITY.update(today)
-            self._writer = None  # write() encodes the kept frames at the end, as before
-
-    return Before
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs/benchmarks/video.md")
     args = parser.parse_args()
     from slideplan import closed_loop
     from slideplan.closed_loop_settings import Disturbance
-    from slideplan.execute import execute, replay, video
+    from slideplan.execute import execute, replay, video, video_frames
 
-    today, before = video.Recorder, before_recorder()
+    today = video.Recorder
+    before = functools.partialmethod(today.__init__, frames=video_frames.FrameWriter)
+    before = type("InProcess", (today,), {"__init__": before})
     plan = demo_plan()
     scene, obj, pose, seed, push = PUSH
 
@@ -69,7 +52,8 @@ def main() -> None:
         closed_loop.run(scene, obj, pose, seed=seed, disturbance=Disturbance(*push), video=path)
 
     cases = {"execute (demo plan)": execute_case, "run (README push, closed loop)": run_case}
-    variants = {"no video": (None, today), "video before": ("mp4", before), "video now": ("mp4", today)}
+    variants = {"no video": (None, today), "video, in the stepping process": ("mp4", before),
+                "video, render process": ("mp4", today)}
     walls = {(case, variant): [] for case in cases for variant in variants}
     with tempfile.TemporaryDirectory() as folder:
         for case, call in cases.items():
@@ -83,9 +67,10 @@ def main() -> None:
                     walls[(case, variant)].append(time.perf_counter() - started)
     replay.Recorder = closed_loop.Recorder = today
     lines = ["# Video benchmark: what a video costs a run (issue 52)",
-             f"`benchmarks/video_bench.py --repeats {args.repeats}`, one process (one core for the run; ffmpeg, "
-             "encoding the MP4 today, is a process of its own), the variants interleaved; wall time from the call "
-             "to the finished file. Frames: 640x480, 20 per simulated second.", "",
+             f"`benchmarks/video_bench.py --repeats {args.repeats}`, one process stepping (the render process and "
+             "ffmpeg, encoding the MP4, are processes of their own), the variants interleaved; wall time from the "
+             f"call to the finished file. Frames: 640x480, 20 per simulated second, x264 preset "
+             f"`{video_frames.X264_PRESET}`.", "",
              "| case | variant | wall median | min | max | against no video |", "|---|---|---|---|---|---|"]
     for case in cases:
         base = float(np.median(walls[(case, "no video")]))

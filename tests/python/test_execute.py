@@ -303,31 +303,40 @@ def test_the_video_keeps_the_table_and_the_hand_in_view_through_the_transfer(tmp
     result = plan(scene, load_object("crescent", table_height=scene.table.height, pose=(0.55, -0.08, 0.4)), PlannerConfig(seed=1))
     assert result.solved
     corners = np.column_stack([result.table["polygon"], np.full(len(result.table["polygon"]), scene.table.height)])
-    outside_per_frame = []
+    hand_per_frame, recorders = [], []
     record = video.Recorder.after_step
 
     def after_step(recorder):
         before = recorder.count
         record(recorder)
-        if recorder.count == before:
-            return
-        # MuJoCo's own camera of the frame just rendered: its pose and frustum at the near plane.
-        camera = recorder.renderer.scene.camera[0]
-        forward, up = np.asarray(camera.forward), np.asarray(camera.up)
-        half_height = (camera.frustum_top - camera.frustum_bottom) / 2
-        half_width = half_height * recorder.renderer.width / recorder.renderer.height
-        import mujoco  # after execute() chose the offscreen GL
+        if recorder.count > before:  # a frame of this state was sent: where the hand is in it
+            import mujoco  # after execute() chose the offscreen GL
 
-        hand = [mujoco.mj_name2id(recorder.data.model, mujoco.mjtObj.mjOBJ_BODY, result.robot[key]) for key in ("grasp_link", "tip_link")]
-        offsets = np.vstack([recorder.data.xpos[hand], corners]) - np.asarray(camera.pos)
+            hand = [mujoco.mj_name2id(recorder.data.model, mujoco.mjtObj.mjOBJ_BODY, result.robot[key]) for key in ("grasp_link", "tip_link")]
+            hand_per_frame.append(np.array(recorder.data.xpos[hand]))
+            recorders[:] = [recorder]
+
+    monkeypatch.setattr(video.Recorder, "after_step", after_step)
+    execute(result, video=tmp_path / "strip.png")
+    assert len(hand_per_frame) > 100
+    # MuJoCo's own camera of the video's view: its pose and frustum at the near plane.
+    import mujoco
+
+    recorder = recorders[0]
+    renderer = mujoco.Renderer(recorder.data.model, *recorder.size)
+    renderer.update_scene(recorder.data, recorder.camera)
+    camera = renderer.scene.camera[0]
+    renderer.close()
+    forward, up = np.asarray(camera.forward), np.asarray(camera.up)
+    half_height = (camera.frustum_top - camera.frustum_bottom) / 2
+    half_width = half_height * recorder.size[1] / recorder.size[0]
+    outside_per_frame = []
+    for hand in hand_per_frame:
+        offsets = np.vstack([hand, corners]) - np.asarray(camera.pos)
         depth = offsets @ forward
         across = offsets @ np.cross(forward, up) * camera.frustum_near / depth
         along = offsets @ up * camera.frustum_near / depth - (camera.frustum_top + camera.frustum_bottom) / 2
         outside_per_frame.append(int(((depth <= 0) | (np.abs(across) > half_width) | (np.abs(along) > half_height)).sum()))
-
-    monkeypatch.setattr(video.Recorder, "after_step", after_step)
-    execute(result, video=tmp_path / "strip.png")
-    assert len(outside_per_frame) > 100
     assert sum(outside_per_frame) == 0
     assert (tmp_path / "strip.png").exists()
 
@@ -601,25 +610,47 @@ def test_a_mark_is_written_on_the_frames_that_follow_it_and_the_depth_cameras_qu
     import os
 
     os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo is first imported: offscreen rendering
+    import imageio.v2 as imageio
     import mujoco
     from slideplan.execute.video import MARK_S, Recorder
 
-    model = mujoco.MjModel.from_xml_string(
-        "<mujoco><worldbody><light pos='0 0 2'/><geom type='sphere' size='.1' rgba='1 1 1 1'/></worldbody></mujoco>")
+    model = mujoco.MjModel.from_xml_string(  # a sphere moving across the view: no two frames alike (a GIF merges those)
+        "<mujoco><option gravity='0 0 0'/><worldbody><light pos='0 0 2'/><body><joint type='slide' axis='1 0 0'/>"
+        "<geom type='sphere' size='.05' rgba='1 1 1 1'/></body></worldbody></mujoco>")
     data = mujoco.MjData(model)
+    data.qvel[0] = 0.1
     quality = [model.vis.quality.offsamples, model.vis.quality.numslices]
-    recorder = Recorder(model, data, tmp_path / "run.gif", 10, (48, 64), np.array([[-0.1, -0.1, 0.0], [0.1, 0.1, 0.1]]))
-    assert [model.vis.quality.offsamples, model.vis.quality.numslices] == quality  # what a depth renderer made later reads
+    recorder = Recorder(model, data, tmp_path / "run.gif", 10, (48, 64), np.array([[-0.1, -0.1, 0.0], [0.3, 0.1, 0.1]]))
     while data.time < 1.95:  # frames at 0, 0.1, ..., 1.9 s
         if 0.25 <= data.time < 0.25 + model.opt.timestep:  # once, between the frames of 0.2 and 0.3 s
             recorder.mark("re-plan 1 (drift): slide")
         mujoco.mj_step(model, data)
         recorder.after_step()
     recorder.close()
-    assert len(recorder.frames) == 20
-    band = np.array([frame[:4].reshape(-1, 3) for frame in recorder.frames])  # the top rows of each frame
-    marked = [bool((rows == (20, 20, 20)).all(axis=1).any()) for rows in band]
+    recorder.write()  # the render process's frames, written as the GIF
+    assert [model.vis.quality.offsamples, model.vis.quality.numslices] == quality  # what a depth renderer made later reads
+    frames = imageio.mimread(tmp_path / "run.gif")
+    assert len(frames) == 20
+    band = np.array([np.asarray(frame)[:4, :, :3].reshape(-1, 3).astype(int) for frame in frames])  # each frame's top rows
+    marked = [bool((np.abs(rows - 20) <= 4).all(axis=1).any()) for rows in band]  # the band's grey (20, 20, 20)
     # Frames every 0.1 s: marked from the one after the mark until MARK_S later (0.25 + 1.5 = 1.75 s).
     assert MARK_S == 1.5 and marked == [3 <= index <= 17 for index in range(20)], marked
-    recorder.write()
-    assert (tmp_path / "run.gif").stat().st_size > 0
+
+
+def test_a_render_process_that_fails_is_reported_with_its_reason(tmp_path):
+    import os
+
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    import mujoco
+    from slideplan.execute.video import Recorder
+
+    model = mujoco.MjModel.from_xml_string("<mujoco><worldbody><geom type='sphere' size='.1'/></worldbody></mujoco>")
+    data = mujoco.MjData(model)
+    (tmp_path / "a_file").write_text("")
+    recorder = Recorder(model, data, tmp_path / "a_file" / "run.gif", 10, (48, 64), np.zeros((2, 3)))
+    for _ in range(50):
+        mujoco.mj_step(model, data)
+        recorder.after_step()
+    recorder.close()
+    with pytest.raises(RuntimeError, match=r"render process failed .*a_file/run\.gif.*(Not a directory|File exists)"):
+        recorder.write()

@@ -43,7 +43,7 @@ from .model import MESH_SUFFIXES, cloud_footprint, object_boxes
 from .replay import execute
 from .report import EXECUTION_SCHEMA, STAGES, Execution, path_features
 from .settings import ExecutionSettings, stress_settings
-from .video import write_video
+from .video_frames import write_video
 
 __all__ = ["EXECUTION_SCHEMA", "MESH_SUFFIXES", "STAGES", "Execution", "ExecutionSettings", "cloud_footprint", "execute",
            "object_boxes", "path_features", "stress_settings", "write_video"]
