@@ -104,6 +104,7 @@ class RenderProcess:
         package_root = str(Path(__file__).resolve().parents[2])  # the slideplan this process imported
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [package_root, os.environ.get("PYTHONPATH")])))
         env.setdefault("MUJOCO_GL", "egl")
+        env.setdefault("LP_NUM_THREADS", "0")  # software GL renders in the child's own thread, not on the stepping core too
         self._errors = tempfile.TemporaryFile()  # not a pipe: a child that writes much to it never blocks
         self._child = subprocess.Popen([sys.executable, "-c", f"from {__name__} import serve; serve()"],
                                        stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=self._errors, env=env)
@@ -151,6 +152,7 @@ class RenderProcess:
 def serve() -> None:
     """The child's side of :class:`RenderProcess`: a FrameWriter's arguments, then frames, read from stdin
     until it closes."""
+    os.nice(5)  # the stepping comes first: the frames (and ffmpeg, started from here) wait for a free core
     stream = sys.stdin.buffer
     writer = FrameWriter(*pickle.load(stream))
     while True:
