@@ -1,6 +1,6 @@
 """Bounds on a closed-loop run (issue 53): a run ends its sliding when the finger travels and the object
 does not, after :data:`MAX_REPLANS` re-plans, or after :data:`MAX_SLIDE_S` of sliding; the run's report
-says which (:attr:`slideplan.closed_loop.ClosedLoopRun.slide_stop`)."""
+says which (:attr:`slideplan.closed_loop_run.ClosedLoopRun.slide_stop`)."""
 
 from __future__ import annotations
 

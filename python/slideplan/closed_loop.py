@@ -1,7 +1,7 @@
 """The closed loop's MuJoCo harness (beyond the paper): a whole task, watched while sliding, re-planned
 when the object drifts, grasped where it is seen, in simulation. The loop's decisions are
 :mod:`slideplan.loop` (what the arm does) and :mod:`slideplan.watch` (what the frames say), shared with
-the ROS node; here the simulated arm (:class:`_Simulated`), the camera's frames rendered, and the report.
+the ROS node; here the simulated arm (:class:`_Simulated`) and the camera's frames rendered; the report is :mod:`slideplan.closed_loop_run`.
 
 :func:`run` does a whole task in MuJoCo from a fixed depth camera's view:
 
@@ -47,16 +47,15 @@ import dataclasses
 import math
 import os
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 import shapely
 
-from . import jsontext
 from ._fields import as_number, as_numbers
 from .camera import Camera, back_project
+from .closed_loop_run import ClosedLoopRun, diagnose, new_report
 from .closed_loop_settings import (
     Disturbance, camera_as_mounted, execution_settings, hard_push, push_candidates, setting_draws)
 from .errors import InputError
@@ -64,7 +63,6 @@ from .execute.model import DEPTH_CAMERA, build_model
 from .execute.runner import SETTLE_S, Runner, Unstable, timing_options
 from .execute.settings import ExecutionSettings
 from .execute.video import Recorder, plan_points
-from .geometry import Ending
 from .loop import SlideLoop, Stop
 from .motions import plan_times, rest_to_rest
 from .objects import ThinObject, load_object, load_outline, place_outline
@@ -75,108 +73,11 @@ from .plan.robot import build_robot
 from .rendering import camera_depth, depth_image, noisy_depth, place_objects, scene_spec
 from .scenes import Scene, load_scene
 from .timing import resolve_limits
-from .transforms import move_planar
 from .verdict import Hold, judge
 from .watch import Replan, Segment, Watch, slide_segment
 
-CLOSED_LOOP_SCHEMA = "slideplan.closed_loop/1"
 DEPTH_DROPOUT = 0.05
 ON_TABLE_SLACK_M = 0.003  # the perceived object may cross a table edge by this much (about a pixel)
-
-
-@dataclass
-class ClosedLoopRun:
-    """What happened in one :func:`run`.
-
-    Attributes:
-        success: the world's verdict (:func:`slideplan.verdict.held`, the same for both modes): the object
-            was in the hand, at least 3 cm above the table top, through the whole hold, in the simulator's
-            true state. What the camera saw plays no part.
-        mode: ``"closed"`` or ``"open"``.
-        setting: one of :data:`SETTINGS`.
-        failed_stage: None, ``"plan"`` (no first plan), ``"slide"`` (stopped for no progress, and no new plan
-            followed: no grasp), ``"release"`` (the object fell off the table when the finger let go), ``"grasp"`` (not lifted), ``"hold"`` (lifted, then out of the hand or lower than
-            3 cm in the hold) or ``"simulation"``.
-        failure: one line saying what went wrong ("" on success).
-        replans: re-plans whose new plan was followed (slides and grasps from a seen pose).
-        replan_latency_s: median latency of the looks that planned (s), None if none did.
-        kept: drifts (off the predicted pose in ``CONFIRM`` looks in a row) after which the rest of the
-            slide still ended graspable from the pose seen, so the plan was kept; and blind stops whose
-            look found the same, or nothing (events with outcome ``"kept"``).
-        looks: depth frames tracked; lost_looks: of them, those that did not show the object.
-        events: every look that asked for a plan, and each end-of-slide look (:class:`~slideplan.watch.Replan`).
-        seen_status: after the slide, ``"seen"`` or ``"lost"`` (the look did not find the object: the seen
-            columns are then None, never the prediction); None without a slide. Diagnostic.
-        seen_frames: the frames that look used (the closed loop's last deciding look; the open loop's end
-            look, made by the same settled procedure, :meth:`~slideplan.watch.Watch.settled`).
-        seen_motion: the object's motion from its perceived pose to where it was seen then, ``{x, y, yaw}``.
-        seen_overhang_m, seen_com_margin_m: at that pose.
-        true_overhang_m, true_com_margin_m: at the object's true pose then.
-        lifted: the runner's lift check (the object rose half the lift and stayed): diagnostic.
-        slide_stop: ``""`` or the bounds (:mod:`slideplan.bounds`) the closed loop met, ``+``-joined:
-            ``"no_progress"`` (a slide stopped: the finger travelled on, the object as seen did not),
-            ``"replan_cap"`` or ``"time_cap"`` (no new plan after ``MAX_REPLANS`` re-plans or ``MAX_SLIDE_S``
-            of sliding: the slide followed then ends as planned, and its own grasp follows).
-        slide_s: simulated time from the first slide's start to the grasp's start (s).
-        draws: the physical parameters of the run (the random and hard settings' draws).
-        disturbance: the push applied (``--disturb``, or the hard setting's), or None.
-        sim_time_s, wall_time_s: simulated and wall time of the run (s).
-    """
-
-    success: bool
-    mode: str
-    setting: str
-    failed_stage: str | None
-    failure: str
-    replans: int
-    replan_latency_s: float | None
-    kept: int
-    looks: int
-    lost_looks: int
-    events: list[Replan]
-    seen_status: str | None
-    seen_frames: list[int]
-    seen_motion: dict[str, float] | None
-    seen_overhang_m: float | None
-    seen_com_margin_m: float | None
-    true_overhang_m: float | None
-    true_com_margin_m: float | None
-    lifted: bool
-    slide_stop: str
-    slide_s: float
-    draws: dict[str, float]
-    disturbance: dict[str, float] | None
-    sim_time_s: float
-    wall_time_s: float
-
-    def to_dict(self) -> dict[str, Any]:
-        """The report as JSON-ready dicts, ``schema`` first, each event with its latency."""
-        report = {"schema": CLOSED_LOOP_SCHEMA, **dataclasses.asdict(self)}
-        for event, entry in zip(self.events, report["events"]):
-            entry["latency_s"] = event.latency_s
-        return report
-
-    def to_json(self, indent: int | None = None) -> str:
-        """The report as JSON text (no NaN).
-
-        Args:
-            indent: None for one line; a number for one line per key and per waypoint
-                (:func:`slideplan.jsontext.dumps`).
-        """
-        return jsontext.dumps(self.to_dict(), indent=indent, allow_nan=False)
-
-    def summary(self) -> str:
-        """One line: the verdict and the numbers."""
-        verdict = "ok" if self.success else f"failed at {self.failed_stage}: {self.failure}"
-        seen = f"; seen {self.seen_status}" if self.seen_overhang_m is None else (
-            f"; seen overhang {100 * self.seen_overhang_m:.1f} cm, CoM {1000 * self.seen_com_margin_m:.1f} mm inside")
-        true = "" if self.true_overhang_m is None else (
-            f"; true overhang {100 * self.true_overhang_m:.1f} cm, CoM {1000 * self.true_com_margin_m:.1f} mm inside")
-        stop = f"; slide stopped: {self.slide_stop}" if self.slide_stop else ""
-        latency = "" if self.replan_latency_s is None else f", median latency {1000 * self.replan_latency_s:.0f} ms"
-        return (f"{verdict} ({self.mode} loop, {self.setting}){seen}{true}{stop}; {self.replans} re-plans{latency}; "
-                f"lifted {'yes' if self.lifted else 'no'} ({self.sim_time_s:.1f} s simulated in {self.wall_time_s:.1f} s, "
-                f"{self.sim_time_s / max(self.wall_time_s, 1e-9):.1f}x real time)")
 
 
 def default_camera(scene: Scene) -> Camera:
@@ -237,23 +138,6 @@ def _on_table(table, outline, pose) -> tuple[float, float, float]:
         step *= 1.0 + 1e-6 / max(float(np.linalg.norm(step)), 1e-12)  # onto the edge, not a rounding error short
         x, y = x + float(step[0]), y + float(step[1])
     return (x, y, yaw)
-
-
-def _diagnose(report: dict[str, Any], table, perceived: ThinObject, truth: ThinObject, seen_motion, seen: bool,
-              frames: list[int], runner: Runner) -> None:
-    """After the slide, diagnostics only (the verdict is the world's, :func:`slideplan.verdict.held`): the
-    overhang and centre-of-mass margin where the deciding look saw the object (None when it did not: a
-    lost look is reported lost, never as the prediction) and where the object truly is."""
-    report.update(seen_status="seen" if seen else "lost", seen_frames=list(frames))
-    if seen:
-        moved = perceived.moved(seen_motion)
-        report["seen_motion"] = dict(zip(("x", "y", "yaw"), map(float, seen_motion)))
-        seen_end = Ending.at(table, moved.points[:, :2], moved.centroid_xy)
-        report["seen_overhang_m"], report["seen_com_margin_m"] = map(float, seen_end)
-    com, yaw, _ = runner.object_pose()  # the object's body starts unturned, its origin at the centre of mass
-    motion = (*(com - move_planar(np.asarray(truth.centroid_xy, dtype=float), (0.0, 0.0, yaw))), yaw)
-    true_end = Ending.at(table, move_planar(truth.points[:, :2], motion), com)
-    report["true_overhang_m"], report["true_com_margin_m"] = map(float, true_end)
 
 
 class _Simulated:
@@ -431,7 +315,7 @@ def run(
     begun = Start.of(scene, object_name, pose, seed=seed, setting=setting, config=config, camera=camera)
     draws, truth, perceived, mounted, first = begun.draws, begun.truth, begun.perceived, begun.mounted, begun.first
     config, table_plane = begun.config, begun.table_plane
-    report = _new_report("closed" if closed else "open", setting, draws, disturbance)
+    report = new_report("closed" if closed else "open", setting, draws, disturbance)
     if begun.unsolved is not None:
         return ClosedLoopRun(**{**report, "failed_stage": "plan", "failure": begun.unsolved}, sim_time_s=0.0,
                              wall_time_s=time.perf_counter() - wall_start)
@@ -468,16 +352,6 @@ def _checked_arguments(pose, replan_period: float, replan_time_limit: float, thr
         if disturbance.after_s < 0:
             raise InputError(f"the time must be >= 0 s after the slide starts, got {disturbance.after_s}", field="--disturb")
     return pose, threshold
-
-
-def _new_report(mode: str, setting: str, draws: dict[str, float], disturbance: Disturbance | None) -> dict[str, Any]:
-    """A :class:`ClosedLoopRun`'s fields before the run (all but the times): nothing seen, nothing failed yet."""
-    return dict(
-        success=False, mode=mode, setting=setting, failed_stage=None, failure="", replans=0, replan_latency_s=None,
-        kept=0, looks=0, lost_looks=0, events=[], seen_status=None, seen_frames=[], seen_motion=None, seen_overhang_m=None,
-        seen_com_margin_m=None, true_overhang_m=None, true_com_margin_m=None, lifted=False, slide_stop="", slide_s=0.0,
-        draws=draws, disturbance=None if disturbance is None else dataclasses.asdict(disturbance),
-    )
 
 
 class _World:
@@ -556,7 +430,7 @@ def _episode(report: dict[str, Any], first: PlanResult, loop: SlideLoop, watch: 
             first_frame = watch.looks
             look = watch.settled(world.frames, seen_motion)
             seen, seen_frames, seen_motion = look.ok, list(range(first_frame, watch.looks)), look.motion
-        _diagnose(report, table, perceived, truth, seen_motion, seen, seen_frames, runner)
+        diagnose(report, table, perceived, truth, seen_motion, seen, seen_frames, runner)
         if loop.abandoned:
             failure = ("slide", "no progress: the finger travelled on and the object did not, and no new plan followed")
         else:

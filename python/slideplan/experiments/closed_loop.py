@@ -52,14 +52,14 @@ CLOSED_LOOP_ROW_SCHEMA = pa.schema(
     + PROVENANCE_FIELDS
 )
 """Columns of a task's part file: the task, its ``task_set`` (``dev`` or ``eval``), ``solved`` (every run of
-it finished), then each run's outcome (:class:`slideplan.closed_loop.ClosedLoopRun`; ``max_latency_s`` the
+it finished), then each run's outcome (:class:`slideplan.closed_loop_run.ClosedLoopRun`; ``max_latency_s`` the
 slowest re-plan; as JSON: ``draws`` the physics, ``disturbance`` the push, ``seen_frames`` the frames of the
 look after the slide, ``decision_frames`` each deciding look's trigger, outcome and frames), then ``error``
 (a run that raised), then the provenance columns of :data:`slideplan.experiments.results.ROW_SCHEMA`."""
 
 
 def run_columns(report) -> dict[str, Any]:
-    """A :class:`~slideplan.closed_loop.ClosedLoopRun` as the values of :data:`_RUN_COLUMNS`."""
+    """A :class:`~slideplan.closed_loop_run.ClosedLoopRun` as the values of :data:`_RUN_COLUMNS`."""
     outcome = dataclasses.asdict(report)
     for name in ("draws", "disturbance", "seen_frames"):
         outcome[name] = json.dumps(outcome[name], sort_keys=True)
