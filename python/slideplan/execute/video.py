@@ -117,7 +117,7 @@ class Recorder:
         """Finish the video file, if one was asked for (waits for the render process).
 
         Raises:
-            RuntimeError: the render process failed.
+            OSError: the render process failed (:meth:`slideplan.execute.video_frames.RenderProcess.finish`).
         """
         if self._frames is not None:
             frames, self._frames = self._frames, None

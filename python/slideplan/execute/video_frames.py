@@ -126,7 +126,7 @@ class RenderProcess:
         """Wait for the child to write the video (again: nothing).
 
         Raises:
-            RuntimeError: the child failed (its error output is in the message).
+            OSError: the child failed (the last line of its error output in the message, all of it in a note).
         """
         self.close()
         if self._errors.closed:
@@ -135,9 +135,11 @@ class RenderProcess:
         self._errors.seek(0)
         errors = self._errors.read().decode(errors="replace").strip()
         self._errors.close()
-        if code != 0:
-            raise RuntimeError(f"the video's render process failed (exit {code}) writing {self.path}: "
-                               f"{errors.splitlines()[-1] if errors else 'no message'}\n{errors}")
+        if code != 0:  # an OSError: the file was not written (the CLI's one-line error, exit 2)
+            error = OSError(f"{self.path}: the video's render process failed (exit {code}): "
+                            f"{errors.splitlines()[-1] if errors else 'no message'}")
+            error.add_note(errors)  # the child's whole error output, in a traceback
+            raise error
 
     def _send(self, message) -> None:
         if self._child.stdin.closed:
