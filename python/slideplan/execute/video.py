@@ -79,7 +79,7 @@ class Recorder:
 
     def __init__(self, model, data, path: str | Path | None, fps: int, size: tuple[int, int], keep_in_view,
                  progress: Callable[[float], None] | None = None, frames=RenderProcess):
-        self.data, self.path, self.fps, self.size, self.progress = data, path, fps, size, progress
+        self.data, self.fps, self.size, self.progress = data, fps, size, progress
         self.count = 0  # frames sent
         self.reported = 0.0
         self.camera, self._frames = None, None

@@ -22,7 +22,8 @@ import numpy as np
 # A video frame's rendering: no multisampling and coarser spheres and capsules than MuJoCo's defaults. With
 # software GL (EGL without a GPU) 4x multisampling was two thirds of a 640x480 frame's cost.
 VIDEO_QUALITY = {"offsamples": 0, "numslices": 16, "numstacks": 8, "numquads": 1}
-# x264's "veryfast" preset: a third less encoding work than its default for a file of the same size here.
+# x264's cheapest preset: ffmpeg spent 1.15 s on the demo execute's 422 frames, against 1.9 s with "veryfast" and
+# 2.6 s with the default "medium"; the file is 1.1 MB instead of 0.3 MB.
 X264_PRESET = "ultrafast"
 
 
