@@ -20,7 +20,7 @@ CLOSED_LOOP_SCHEMA = "slideplan.closed_loop/1"
 
 
 @dataclass
-class ClosedLoopRun:
+class ClosedLoopRun(jsontext.Document):
     """What happened in one :func:`run`.
 
     Attributes:
@@ -58,6 +58,8 @@ class ClosedLoopRun:
         sim_time_s, wall_time_s: simulated and wall time of the run (s).
     """
 
+    JSON_ALLOWS_NAN = False
+
     success: bool
     mode: str
     setting: str
@@ -90,15 +92,6 @@ class ClosedLoopRun:
         for event, entry in zip(self.events, report["events"]):
             entry["latency_s"] = event.latency_s
         return report
-
-    def to_json(self, indent: int | None = None) -> str:
-        """The report as JSON text (no NaN).
-
-        Args:
-            indent: None for one line; a number for one line per key and per waypoint
-                (:func:`slideplan.jsontext.dumps`).
-        """
-        return jsontext.dumps(self.to_dict(), indent=indent, allow_nan=False)
 
     def summary(self) -> str:
         """One line: the verdict and the numbers."""

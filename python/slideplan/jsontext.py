@@ -34,3 +34,17 @@ def dumps(data: Any, indent: int | None = None, allow_nan: bool = True) -> str:
         return leaf(item)
 
     return text(data, 0)
+
+
+class Document:
+    """``to_json`` for a class with a ``to_dict`` (a plan, an execution's or a run's report)."""
+
+    JSON_ALLOWS_NAN = True  # False: a NaN or infinity in the document raises ValueError
+
+    def to_json(self, indent: int | None = None) -> str:
+        """The document as JSON text (``to_dict``'s, through :func:`dumps`).
+
+        Args:
+            indent: None for one line; a number for one line per key and per waypoint.
+        """
+        return dumps(self.to_dict(), indent=indent, allow_nan=self.JSON_ALLOWS_NAN)

@@ -285,3 +285,24 @@ def test_a_plan_is_opened_from_any_directory(tmp_path, monkeypatch, planned):
     loaded = PlanResult.load("../plans/plan.json")
     assert loaded.robot["urdf"] == str(tmp_path / "plans" / "robot" / urdf.name)
     assert list(loaded.robot_model().joint_names) == planned.joint_names
+
+
+def test_a_report_refuses_nan_in_its_json_and_a_plan_writes_it():
+    # One to_json for plans and reports (slideplan.jsontext.Document): only a report promises no NaN.
+    from slideplan.closed_loop_run import ClosedLoopRun
+    from slideplan.execute.report import Execution
+    from slideplan.jsontext import Document
+
+    class Plain(Document):
+        def to_dict(self):
+            return {"x": float("nan"), "rows": [[1.0, 2.0]]}
+
+    assert Plain().to_json() == '{"x": NaN, "rows": [[1.0, 2.0]]}'
+    assert PlanResult.JSON_ALLOWS_NAN and not Execution.JSON_ALLOWS_NAN and not ClosedLoopRun.JSON_ALLOWS_NAN
+
+    class Strict(Plain):
+        JSON_ALLOWS_NAN = False
+
+    with pytest.raises(ValueError):
+        Strict().to_json()
+    assert Strict().to_json.__func__ is Execution.to_json is ClosedLoopRun.to_json is PlanResult.to_json

@@ -18,7 +18,7 @@ STAGES = ("slide", "release", "grasp", "simulation")
 
 
 @dataclass
-class Execution:
+class Execution(jsontext.Document):
     """What happened when a plan was executed (:func:`execute`).
 
     Attributes:
@@ -43,6 +43,8 @@ class Execution:
         settings: the :class:`ExecutionSettings` used.
     """
 
+    JSON_ALLOWS_NAN = False
+
     success: bool
     failed_stage: str | None
     failure: str
@@ -64,15 +66,6 @@ class Execution:
     def to_dict(self) -> dict[str, Any]:
         """Return the report as JSON-ready dicts, ``schema`` first (no NaN anywhere)."""
         return {"schema": EXECUTION_SCHEMA, **dataclasses.asdict(self)}
-
-    def to_json(self, indent: int | None = None) -> str:
-        """Return the report as JSON text.
-
-        Args:
-            indent: None for one line; a number for one line per key and per waypoint
-                (:func:`slideplan.jsontext.dumps`).
-        """
-        return jsontext.dumps(self.to_dict(), indent=indent, allow_nan=False)
 
     def summary(self) -> str:
         """One line: the verdict and the numbers."""

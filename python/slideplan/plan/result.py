@@ -23,7 +23,7 @@ from .robot import collision_world, plan_robot
 
 
 @dataclass
-class PlanResult:
+class PlanResult(jsontext.Document):
     """One planning run, as stored in the plan JSON (``slideplan.plan/2``, docs/design.md 5).
 
     It holds everything needed to re-check the plan without the planner
@@ -122,15 +122,6 @@ class PlanResult:
         """Return the plan as JSON-ready nested dicts and lists, ``schema`` first."""
         content = {item.name: getattr(self, item.name) for item in dataclasses.fields(self)}
         return {"schema": self.SCHEMA, **to_plain(content)}
-
-    def to_json(self, indent: int | None = None) -> str:
-        """Return the plan JSON text.
-
-        Args:
-            indent: None for one line; a number for one line per key and per waypoint
-                (:func:`slideplan.jsontext.dumps`).
-        """
-        return jsontext.dumps(self.to_dict(), indent=indent)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> PlanResult:
