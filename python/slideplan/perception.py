@@ -2,10 +2,10 @@
 
 The steps (docs/perception.md):
 
-1. Planes: RANSAC (scikit-learn's ``RANSACRegressor``, z as a linear function of x and y)
-   on a random subsample, repeated on the points left over, finds the large planes; the
-   table is the highest one covering at least ``min_table_area``. It must be horizontal
-   within ``max_tilt_deg``: a steeper one is a tilted table, or a cloud in the camera frame.
+1. Planes (:mod:`slideplan.perception_planes`): RANSAC on a random subsample, repeated on the
+   points left over, finds the large planes; the table is the highest one covering at least
+   ``min_table_area``. It must be horizontal within ``max_tilt_deg``: a steeper one is a tilted
+   table, or a cloud in the camera frame.
 2. The table: the points within ``plane_tolerance`` of the plane, binned in an xy grid; the
    largest connected patch is the table top, its outline the convex hull of the points over
    it (simplified), its height the median height of its bare (object-free) points.
@@ -31,16 +31,13 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiPoint, Polygon
 
-from ._fields import as_number, as_numbers
+from ._fields import as_number
 from .errors import InputError
 from .geometry import SupportSurface, area_centroid
 from .objects import checked_cloud
+from .perception_planes import default_cell_size, find_table_plane, known_plane
 from .scenes import BoxObstacle, Scene, load_scene
 
-_PLANE_SAMPLE = 20_000  # RANSAC runs on this many random points: plenty for a plane, fast for any cloud
-_MAX_PLANES = 4  # floor, table, and a couple of box tops are all a tabletop scene has
-_MIN_PLANE_FRACTION = 0.05  # a plane with fewer inliers is clutter or chance, not a support surface
-_AREA_CELL = 0.01  # m; grid for estimating the area a plane's inliers cover
 _MAX_GRID_CELLS = 1e7  # a 9 m square table at 3 mm cells; beyond it the height grids take gigabytes
 _DETECTION_SIGMA = 1.0  # cells; averages ~15 points per cell at the default cell size
 _EDGE_SIGMA = 0.5  # cells
@@ -114,64 +111,6 @@ class Perception:
         # Everything robot-side (URDF, attachments, mount, held joints, hand) as perception_files.scene_toml writes it.
         robot_side = robot_scene if isinstance(robot_scene, Scene) else load_scene(robot_scene)
         return replace(robot_side, name="perceived", table=self.table, obstacles=tuple(self.obstacles), source="")
-
-
-@dataclass
-class _Plane:
-    """z = a x + b y + c, with its inliers among the RANSAC sample."""
-
-    coefficients: np.ndarray  # (a, b, c)
-    inliers: np.ndarray  # (k, 3) sample points
-
-    @property
-    def tilt_deg(self) -> float:
-        return math.degrees(math.atan(math.hypot(*self.coefficients[:2])))
-
-    def covered_area(self) -> float:
-        """Area of the _AREA_CELL grid cells holding inliers (m^2)."""
-        return _occupied_cells(self.inliers[:, :2]) * _AREA_CELL**2
-
-
-def _fit_planes(sample: np.ndarray, tolerance: float, seed: int) -> list[_Plane]:
-    """Large planes, one RANSAC run each on what the previous ones left."""
-    from sklearn.linear_model import LinearRegression, RANSACRegressor
-
-    planes = []
-    remaining = sample
-    min_inliers = max(3, int(_MIN_PLANE_FRACTION * len(sample)))
-    for _ in range(_MAX_PLANES):
-        if len(remaining) < min_inliers:
-            break
-        ransac = RANSACRegressor(
-            LinearRegression(), min_samples=3, residual_threshold=tolerance, max_trials=200, random_state=seed
-        )
-        try:
-            ransac.fit(remaining[:, :2], remaining[:, 2])
-        except ValueError:  # RANSAC found no consensus set at all
-            break
-        inliers = ransac.inlier_mask_
-        if inliers.sum() < min_inliers:
-            break
-        model = ransac.estimator_
-        planes.append(_Plane(np.array([*model.coef_, model.intercept_]), remaining[inliers]))
-        remaining = remaining[~inliers]
-    return planes
-
-
-def _occupied_cells(xy: np.ndarray) -> int:
-    """How many _AREA_CELL cells hold points: distinct cells by one integer key each (numpy's unique
-    over rows is ten times slower)."""
-    if len(xy) == 0:
-        return 0
-    cells = np.floor(xy / _AREA_CELL).astype(np.int64)
-    cells -= cells.min(axis=0)
-    return len(np.unique(cells[:, 0] * (int(cells[:, 1].max()) + 1) + cells[:, 1]))
-
-
-def _cell_size(support_xy: np.ndarray) -> float:
-    """Twice the mean point spacing of the table's points, clipped to [3, 10] mm."""
-    spacing = math.sqrt(_occupied_cells(support_xy) * _AREA_CELL**2 / len(support_xy))
-    return float(np.clip(2.0 * spacing, 0.003, 0.01))
 
 
 class _Grid:
@@ -268,13 +207,13 @@ def perceive(
                     cell_size)
     cloud = checked_cloud(points, source=source)
     problem = _Problem(source)
-    plane = _known_plane(cloud, table_plane, plane_tolerance)
+    plane = known_plane(cloud, table_plane, plane_tolerance)
     if plane is None:
-        plane = _table_plane(cloud, plane_tolerance, min_table_area, max_tilt_deg, seed, problem)
+        plane = find_table_plane(cloud, plane_tolerance, min_table_area, max_tilt_deg, seed, problem)
     a, b, c = plane.coefficients
     heights = cloud[:, 2] - (a * cloud[:, 0] + b * cloud[:, 1] + c)
     on_plane = np.abs(heights) < plane_tolerance
-    grid = _Grid(cloud[on_plane, :2], cell_size or _cell_size(cloud[on_plane, :2]), problem)
+    grid = _Grid(cloud[on_plane, :2], cell_size or default_cell_size(cloud[on_plane, :2]), problem)
     table_mask, skipped = _table_top(grid, cloud, heights, on_plane, min_height, max_thickness, min_table_area,
                                      min_object_area)
     over = _OverTable(grid, cloud, heights, table_mask, plane_tolerance)
@@ -302,17 +241,6 @@ def _check_settings(settings: dict[str, float], cell_size: float | None) -> None
     if settings["max_thickness"] <= settings["min_height"]:
         raise InputError(f"must be > min_height ({settings['min_height']:g}), got {settings['max_thickness']!r}",
                          field="max_thickness")
-
-
-def _known_plane(cloud: np.ndarray, table_plane, tolerance: float) -> _Plane | None:
-    """The table plane given by the caller, or None when there is none or it holds too few points (the camera moved)."""
-    if table_plane is None:
-        return None
-    known = as_numbers(table_plane, 3, source="", field="table_plane")
-    on_known = np.abs(cloud[:, 2] - cloud[:, :2] @ known[:2] - known[2]) < tolerance
-    if on_known.mean() >= _MIN_PLANE_FRACTION:  # as much as a plane found by RANSAC must hold
-        return _Plane(known, cloud[on_known])
-    return None
 
 
 def _table_top(grid: _Grid, cloud: np.ndarray, heights: np.ndarray, on_plane: np.ndarray, min_height: float,
@@ -442,26 +370,6 @@ class _Problem:
 
     def __call__(self, problem: str) -> InputError:
         return InputError(problem, source=self.source, field="" if self.source else "points")
-
-
-def _table_plane(cloud: np.ndarray, tolerance: float, min_area: float, max_tilt_deg: float, seed: int, problem: _Problem) -> _Plane:
-    """The highest large plane, checked to be horizontal."""
-    rng = np.random.default_rng(seed)
-    sample = cloud[rng.choice(len(cloud), _PLANE_SAMPLE, replace=False)] if len(cloud) > _PLANE_SAMPLE else cloud
-    large = [plane for plane in _fit_planes(sample, tolerance, seed) if plane.covered_area() >= min_area]
-    if not large:
-        span = float(np.max(np.ptp(cloud, axis=0)))
-        # A table is metres across: a cloud spanning tens of metres is most likely in millimetres.
-        units = f" (the cloud spans {span:g} along an axis: slideplan reads metres; is it in millimetres?)" if span > 20 else ""
-        raise problem(f"no plane of at least {min_area:g} m^2 found: the cloud shows no table top{units}")
-    # The highest: the floor is often the largest plane in view, the table stands above it.
-    plane = max(large, key=lambda candidate: float(np.median(candidate.inliers[:, 2])))
-    if plane.tilt_deg > max_tilt_deg:
-        raise problem(
-            f"the table plane is tilted {plane.tilt_deg:.1f} deg from horizontal (limit {max_tilt_deg:g} deg): "
-            "a tilted table, or a cloud in the camera frame; give the cloud in the world frame with z up"
-        )
-    return plane
 
 
 def _table_masks(grid: _Grid, xy: np.ndarray, min_area: float) -> list[np.ndarray]:
