@@ -1,10 +1,9 @@
 """What the generated blocks share: loading the committed rows once, the build each file's rows record,
 and number formats.
 
-A Parquet file's build comes from its rows' ``build`` column for rows that recorded it at run time
-(``build_recorded_at_run`` True); for rows written before rows recorded their build (no column, or
-backfilled from the pages), from :data:`BUILDS_NAMED_BY_THE_PAGES`, what the pages said when the rows were
-committed.
+A Parquet file's build comes from its rows' ``build`` column: recorded at run time, or, for rows written
+before rows recorded their build, what the pages said when the rows were committed
+(``backfill_provenance.py``, ``build_recorded_at_run`` False).
 """
 
 from __future__ import annotations
@@ -14,28 +13,8 @@ from functools import cache
 from pathlib import Path
 
 import pandas as pd
-import pyarrow.parquet as pq
 
 HERE = Path(__file__).resolve().parent
-
-BUILDS_NAMED_BY_THE_PAGES = {
-    "fig10.parquet": "06e0096",
-    "fig10_paper.parquet": "06e0096",
-    "fig11.parquet": "bc015d9, 388daad, 3460cc6 and a37807a",
-    "fig11_paper.parquet": "a37807a (slideplan rows; the baselines' rows as in fig11.parquet)",
-    "fig12.parquet": "a37807a",
-    "fig12_paper.parquet": "a37807a",
-    "execution.parquet": "d3e2f75",
-    "execution_paper.parquet": "03f2c70",
-    "closed_loop.parquet": "49efcf6",
-    "closed_loop_e0328a8.parquet": "e0328a8",
-    "closed_loop_tasks_e0328a8.parquet": "e0328a8",
-    "partial/closed_loop.parquet": "b74bcec",
-    "partial/closed_loop_e0328a8.parquet": "e0328a8",
-}
-"""Builds as the pages named them before the rows recorded their own (used only where a file has no
-``build`` column)."""
-
 
 @cache
 def rows(name: str, loader: str = "planning") -> pd.DataFrame:
@@ -61,27 +40,12 @@ def rows(name: str, loader: str = "planning") -> pd.DataFrame:
 
 
 def build_of(name: str) -> str:
-    """The build (or builds, with their row counts) that made ``docs/results/<name>``'s rows: the rows'
-    ``build`` where it was recorded at run time, the page's word (:data:`BUILDS_NAMED_BY_THE_PAGES`) for rows
-    without one or backfilled from the pages (``build_recorded_at_run`` False), so that a backfill changes
-    no text and a rerun does."""
-    path = HERE / name
-    fallback = BUILDS_NAMED_BY_THE_PAGES[name]
-    columns = pq.read_schema(path).names
-    if "build" not in columns:
-        return fallback
-    wanted = ["build"] + (["build_recorded_at_run"] if "build_recorded_at_run" in columns else [])
-    table = pd.read_parquet(path, columns=wanted)
-    at_run = table["build_recorded_at_run"].fillna(False).astype(bool) if len(wanted) > 1 else table["build"].notna()
-    recorded = table.loc[at_run, "build"].astype(str)
-    if recorded.empty:
-        return fallback
-    short = recorded.map(lambda build: "+".join([build.split("+")[0][:7], *build.split("+")[1:]]))
-    counts = Counter(short)
-    text = ", ".join(f"{build}" + (f" ({number:,} rows)" if len(counts) > 1 or len(recorded) < len(table) else "")
+    """The build (or builds, with their row counts) that made ``docs/results/<name>``'s rows, from their
+    ``build`` column, so that a rerun changes the text."""
+    builds = pd.read_parquet(HERE / name, columns=["build"])["build"].astype(str)
+    counts = Counter(builds.map(lambda build: "+".join([build.split("+")[0][:7], *build.split("+")[1:]])))
+    return ", ".join(f"{build}" + (f" ({number:,} rows)" if len(counts) > 1 else "")
                      for build, number in sorted(counts.items(), key=lambda item: (-item[1], item[0])))
-    older = len(table) - len(recorded)
-    return text if not older else f"{text} and, for {older:,} older rows, {fallback}"
 
 
 def seconds(value: float, se: float | None = None) -> str:
