@@ -170,6 +170,16 @@ def test_a_planner_filter_keeps_exactly_that_planners_tasks_with_their_ids():
     assert len(ours.tasks) < len(whole.tasks)
 
 
+def test_a_table_filter_keeps_exactly_that_tables_tasks_and_names_a_table_the_figure_lacks():
+    whole = build_spec("fig10", poses=2)
+    long = build_spec("fig10", poses=2, scenes=("long", "round"))
+    assert {task.scene for task in long.tasks} == {"long", "round"}
+    assert [task.task_id for task in long.tasks] == [task.task_id for task in whole.tasks if task.scene in ("long", "round")]
+    with pytest.raises(InputError, match="unknown scene.*'kitchen'") as raised:
+        build_spec("fig10", poses=2, scenes=("kitchen",))
+    assert raised.value.field == "scene"
+
+
 def test_fewer_poses_are_a_prefix_of_the_full_figure():
     reduced, full = build_spec("fig11", poses=3), build_spec("fig11")
     assert len(reduced.tasks) == 5 * 3 * 5

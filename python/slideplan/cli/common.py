@@ -41,6 +41,7 @@ _OPTION_OF_FIELD = {
     "reconfiguration_range": "--reconfiguration-range",
     "dz_max": "--reconfiguration-range",
     "planner": "--planner",
+    "scene": "--scene",
     "preset": "--preset",
     "workers": "--workers",
     "scheduler": "--scheduler",

@@ -61,6 +61,10 @@ def experiment_command(
         [], "--planner", help="Run only this planner's tasks of the figure (slideplan, cbirrt, cbirrt2); repeatable; "
         "default: all. Fig. 11's baselines are the same tasks in both presets."
     ),
+    scene: list[str] = typer.Option(
+        [], "--scene", help="Run only the tasks on this table (a scene of the figure); repeatable; default: all. "
+        "A long figure can run one table at a time into the same --out."
+    ),
 ) -> None:
     """Run the planning tasks of one figure, resuming: tasks with a result in OUT/results/ are skipped.
 
@@ -71,7 +75,8 @@ def experiment_command(
         from ..experiments import build_spec, run_experiment
 
         spec = build_spec(figure, quick=quick, time_limit_s=time_limit, seed=seed, poses=poses, params=_parse_params(param),
-                          preset=preset, planners=tuple(planner) or None, task_set=task_set)
+                          preset=preset, planners=tuple(planner) or None, task_set=task_set,
+                          scenes=tuple(scene) or None)
         executor = _experiment_executor(workers, scheduler, threads)
         typer.echo(f"{figure}: {len(spec.tasks)} tasks on {executor.description}, results in {out / 'results'}")
         summary = run_experiment(spec, out, executor)

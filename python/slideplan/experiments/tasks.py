@@ -372,7 +372,7 @@ _SPEC_BUILDERS = {"fig10": fig10_spec, "fig11": fig11_spec, "fig12": fig12_spec,
 def build_spec(
     figure: str, *, quick: bool = False, time_limit_s: float | None = None, seed: int = 0, poses: int | None = None,
     params: dict | None = None, preset: str = "default", planners: tuple[str, ...] | None = None,
-    task_set: str = "dev",
+    task_set: str = "dev", scenes: tuple[str, ...] | None = None,
 ) -> ExperimentSpec:
     """Build the tasks of one figure.
 
@@ -393,6 +393,9 @@ def build_spec(
         planners: only the tasks of these planners (``"slideplan"``, ``"cbirrt"``, ``"cbirrt2"``;
             None: all): Fig. 11's baselines run the same tasks in both presets, so a rerun of one
             preset need not repeat them. The task ids are those of the whole figure's.
+        scenes: only the tasks on these tables (scene names; None: all): a long figure rerun one
+            table at a time, each part resuming into the same output; the task ids are the whole
+            figure's.
         task_set: the closed loop's ``"dev"`` set (every other figure's only set) or its held-out
             ``"eval"`` set (:func:`closed_loop_eval_spec`; its experiment seed is :data:`EVAL_SEED`, so
             ``seed`` must stay 0).
@@ -403,7 +406,7 @@ def build_spec(
     Raises:
         InputError: unknown figure (field ``figure``), a time limit that is not a positive
             finite number (``time_limit_s``), a bad seed (``seed``) or pose count (``poses``), an
-            unknown planner (``planner``), an unknown set or one the figure does not have (``set``), a
+            unknown planner (``planner``) or a table the figure does not have (``scene``), an unknown set or one the figure does not have (``set``), a
             seed given to the eval set (``seed``).
     """
     if figure not in _SPEC_BUILDERS:
@@ -421,16 +424,28 @@ def build_spec(
     if poses is not None and (isinstance(poses, bool) or not isinstance(poses, int) or poses < 1):
         raise InputError(f"must be a whole number >= 1, got {poses!r}", field="poses")
     tasks = (closed_loop_eval_spec if task_set == "eval" else _SPEC_BUILDERS[figure])(base, quick, poses)
-    if planners is not None:
-        unknown = sorted(set(planners) - set(PLANNERS))
-        if unknown or not planners:
-            raise InputError(f"unknown planner(s) {unknown} (expected some of: {', '.join(PLANNERS)})", field="planner")
-        tasks = tuple(task for task in tasks if task.planner in planners)
-        if not tasks:
-            raise InputError(f"{figure} has no tasks of {', '.join(planners)}", field="planner")
+    tasks = _only(figure, tasks, "planner", planners, PLANNERS)
+    tasks = _only(figure, tasks, "scene", scenes, sorted({task.scene for task in tasks}))
     if params:
         text = json.dumps(params, sort_keys=True)
         tasks = tuple(dataclasses.replace(task, params=text) for task in tasks)
         tasks[0].planner_config()  # names a bad parameter now, not in every worker
     assert len({task.task_id for task in tasks}) == len(tasks), "task ids must be distinct"
     return ExperimentSpec(name=figure, tasks=tasks, seed=seed, quick=quick)
+
+
+def _only(figure: str, tasks: tuple[Task, ...], field: str, wanted: tuple[str, ...] | None, known) -> tuple[Task, ...]:
+    """The tasks whose ``field`` is one of ``wanted`` (None: all of them).
+
+    Raises:
+        InputError: (``field``) a wanted value that is not one of ``known``, or none left.
+    """
+    if wanted is None:
+        return tasks
+    unknown = sorted(set(wanted) - set(known))
+    if unknown or not wanted:
+        raise InputError(f"unknown {field}(s) {unknown} (expected some of: {', '.join(known)})", field=field)
+    kept = tuple(task for task in tasks if getattr(task, field) in wanted)
+    if not kept:
+        raise InputError(f"{figure} has no tasks of {', '.join(wanted)}", field=field)
+    return kept
