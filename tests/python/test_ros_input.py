@@ -260,3 +260,20 @@ def test_a_plan_older_than_max_plan_age_is_made_again_before_it_is_executed(plan
     result, = planning.node.set_parameters([Parameter("max_plan_age", value=0.0)])
     assert not result.successful and "must be a number of seconds in (0, 3600]" in result.reason
     assert planning.parameter("max_plan_age") == 5.0
+
+
+def test_ros_time_standing_still_is_refused_saying_whether_the_joint_states_went_on(planning, monkeypatch):
+    """A simulator that stops publishing /clock is noticed within CLOCK_STALL_S of wall time (shortened
+    here), and the reason says who stopped: the clock messages alone, or the simulator."""
+    from slideplan.ros import serve
+
+    monkeypatch.setattr(serve, "CLOCK_STALL_S", 0.2)
+    _at(planning, 7.0)
+    planning._on_joints(_joints(planning, header=Header(stamp=Time(sec=9, nanosec=500_000_000))))
+    final = np.ones(7)  # far from where the arm is: only the stall can end the wait
+    with pytest.raises(Refused, match=r"stood still .* /joint_states went on 2.50 s of simulated time past it") as refused:
+        planning.wait_arrived(final, 7.0, 30.0, "slide")
+    assert refused.value.status == "slide"
+    planning._on_joints(_joints(planning, header=Header(stamp=Time(sec=6))))
+    with pytest.raises(Refused, match="stood still .* no newer /joint_states either"):
+        planning.wait_arrived(final, 7.0, 30.0, "slide")

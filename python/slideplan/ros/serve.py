@@ -35,7 +35,10 @@ from .task import Refused, Task, one_line, plan_task
 # a hundredth of a radian or two off it (the simulator's servos have no integral action); more is a block.
 STILL_RAD_S = 0.05
 GOAL_TOLERANCE_RAD = 0.05
-CLOCK_STALL_S = 5.0
+# With use_sim_time, ROS time that stands still this long (wall s) during a motion ends it: no /clock, or a
+# simulator stopped. 15 s, not less: a simulator sharing two loaded cores can pause for seconds (once, 5 s
+# in CI, at a slide's start; not reproduced in nine runs, two of the cores kept busy besides).
+CLOCK_STALL_S = 15.0
 # The node's ROS parameters (docs/ros2.md). max_sensor_age: ten frames of the simulator's 5 Hz camera, so
 # a few lost clouds do not refuse a plan, while a camera or arm driver that died is noticed within 2 s.
 # max_plan_age: a plan served by /slideplan/plan longer ago than this is made again before it is executed
@@ -87,6 +90,7 @@ class PlanningNode:
         self._lock = threading.Lock()
         self._cloud = None  # (stamp s, (h, w, 3) camera-frame points)
         self._joints = None  # (positions in robot_joints order, velocities)
+        self._joints_stamped = -math.inf  # the newest joint state's header stamp (s): says who stopped when ROS time stops
         self._cloud_arrived = threading.Condition()
         self.task: Task | None = None
         self._plane = None  # (camera_pose, the table plane seen from there): the table does not move
@@ -127,6 +131,7 @@ class PlanningNode:
             if state is not None:
                 with self._lock:
                     self._joints = state
+                    self._joints_stamped = message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
                     self.arrivals.mark("/joint_states")
 
     def joints(self) -> tuple[np.ndarray, np.ndarray] | None:
@@ -258,7 +263,7 @@ class PlanningNode:
                 ticked, ticked_at = self.now(), time.monotonic()
             elif time.monotonic() - ticked_at > CLOCK_STALL_S:
                 raise Refused(phase, f"ROS time stood still for {CLOCK_STALL_S:.0f} s during the {phase} (use_sim_time "
-                                     "is set: is the simulator publishing /clock?)")
+                                     f"is set: is the simulator publishing /clock?); {self._joint_stamps_since(ticked)}")
             elapsed = self.now() - started
             if during is not None and during(elapsed):
                 return
@@ -272,6 +277,13 @@ class PlanningNode:
             time.sleep(0.01)
         error = "no joint state" if self.joints() is None else f"{np.abs(self.joints()[0] - final).max():.3f} rad off"
         raise Refused(phase, f"the arm did not come to rest at the end of the {phase} within {deadline - started:.0f} s ({error})")
+
+    def _joint_stamps_since(self, ticked: float) -> str:
+        """Whether the joint states went on meanwhile: if so, the clock messages stopped reaching this
+        node; if not, the simulator stopped publishing altogether."""
+        ahead = self._joints_stamped - ticked
+        return (f"/joint_states went on {ahead:.2f} s of simulated time past it" if ahead > 0
+                else "no newer /joint_states either")
 
     def set_gripper(self, closed: bool) -> None:
         from std_srvs.srv import SetBool
