@@ -406,8 +406,8 @@ def build_spec(
     Raises:
         InputError: unknown figure (field ``figure``), a time limit that is not a positive
             finite number (``time_limit_s``), a bad seed (``seed``) or pose count (``poses``), an
-            unknown planner (``planner``) or a table the figure does not have (``scene``), an unknown set or one the figure does not have (``set``), a
-            seed given to the eval set (``seed``).
+            unknown planner (``planner``) or a table the figure does not have (``scene``), an unknown
+            set or one the figure does not have (``set``), a seed given to the eval set (``seed``).
     """
     if figure not in _SPEC_BUILDERS:
         raise InputError(f"unknown figure {figure!r} (expected one of: {', '.join(EXPERIMENTS)})", field="figure")
