@@ -606,6 +606,35 @@ def test_a_state_mujoco_resets_silently_is_named_as_the_cause():
     assert instability(data) == "MuJoCo's BADQPOS warning"
 
 
+def test_following_a_path_ends_on_a_state_mujoco_reset_within_a_few_steps():
+    # The runner reads MuJoCo's warnings every few steps, not every step: the counters only grow, so the
+    # run still ends on the reset, a few steps later, and not at the end of the path.
+    from types import SimpleNamespace
+
+    import mujoco
+
+    from slideplan.execute import ExecutionSettings
+    from slideplan.execute.runner import _CHECK_EVERY, Runner, Unstable
+
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body><joint name='j' type='slide'/><geom size='0.1'/></body></worldbody>"
+        "<actuator><position joint='j' kp='10'/></actuator></mujoco>")
+    data = mujoco.MjData(model)
+    built = SimpleNamespace(model=model, data=data, arm_actuators=np.array([0]))
+    runner = Runner(built, ExecutionSettings(), None)
+
+    def poison(elapsed, step):
+        if step == 3:
+            data.qpos[0] = 1e300
+        return False
+
+    with pytest.raises(Unstable, match="BADQPOS"):
+        runner.follow(np.zeros((2, 1)), np.array([0.0, 1.0]), on_step=poison)
+    assert data.warning[int(mujoco.mjtWarning.mjWARN_BADQPOS)].number >= 1
+    # Reset to time 0 at the fourth step, then stepped on until the next check.
+    assert data.time <= (_CHECK_EVERY + 1) * model.opt.timestep
+
+
 def test_a_mark_is_written_on_the_frames_that_follow_it_and_the_depth_cameras_quality_is_kept(tmp_path):
     import os
 

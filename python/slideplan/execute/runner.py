@@ -38,7 +38,7 @@ def instability(data) -> str:
     return "" if np.isfinite(data.qacc).all() else "non-finite accelerations"
 
 
-_FINITE_EVERY = 10  # steps between checks that the state is finite (MuJoCo's bad-acceleration warning is read every step)
+_CHECK_EVERY = 10  # steps between checks of MuJoCo's warnings and of the state's finiteness
 
 
 class Unstable(Exception):
@@ -103,30 +103,44 @@ class Runner:
         # no per-step interpolation in Python.
         count = max(int(math.ceil(end / model.opt.timestep)) + 2, 1)
         ahead = references(path, times, np.maximum(np.arange(count) * model.opt.timestep + self.lead, 0.0))
-        ctrl, actuators = data.ctrl, self.built.arm_actuators
+        actuators = self.built.arm_actuators
         first = int(actuators[0]) if len(actuators) else 0
         contiguous = np.array_equal(actuators, np.arange(first, first + len(actuators)))
+        # A view when the arm's actuators are contiguous: writing it sets data.ctrl without an index array.
+        ctrl = data.ctrl[first:first + len(actuators)] if contiguous else None
         warnings = data.warning.number  # a view: MuJoCo's warning counters, read without building structs
-        bad = [int(getattr(mujoco.mjtWarning, name)) for name in UNSTABLE_WARNINGS]
-        full = [int(mujoco.mjtWarning.mjWARN_CNSTRFULL), int(mujoco.mjtWarning.mjWARN_CONTACTFULL)]
+        watched = [int(getattr(mujoco.mjtWarning, name)) for name in UNSTABLE_WARNINGS] + [
+            int(mujoco.mjtWarning.mjWARN_CNSTRFULL), int(mujoco.mjtWarning.mjWARN_CONTACTFULL)]
+        mj_step, on_frame, last = mujoco.mj_step, self.on_frame, count - 1
         step = 0
         while data.time - start < end - 1e-9:
             elapsed = data.time - start
             if contiguous:
-                ctrl[first:first + len(actuators)] = ahead[min(step, count - 1)]
+                ctrl[:] = ahead[min(step, last)]
             else:
-                ctrl[actuators] = ahead[min(step, count - 1)]
+                data.ctrl[actuators] = ahead[min(step, last)]
             if on_step is not None and on_step(elapsed, step):
                 break
-            mujoco.mj_step(model, data)
+            mj_step(model, data)
             step += 1
-            if warnings[bad].any() or (step % _FINITE_EVERY == 0 and not np.isfinite(data.qacc).all()):
-                raise Unstable(f"simulation unstable ({instability(data)}) at t = {data.time:.3f} s")
-            if warnings[full[0]] or warnings[full[1]]:
-                raise Unstable(f"simulation out of contact memory at t = {data.time:.3f} s (contacts were dropped)")
-            if self.on_frame is not None:
-                self.on_frame()
+            # The counters only grow, so checking every few steps still ends the run on the first one
+            # (MuJoCo resets the state when it fires): the checks cost as much as a resting step.
+            if step % _CHECK_EVERY == 0:
+                self._check(warnings, watched)
+            if on_frame is not None:
+                on_frame()
+        self._check(warnings, watched)
         return float(data.time - start)
+
+    def _check(self, warnings: np.ndarray, watched: list[int]) -> None:
+        """Raise :class:`Unstable` if a watched warning counter (the unstable ones, then the full ones) is
+        set or the accelerations are not finite."""
+        data = self.built.data
+        counts = warnings[watched]
+        if counts[:len(UNSTABLE_WARNINGS)].any() or not np.isfinite(data.qacc).all():
+            raise Unstable(f"simulation unstable ({instability(data)}) at t = {data.time:.3f} s")
+        if counts.any():
+            raise Unstable(f"simulation out of contact memory at t = {data.time:.3f} s (contacts were dropped)")
 
     def commanded(self, path: np.ndarray, times: np.ndarray, elapsed: float) -> np.ndarray:
         """The joint reference the servos hold ``elapsed`` s into ``path``: where a new path must start
