@@ -245,6 +245,8 @@ def execution_values() -> dict[str, str]:
     default, paper = rows("execution.parquet", "execution"), rows("execution_paper.parquet", "execution")
     same_tasks = default[default["pose_index"].isin(paper["pose_index"].unique())]
     executed = _executed(default)
+    # One core's time for the whole sweep: planning and both executions of every task.
+    work = default[["planning_time_s", "nominal_wall_time_s", "stress_wall_time_s"]].fillna(0).sum(axis=1)
     values = {
         "execution-comparison": markdown(comparison({
             f"default, all {len(default)} tasks": default,
@@ -254,7 +256,10 @@ def execution_values() -> dict[str, str]:
         "execution-default-report": report(default, "default planner"),
         "execution-paper-report": report(paper, "physically aware options off"),
         "execution-solved": f"{int(_ok(default['solved']).sum())} of {len(default)} solved and verified",
-        "execution-wall": f"{executed['nominal_wall_time_s'].median():.0f} s",
+        "execution-wall": f"{executed['nominal_wall_time_s'].median():.1f} s",
+        "execution-work": f"{work.sum() / 60:.1f} min",
+        "execution-machine": ", ".join(sorted(set(default["cpu"].astype(str)))),
+        "execution-date": ", ".join(sorted(set(default["date"].astype(str).str[:10]))),
         "build-execution": build_of("execution.parquet"),
         "build-execution_paper": build_of("execution_paper.parquet"),
     }
