@@ -69,7 +69,7 @@ def main() -> None:
     lines = ["# Video benchmark: what a video costs a run (issue 52)",
              f"`benchmarks/video_bench.py --repeats {args.repeats}`, one process stepping (the render process and "
              "ffmpeg, encoding the MP4, are processes of their own), the variants interleaved; wall time from the "
-             f"call to the finished file. Frames: 640x480, 20 per simulated second, x264 preset "
+             f"call to the finished file. Frames: 640x480, {video.VIDEO_FPS} per simulated second, x264 preset "
              f"`{video_frames.X264_PRESET}`.", "",
              "| case | variant | wall median | min | max | against no video |", "|---|---|---|---|---|---|"]
     for case in cases:

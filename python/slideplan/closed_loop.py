@@ -62,7 +62,7 @@ from .errors import InputError
 from .execute.model import DEPTH_CAMERA, build_model
 from .execute.runner import SETTLE_S, Runner, Unstable, timing_options
 from .execute.settings import ExecutionSettings
-from .execute.video import Recorder, plan_points
+from .execute.video import VIDEO_FPS, Recorder, plan_points
 from .loop import SlideLoop, Stop
 from .motions import plan_times, rest_to_rest
 from .objects import ThinObject, load_object, load_outline, place_outline
@@ -268,7 +268,7 @@ def run(
     replan_time_limit: float = 1.0,
     end_replans: int = 3,
     video: str | Path | None = None,
-    video_fps: int = 20,
+    video_fps: int = VIDEO_FPS,
     progress=None,
     observe=None,
 ) -> ClosedLoopRun:

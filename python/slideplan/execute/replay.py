@@ -24,7 +24,7 @@ from .model import build_model
 from .report import Execution, path_features
 from .runner import SETTLE_S, Runner, Unstable, timing_options
 from .settings import ExecutionSettings
-from .video import Recorder, plan_points
+from .video import VIDEO_FPS, Recorder, plan_points
 
 _NO_FORCE_N = 0.1  # below this mean normal force the finger does not press at all
 
@@ -34,7 +34,7 @@ def execute(
     *,
     timing: dict[str, Any] | None = None,
     video: str | Path | None = None,
-    video_fps: int = 20,
+    video_fps: int = VIDEO_FPS,
     video_size: tuple[int, int] = (480, 640),
     progress: Callable[[float], None] | None = None,
 ) -> Execution:

@@ -14,6 +14,9 @@ from .video_frames import RenderProcess
 
 VIEW_HEADING_RAD = math.radians(30.0)  # the video's camera stands on the +x side of the table (a three-quarter view)...
 VIEW_ELEVATION_RAD = math.radians(30.0)  # ...and this far above the table's plane
+# Frames per simulated second: the render process must keep pace with the stepping (about 14x real time
+# here), and at 20 a video cost 1.5x the run without one (docs/benchmarks/video.md); the slide moves 3 mm a frame.
+VIDEO_FPS = 15
 
 
 def plan_points(result, robot) -> np.ndarray:
