@@ -51,6 +51,8 @@ FILES = {
     # would serve only a row that recorded none.
     "closed_loop_dev.parquet": ("a380440", "Intel(R) Xeon(R) Processor", "2026-12-06"),
     "closed_loop_eval.parquet": ("a380440", "Intel(R) Xeon(R) Processor", "2026-12-06"),
+    # benchmarks/hands_sweep.py's rows, recorded at run time from their first run (hands.md names them).
+    "hands.parquet": ("c07a69c", AMD, "2026-12-07"),
 }
 # File -> planner -> (build, cpu, date): rows a page dates more closely than the file as a whole.
 BY_PLANNER = {
