@@ -106,6 +106,7 @@ bench: install
 	$(PYTHON) benchmarks/tracking_bench.py
 	$(PYTHON) benchmarks/replan_bench.py
 	$(PYTHON) benchmarks/ros_bench.py
+	$(PYTHON) docs/results/make_tables.py  # the pages of rows a benchmark rewrote (hands_sweep.py's hands.parquet)
 
 clean:
 	rm -rf build out $(VENV)
