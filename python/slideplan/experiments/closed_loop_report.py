@@ -13,7 +13,7 @@ import pandas as pd
 from ..closed_loop_settings import SETTINGS
 from .stats import wilson_interval
 
-SETS = ("dev", "eval")
+SETS = ("dev", "eval", "eval2")  # eval: the former held-out set, spent, worked on as dev; eval2: held out
 STAGES = ("plan", "slide", "release", "grasp", "hold", "simulation")  # ClosedLoopRun.failed_stage
 STOPS = ("no_progress", "replan_cap", "time_cap")  # ClosedLoopRun.slide_stop, "+"-joined
 
@@ -95,7 +95,7 @@ def report(sets: dict[str, pd.DataFrame | None]) -> str:
     """The markdown of every set: its builds and the three tables, or that it has not been run yet.
 
     Args:
-        sets: ``{"dev": rows or None, "eval": rows or None}``, None (or empty) where no rows are committed.
+        sets: ``{set: rows or None}`` for each of :data:`SETS`, None (or empty) where no rows are committed.
     """
     sections = []
     for name in SETS:

@@ -22,6 +22,7 @@ from shapely.geometry import Polygon
 from ..errors import InputError
 from ..objects import ThinObject, load_outline, sample_pose_on_table
 from ..plan.config import PLANNERS, PlannerConfig
+from ..paths import held_out
 from ..scenes import Scene, load_scene
 
 FIGURES = ("fig10", "fig11", "fig12")
@@ -35,12 +36,17 @@ BASELINE_RANGE_M = 0.02
 N_STAR_VALUES = (1.0, 10.0, 100.0, 1000.0, 10000.0)  # Fig. 12, see fig12_spec
 PAPER_TIME_LIMIT_S = 60.0  # the paper's time budget (V-5)
 QUICK_OBJECTS = ("square", "crescent")  # an easy and a hard (non-convex) shape
-# The closed loop's task sets (issue 53): ``dev``, the execution experiment's Fig. 10 set, to find and fix
-# failures on; ``eval``, held out, run once on one build: objects, poses and seed the dev set never used.
-CLOSED_LOOP_SETS = {"dev": "closed-loop", "eval": "closed-loop-eval"}  # set -> the tasks' ``experiment``
+# The closed loop's task sets: ``dev``, the execution experiment's Fig. 10 set, to find and fix failures on;
+# ``eval``, the letters, once held out and run once, now spent and worked on like ``dev``; ``eval2``, held out,
+# defined before the work it judges and run once, on one build: objects, a table, poses and a seed that no
+# test, benchmark or tuning uses (its files lie in data/objects/eval2 and data/scenes/eval2).
+CLOSED_LOOP_SETS = {"dev": "closed-loop", "eval": "closed-loop-eval", "eval2": "closed-loop-eval2"}  # set -> experiment
 EVAL_OBJECTS = ("Y", "A", "L", "E")
 EVAL_POSES = 5
 EVAL_SEED = 53  # the eval set's experiment seed (the dev set's is the run's --seed, 0 for every committed row)
+EVAL2_POSES = 5
+EVAL2_SEED = 6607  # eval2's experiment seed: no other set or committed run uses it
+FIXED_SEEDS = {"eval": EVAL_SEED, "eval2": EVAL2_SEED}
 QUICK_POSES = 2
 QUICK_TIME_LIMIT_S = 5.0
 
@@ -351,8 +357,26 @@ def closed_loop_eval_spec(base: PlannerConfig, quick: bool, poses: int | None) -
     )
 
 
+def closed_loop_eval2_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
+    """The closed loop's held-out ``eval2`` set: every object of ``data/objects/eval2`` on the four paper
+    tables and every table of ``data/scenes/eval2``, 5 poses each (8 objects x 5 tables x 5 poses = 200
+    tasks), the hand's band, poses and planner seeds from ``base.seed`` (:data:`EVAL2_SEED`).
+
+    Args:
+        base: supplies the seed, the time limit and ``dz_min``.
+        quick: 2 objects x 2 poses per table instead (20 tasks).
+        poses: poses per cell instead of 5 (None: 5, or the quick count).
+    """
+    objects = tuple(held_out("objects", "eval2"))
+    return _tasks(
+        CLOSED_LOOP_SETS["eval2"], scenes=TABLES + tuple(held_out("scenes", "eval2")),
+        objects=objects[:2] if quick else objects, scales=(1.0,), poses=_pose_count(poses, quick, EVAL2_POSES),
+        settings=(_Setting(),), base=base, hand_band=True,
+    )
+
+
 def task_set(task: Task) -> str:
-    """The closed-loop set (``"dev"`` or ``"eval"``) a task belongs to, from its ``experiment``; "" for
+    """The closed-loop set (``"dev"``, ``"eval"`` or ``"eval2"``) a task belongs to, from its ``experiment``; "" for
     a task of another experiment."""
     return next((name for name, experiment in CLOSED_LOOP_SETS.items() if task.experiment == experiment), "")
 
@@ -396,9 +420,10 @@ def build_spec(
         scenes: only the tasks on these tables (scene names; None: all): a long figure rerun one
             table at a time, each part resuming into the same output; the task ids are the whole
             figure's.
-        task_set: the closed loop's ``"dev"`` set (every other figure's only set) or its held-out
-            ``"eval"`` set (:func:`closed_loop_eval_spec`; its experiment seed is :data:`EVAL_SEED`, so
-            ``seed`` must stay 0).
+        task_set: the closed loop's ``"dev"`` set (every other figure's only set), its former held-out
+            ``"eval"`` set (:func:`closed_loop_eval_spec`) or its held-out ``"eval2"`` set
+            (:func:`closed_loop_eval2_spec`); the last two have fixed experiment seeds
+            (:data:`FIXED_SEEDS`), so ``seed`` must stay 0.
 
     Returns:
         The spec.
@@ -412,18 +437,20 @@ def build_spec(
     if figure not in _SPEC_BUILDERS:
         raise InputError(f"unknown figure {figure!r} (expected one of: {', '.join(EXPERIMENTS)})", field="figure")
     if task_set not in CLOSED_LOOP_SETS or (task_set != "dev" and figure != "closed-loop"):
-        raise InputError(f"expected {' or '.join(CLOSED_LOOP_SETS)} (eval for closed-loop only), got {task_set!r}",
-                         field="set")
-    if task_set == "eval":
+        raise InputError(f"expected one of {', '.join(CLOSED_LOOP_SETS)} (all but dev for closed-loop only), "
+                         f"got {task_set!r}", field="set")
+    if task_set in FIXED_SEEDS:
         if seed != 0:
-            raise InputError(f"the eval set's experiment seed is fixed ({EVAL_SEED}), got {seed!r}", field="seed")
-        seed = EVAL_SEED
+            raise InputError(f"the {task_set} set's experiment seed is fixed ({FIXED_SEEDS[task_set]}), got {seed!r}",
+                             field="seed")
+        seed = FIXED_SEEDS[task_set]
     if time_limit_s is None:
         time_limit_s = QUICK_TIME_LIMIT_S if quick else PAPER_TIME_LIMIT_S
     base = PlannerConfig(seed=seed, time_limit_s=time_limit_s, preset=preset).resolved()  # validates them, naming the field
     if poses is not None and (isinstance(poses, bool) or not isinstance(poses, int) or poses < 1):
         raise InputError(f"must be a whole number >= 1, got {poses!r}", field="poses")
-    tasks = (closed_loop_eval_spec if task_set == "eval" else _SPEC_BUILDERS[figure])(base, quick, poses)
+    builder = {"eval": closed_loop_eval_spec, "eval2": closed_loop_eval2_spec}.get(task_set, _SPEC_BUILDERS[figure])
+    tasks = builder(base, quick, poses)
     tasks = _only(figure, tasks, "planner", planners, PLANNERS)
     tasks = _only(figure, tasks, "scene", scenes, sorted({task.scene for task in tasks}))
     if params:
