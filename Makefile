@@ -10,7 +10,7 @@ APT_PACKAGES := g++ cmake ninja-build python3-dev python3-venv libeigen3-dev lib
 # chromium: the 3D view's browser test; the last three: Mesa's software EGL, for MuJoCo's headless renderer.
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps install install-lerobot test test-cpp test-python test-physics test-sanitize fuzz demo view bench clean
+.PHONY: all deps install install-lerobot test test-cpp test-python test-physics test-lerobot test-sanitize fuzz demo view bench clean
 
 all: install
 
@@ -49,20 +49,26 @@ test-cpp: install
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2
 
 test-python: install
-	$(PYTHON) -m pytest -q -m "not physics" tests/python
+	$(PYTHON) -m pytest -q -m "not physics and not lerobot" tests/python
 
 # The C++ tests and every Python test but the whole MuJoCo episodes, timed (set-up excluded).
 test: install
 	@start=$$(date +%s); \
-	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2 && $(PYTHON) -m pytest -q -m "not physics" tests/python; \
+	ctest --test-dir $(BUILD_DIR) --output-on-failure -j2 && $(PYTHON) -m pytest -q -m "not physics and not lerobot" tests/python; \
 	status=$$?; echo "make test: $$(( $$(date +%s) - start )) s (set-up excluded)"; exit $$status
 
-# The whole MuJoCo episodes (tests marked physics): executions, closed-loop runs, the calibrated facts,
-# the demonstrations (with the lerobot extra).
-test-physics: install-lerobot
+# The whole MuJoCo episodes (tests marked physics): executions, closed-loop runs, the calibrated facts.
+test-physics: install
 	@start=$$(date +%s); \
-	$(PYTHON) -m pytest -q -m physics tests/python; \
+	$(PYTHON) -m pytest -q -m "physics and not lerobot" tests/python; \
 	status=$$?; echo "make test-physics: $$(( $$(date +%s) - start )) s (set-up excluded)"; exit $$status
+
+# The tests that write or load LeRobot datasets (marked lerobot), whole generations included: the lerobot
+# extra (torch, several GB the first time) is installed for them alone.
+test-lerobot: install-lerobot
+	@start=$$(date +%s); \
+	$(PYTHON) -m pytest -q -m lerobot tests/python; \
+	status=$$?; echo "make test-lerobot: $$(( $$(date +%s) - start )) s (set-up excluded)"; exit $$status
 
 # The core and the C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (no Python module:
 # the sanitizer runtimes would have to be preloaded into Python).
@@ -84,7 +90,7 @@ view: demo
 	$(VENV)/bin/slideplan view out/demo-plan.json
 
 bench: install
-	$(BUILD_DIR)/bench_core "$$($(PYTHON) -c 'import slideplan.scenes as s; print(":".join(map(str, s.package_search_dirs())))')"
+	$(BUILD_DIR)/bench_core "$$($(PYTHON) -c 'import slideplan.world.scenes as s; print(":".join(map(str, s.package_search_dirs())))')"
 	$(PYTHON) benchmarks/plan_bench.py --time-limit 10 --scenes square round triangle long --dense \
 	  --variants "slideplan dz*=2cm" "slideplan dz*=2cm, grasp map cold" "slideplan dz*=2cm, paired goals off" \
 	  "Algorithm 1 as published"

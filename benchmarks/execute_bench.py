@@ -51,8 +51,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs/benchmarks/execution.md")
     parser.add_argument("--rows", type=Path, default=execute_fidelity.DEFAULT_OUT)
     args = parser.parse_args()
-    from slideplan.closed_loop import run
-    from slideplan.execute import contacts, execute
+    from slideplan.sim.closed_loop import run
+    from slideplan.sim import contacts, execute
 
     started = time.perf_counter()
     execute_fidelity.run(argparse.Namespace(start=args.start, stride=args.stride, count=args.count, out=args.rows,

@@ -35,12 +35,12 @@ POSITION_M, YAW_DEG, POSE_SHARE, LIFTED_SHARE = 0.003, 2.0, 0.95, 0.98
 
 
 def run(args) -> None:
-    from slideplan.execute import ExecutionSettings, contacts, execute
+    from slideplan.sim import ExecutionSettings, contacts, execute
     from slideplan.experiments import build_spec
     from slideplan.experiments.tasks import cached_scene
     from slideplan.plan.planner import plan
     from slideplan.provenance import run_provenance
-    from slideplan.verify import verify
+    from slideplan.checks.verify import verify
 
     tasks = build_spec("execution").tasks[args.start::args.stride][: args.count]
     tree = tree_commit()
@@ -86,8 +86,8 @@ def run(args) -> None:
 
 def closed(args) -> None:
     """Closed-loop runs (``closed_loop.run``, the nominal and hard settings) of the same tasks with each model."""
-    from slideplan.closed_loop import run as run_closed
-    from slideplan.execute import contacts
+    from slideplan.sim.closed_loop import run as run_closed
+    from slideplan.sim import contacts
     from slideplan.experiments import build_spec
     from slideplan.provenance import run_provenance
 

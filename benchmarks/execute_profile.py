@@ -24,15 +24,15 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-import slideplan.closed_loop as closed_loop  # noqa: E402
-import slideplan.execute.replay as replay  # noqa: E402
-import slideplan.loop as loop  # noqa: E402
-import slideplan.watch as watch  # noqa: E402
+import slideplan.sim.closed_loop as closed_loop  # noqa: E402
+import slideplan.sim.replay as replay  # noqa: E402
+import slideplan.loop.decisions as loop  # noqa: E402
+import slideplan.loop.watch as watch  # noqa: E402
 from slideplan import PlannerConfig, load_scene, plan  # noqa: E402
-from slideplan.execute import contacts  # noqa: E402
-from slideplan.execute import runner as runner_module  # noqa: E402
-from slideplan.objects import load_object, load_outline, sample_pose_on_table  # noqa: E402
-from slideplan.tracking import Tracker  # noqa: E402
+from slideplan.sim import contacts
+from slideplan.sim import runner as runner_module
+from slideplan.world.objects import load_object, load_outline, sample_pose_on_table  # noqa: E402
+from slideplan.perception.tracking import Tracker  # noqa: E402
 
 def demo_pose():
     """The pose ``slideplan demo`` puts the crescent at on the square table (seed 0)."""
@@ -195,7 +195,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--closed-loop", action=argparse.BooleanOptionalAction, default=True)
     parser.add_argument("--task", type=int, default=None, help="profile this task of the execution set instead of the demo")
-    parser.add_argument("--model", choices=("current", "legacy"), default="current", help="the contact model (slideplan.execute.contacts)")
+    parser.add_argument("--model", choices=("current", "legacy"), default="current", help="the contact model (slideplan.sim.contacts)")
     args = parser.parse_args()
     contacts.ACTIVE[0] = contacts.LEGACY if args.model == "legacy" else contacts.CURRENT
     if args.task is None:

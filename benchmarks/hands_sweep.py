@@ -23,9 +23,9 @@ import pyarrow.parquet as pq
 
 from slideplan import PlannerConfig, load_scene, plan
 from slideplan.errors import SlideplanWarning
-from slideplan.execute import execute
+from slideplan.sim import execute
 from slideplan.experiments.results import PROVENANCE_FIELDS
-from slideplan.objects import load_object, load_outline, sample_pose_on_table
+from slideplan.world.objects import load_object, load_outline, sample_pose_on_table
 from slideplan.provenance import run_provenance
 
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")

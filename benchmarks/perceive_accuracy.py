@@ -4,7 +4,7 @@ For each noise level, renders random scenes with MuJoCo (one of the four bundled
 three objects without rotational symmetry at random non-touching poses, a box of clutter;
 320 x 240 depth images, 5 % dropouts), perceives them and measures against the ground truth:
 table height error, outline Hausdorff distance, and per object the centroid and yaw error
-of the known outline registered to the perceived points (slideplan.registration.register_outline)
+of the known outline registered to the perceived points (slideplan.perception.registration.register_outline)
 and the thickness error. Prints a Markdown table (median and worst case per level) under a line naming
 the build, the CPU and the date, and draws
 docs/figures/perception.png (scene cloud, what was found, a plan from it).
@@ -25,10 +25,10 @@ from matplotlib.patches import Polygon as PolygonPatch
 
 from plan_bench import provenance_line  # benchmarks/ is the script's directory, hence on sys.path
 from slideplan import InputError, PlannerConfig, load_scene, plan
-from slideplan.objects import ThinObject, load_outline, place_outline, sample_pose_on_table
-from slideplan.perception import perceive
-from slideplan.registration import register_outline
-from slideplan.rendering import Box, PlacedObject, render_scene
+from slideplan.world.objects import ThinObject, load_outline, place_outline, sample_pose_on_table
+from slideplan.perception.tabletop import perceive
+from slideplan.perception.registration import register_outline
+from slideplan.sim.rendering import Box, PlacedObject, render_scene
 
 
 NOISE_AT_1M = (0.0, 0.001, 0.002, 0.004, 0.006)  # m; the table is ~0.76 m from the camera: 0.58 x these

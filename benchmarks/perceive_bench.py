@@ -19,8 +19,8 @@ import numpy as np
 
 from plan_bench import write_report  # benchmarks/ is the script's directory, hence on sys.path
 from slideplan import load_scene
-from slideplan.camera import Camera
-from slideplan.rendering import Box, place_objects, render_scene
+from slideplan.perception.camera import Camera
+from slideplan.sim.rendering import Box, place_objects, render_scene
 
 SCENES = {  # table -> objects (name, (x, y, yaw)) and a clutter box on the table
     "square": ([("L", (0.42, -0.08, 0.4)), ("crescent", (0.55, 0.09, -1.0)), ("E", (0.58, -0.10, 2.0))],
@@ -50,7 +50,7 @@ def main() -> None:
     args = parser.parse_args()
 
     clouds = {name: scene_cloud(name, seed) for seed, name in enumerate(SCENES)}
-    from slideplan.perception import perceive  # imported here so the first call pays for scikit-learn and SciPy
+    from slideplan.perception.tabletop import perceive  # imported here so the first call pays for scikit-learn and SciPy
 
     start = time.perf_counter()
     perceive(clouds["square"])

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from slideplan import PlannerConfig, load_object, load_scene, plan
-from slideplan.objects import load_outline, sample_pose_on_table
+from slideplan.world.objects import load_outline, sample_pose_on_table
 from slideplan.plan.planner import clear_grasp_map_cache
 from slideplan.provenance import run_provenance
 
@@ -119,7 +119,7 @@ def run_dense(job: tuple[int, int, float]) -> tuple[float, float]:
     table at seeded pose `pose_index`; returns (planning seconds, plan() wall seconds), inf if unsolved."""
     import shapely
 
-    from slideplan.objects import ThinObject, place_outline
+    from slideplan.world.objects import ThinObject, place_outline
 
     points, pose_index, time_limit = job
     scene = load_scene("square")
@@ -218,7 +218,7 @@ def main() -> None:
         f"{args.workers} run(s) at a time. Scenes "
         f"{', '.join(args.scenes)}; objects {', '.join(OBJECTS)}, {args.poses} seeded poses each "
         f"({len(OBJECTS) * args.poses} runs per scene and variant), budget {args.time_limit:g} s per run. "
-        "Unsolved runs count as infinite time. Every solved plan of these scenes passes `slideplan.verify` "
+        "Unsolved runs count as infinite time. Every solved plan of these scenes passes `slideplan.checks.verify` "
         "in the tests; this script times planning only. The runs of a worker process share the grasp map of a "
         "table and object thickness, as a program planning many objects does; \"grasp map cold\" empties it "
         "before every run, as a single `slideplan plan` starts.",

@@ -25,10 +25,10 @@ import numpy as np
 
 from plan_bench import write_report  # benchmarks/ is the script's directory, hence on sys.path
 from slideplan import InputError, PlannerConfig, load_object, load_scene, plan, verify
-from slideplan.objects import load_outline, sample_pose_on_table
-from slideplan.camera import Camera
-from slideplan.rendering import Box, PlacedObject, depth_image, noisy_depth, scene_spec
-from slideplan.tracking import Tracker
+from slideplan.world.objects import load_outline, sample_pose_on_table
+from slideplan.perception.camera import Camera
+from slideplan.sim.rendering import Box, PlacedObject, depth_image, noisy_depth, scene_spec
+from slideplan.perception.tracking import Tracker
 from slideplan.transforms import rotation_2d, row_to_pose
 from slideplan.transforms import planar_motion
 

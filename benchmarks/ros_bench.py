@@ -50,10 +50,10 @@ def main() -> None:
     from std_srvs.srv import SetBool, Trigger
     from trajectory_msgs.msg import JointTrajectory
 
-    from slideplan.closed_loop import default_camera
+    from slideplan.sim.closed_loop import default_camera
     from slideplan.ros.messages import cloud_message
     from slideplan.ros.sim import Sim, camera_pose_of
-    from slideplan.scenes import load_scene
+    from slideplan.world.scenes import load_scene
 
     scene = load_scene("square")
     sim = Sim(scene, "crescent", (0.55, -0.08, 0.4))

@@ -18,7 +18,7 @@ import numpy as np
 from plan_bench import OBJECTS, write_report
 
 from slideplan import PlannerConfig, load_object, load_scene, plan
-from slideplan.objects import load_outline, sample_pose_on_table
+from slideplan.world.objects import load_outline, sample_pose_on_table
 
 SETTINGS = (("1 thread", ThreadPoolExecutor, 1), ("2 threads", ThreadPoolExecutor, 2), ("2 processes", ProcessPoolExecutor, 2))
 

@@ -1,4 +1,4 @@
-"""Time-parameterization benchmark: the C++ TOPP-RA (`slideplan.timing.parameterize`) against the Python
+"""Time-parameterization benchmark: the C++ TOPP-RA (`slideplan.plan.timing.parameterize`) against the Python
 toppra it replaced (tests/python/toppra_reference.py), on the plans of Fig. 10.
 
 Plans the Fig. 10 tasks (4 tables x 5 objects x 2 scales x N poses, the hand's parameters), then times
@@ -26,7 +26,7 @@ from plan_bench import write_report  # same directory: python puts it on sys.pat
 
 from slideplan import InputError, load_scene, plan
 from slideplan.experiments.tasks import build_spec
-from slideplan.timing import NEAR_TABLE_M, parameterize, resolve_limits
+from slideplan.plan.timing import NEAR_TABLE_M, parameterize, resolve_limits
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests/python"))
 import toppra_reference  # noqa: E402  (needs toppra: the test extra)
@@ -84,7 +84,7 @@ def first_call_seconds(result) -> float:
         code = (
             "import sys, time; from slideplan.plan.result import PlanResult; "
             "r = PlanResult.from_json(open(sys.argv[1]).read()); s = time.perf_counter(); "
-            "from slideplan.timing import parameterize; parameterize(r); print(time.perf_counter() - s)"
+            "from slideplan.plan.timing import parameterize; parameterize(r); print(time.perf_counter() - s)"
         )
         done = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, check=True)
     return float(done.stdout.split()[-1])

@@ -1,4 +1,4 @@
-"""Tracking benchmark (issue 24 item 1): pose error and time per frame of ``slideplan.tracking``.
+"""Tracking benchmark (issue 24 item 1): pose error and time per frame of ``slideplan.perception.tracking``.
 
 Rendered 320 x 240 depth frames of the square table (MuJoCo, 2 mm depth noise at 1 m, 5 % dropouts,
 the camera 0.75 m above the table) with a box 6 cm above the object standing in for the hand and
@@ -10,7 +10,7 @@ finger (it hides about a third of the object). Two regimes, each object at seede
 - ``arm``: the closed loop's own view: frames of the execution model (arm, hand and finger over the
   object, the closed loop's camera) at 8 waypoints along a real plan for each object at seeded poses,
   the object where Eq. 2 puts it there, tracked from a guess off by up to 5 mm and 2 degrees with the
-  fingertip as the contact (as ``slideplan.closed_loop`` does). Frames where the arm hides the object
+  fingertip as the contact (as ``slideplan.sim.closed_loop`` does). Frames where the arm hides the object
   count as lost: the closed loop then goes on with Eq. 2.
 
 Prints and writes (docs/benchmarks/tracking.md) the median and p95 of the centre-of-mass error, the
@@ -32,9 +32,9 @@ import numpy as np
 
 from plan_bench import write_report  # benchmarks/ is the script's directory, hence on sys.path
 from slideplan import load_object, load_scene
-from slideplan.camera import Camera
-from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_spec
-from slideplan.tracking import Tracker
+from slideplan.perception.camera import Camera
+from slideplan.sim.rendering import Box, depth_image, noisy_depth, place_objects, scene_spec
+from slideplan.perception.tracking import Tracker
 from slideplan.transforms import wrap_angle
 
 OBJECTS = ("crescent", "L", "E", "triangle", "irregular")
@@ -68,11 +68,11 @@ def arm_frames(rng, poses: int):
     import mujoco
 
     from slideplan import PlannerConfig, plan
-    from slideplan.closed_loop import default_camera
-    from slideplan.execute import ExecutionSettings
-    from slideplan.execute.model import DEPTH_CAMERA, build_model
-    from slideplan.objects import load_outline, sample_pose_on_table
-    from slideplan.rendering import camera_depth
+    from slideplan.sim.closed_loop import default_camera
+    from slideplan.sim import ExecutionSettings
+    from slideplan.sim.model import DEPTH_CAMERA, build_model
+    from slideplan.world.objects import load_outline, sample_pose_on_table
+    from slideplan.sim.rendering import camera_depth
     from slideplan.transforms import row_to_pose
     from slideplan.transforms import planar_motion
 

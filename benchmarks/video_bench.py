@@ -1,7 +1,7 @@
 """Video benchmark (issue 52: a run with its video costs at most 1.5x the run without): the wall time of
 the demo plan's ``execute`` and of the README's pushed closed-loop ``run``, each without a video, with its
-frames rendered and encoded in the stepping process (:class:`slideplan.execute.video_frames.FrameWriter`, as
-before the render process) and with today's render process (:class:`~slideplan.execute.video_frames.RenderProcess`),
+frames rendered and encoded in the stepping process (:class:`slideplan.sim.video_frames.FrameWriter`, as
+before the render process) and with today's render process (:class:`~slideplan.sim.video_frames.RenderProcess`),
 all in one process, the variants interleaved, from the call to the finished file.
 
     python benchmarks/video_bench.py [--repeats 5] [--out docs/benchmarks/video.md]
@@ -35,9 +35,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs/benchmarks/video.md")
     args = parser.parse_args()
-    from slideplan import closed_loop
-    from slideplan.closed_loop_settings import Disturbance
-    from slideplan.execute import execute, replay, video, video_frames
+    from slideplan.sim import closed_loop
+    from slideplan.sim.conditions import Disturbance
+    from slideplan.sim import execute, replay, video, video_frames
 
     today = video.Recorder
     before = functools.partialmethod(today.__init__, frames=video_frames.FrameWriter)

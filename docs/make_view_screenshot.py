@@ -17,8 +17,8 @@ from playwright.sync_api import sync_playwright
 from slideplan.cli.common import _load_object
 from slideplan.plan.config import PlannerConfig
 from slideplan.plan.planner import plan
-from slideplan.scenes import load_scene
-from slideplan.view import open_view
+from slideplan.world.scenes import load_scene
+from slideplan.outputs.view3d import open_view
 
 RENDER_WAIT_MS = 12000  # software WebGL needs this long for the first frame of the full scene
 

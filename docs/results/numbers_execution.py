@@ -298,7 +298,7 @@ def replanned_tables(results: pd.DataFrame) -> str:
     with the build that made the rows (:func:`numbers_common.build_of`)."""
     import shapely
 
-    from slideplan.execute import cloud_footprint
+    from slideplan.sim import cloud_footprint
     from slideplan.experiments.tasks import Task, cached_scene
     from slideplan.plan.planner import plan
 

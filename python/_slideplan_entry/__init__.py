@@ -4,7 +4,7 @@ a run does (exit 130, one line), not with a traceback. Nothing else belongs here
 
 import sys
 
-EXIT_INTERRUPTED = 130  # as slideplan.cli.common's: 128 + SIGINT
+EXIT_INTERRUPTED = 130  # slideplan.cli.common's, copied: a Ctrl-C may stop that import (test_interrupt checks)
 
 
 def main() -> None:

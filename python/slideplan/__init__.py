@@ -13,24 +13,39 @@ Typical use::
 
 Set the environment variable ``SLIDEPLAN_OMPL_LOG`` to keep OMPL's own log level
 (otherwise OMPL prints warnings and errors only).
+
+The packages are the layers, each importing only those before it: the foundation (this folder's
+modules), :mod:`~slideplan.world`, :mod:`~slideplan.plan`, :mod:`~slideplan.checks`,
+:mod:`~slideplan.perception`, :mod:`~slideplan.outputs`, :mod:`~slideplan.loop`, :mod:`~slideplan.sim`,
+:mod:`~slideplan.experiments`, :mod:`~slideplan.demos`, :mod:`~slideplan.ros`, :mod:`~slideplan.cli`
+(docs/design.md). Importing this package loads the planner, not the perception or the verifier:
+``perceive`` and ``verify`` load theirs when first used.
 """
 
 import os
 
-from . import _core
+from . import _core, _moved
 from .errors import InputError
-from .geometry import SupportSurface
-from .objects import ThinObject, load_object
-from .perception import Perception, perceive
 from .plan.config import PlannerConfig
-from .plan.result import PlanResult
 from .plan.planner import plan
+from .plan.result import PlanResult
 from .provenance import build_info
-from .scenes import Scene, load_scene
-from .verify import Verification, verify
+from .world.geometry import SupportSurface
+from .world.objects import ThinObject, load_object
+from .world.scenes import Scene, load_scene
+
+_moved.install()
+_ON_FIRST_USE = {"Perception": "slideplan.perception.tabletop", "perceive": "slideplan.perception.tabletop",
+                 "Verification": "slideplan.checks.verify", "verify": "slideplan.checks.verify"}
 
 
 def __getattr__(name: str):
+    if name in _ON_FIRST_USE:
+        from importlib import import_module
+
+        value = getattr(import_module(_ON_FIRST_USE[name]), name)
+        globals()[name] = value  # once: later lookups find it here
+        return value
     # __version__ on demand: importlib.metadata costs every CLI call 40-80 ms to import.
     if name == "__version__":
         from importlib.metadata import PackageNotFoundError, version

@@ -5,7 +5,7 @@ from scipy.spatial import Delaunay, QhullError, cKDTree
 
 
 def area_centroid_reference(xy) -> np.ndarray:
-    """Area centroid of the alpha shape of (N, 2) points (see slideplan.geometry.area_centroid)."""
+    """Area centroid of the alpha shape of (N, 2) points (see slideplan.world.geometry.area_centroid)."""
     points = np.asarray(xy, dtype=float)
     if len(points) > 20_000:
         _, first = np.unique(np.floor(points / 1e-3).astype(np.int64), axis=0, return_index=True)

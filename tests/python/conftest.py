@@ -4,10 +4,10 @@ import os
 
 import pytest
 
-from slideplan.objects import load_object
+from slideplan.world.objects import load_object
 from slideplan.plan.config import PlannerConfig
 from slideplan.plan.planner import plan
-from slideplan.scenes import load_scene
+from slideplan.world.scenes import load_scene
 
 
 @pytest.fixture(scope="session", autouse=True)

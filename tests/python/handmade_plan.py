@@ -16,11 +16,11 @@ import math
 import numpy as np
 
 from slideplan import _core
-from slideplan.geometry import area_centroid
+from slideplan.world.geometry import area_centroid
 from slideplan.plan.config import PlannerConfig
 from slideplan.plan.robot import robot_description, robot_model
 from slideplan.plan.result import PlanResult
-from slideplan.scenes import load_scene
+from slideplan.world.scenes import load_scene
 from slideplan.transforms import pose_to_row
 
 STEP_M = 0.0025  # close enough to the density bounds that skipping a waypoint breaks them

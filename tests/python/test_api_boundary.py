@@ -4,15 +4,15 @@ of 66 wrong-type calls raised AttributeError, TypeError or IndexError from deep 
 import numpy as np
 import pytest
 
-from slideplan.closed_loop import run
+from slideplan.sim.closed_loop import run
 from slideplan.errors import InputError
-from slideplan.execute import execute
-from slideplan.objects import ThinObject, load_object
+from slideplan.sim import execute
+from slideplan.world.objects import ThinObject, load_object
 from slideplan.plan.config import PlannerConfig
 from slideplan.plan.result import PlanResult
 from slideplan.plan.planner import plan
-from slideplan.scenes import load_scene
-from slideplan.verify import verify
+from slideplan.world.scenes import load_scene
+from slideplan.checks.verify import verify
 
 SCENE = load_scene("square")
 OBJECT = load_object("crescent", table_height=SCENE.table.height, pose=(0.55, -0.08, 0.4))

@@ -16,10 +16,10 @@ from slideplan._fields import as_numbers
 from slideplan._limits import MAX_MAGNITUDE, MAX_PLAN_BYTES, MAX_ROBOT_FILE_BYTES, MAX_SCENE_MAGNITUDE, MAX_WAYPOINTS
 from slideplan.cli import app
 from slideplan.errors import InputError
-from slideplan.execute.settings import ExecutionSettings
+from slideplan.sim.settings import ExecutionSettings
 from slideplan.plan.config import PlannerConfig
 from slideplan.plan.result import PlanResult
-from slideplan.scenes import load_scene
+from slideplan.world.scenes import load_scene
 
 TABLE = "[table]\npolygon = [[0.4, -0.3], [0.8, -0.3], [0.8, 0.3], [0.4, 0.3]]\n"
 HAND = '[hand]\ntip_link = "tip"\ngrasp_link = "tip"\ncontact_links = ["tip"]\n'

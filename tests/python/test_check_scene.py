@@ -7,7 +7,7 @@ from pathlib import Path
 from typer.testing import CliRunner
 
 from slideplan.cli import app
-from slideplan.scenes import load_scene
+from slideplan.world.scenes import load_scene
 
 runner = CliRunner()
 
@@ -87,8 +87,8 @@ def test_links_left_unchecked_for_always_touching_are_named(tmp_path):
 
 
 def test_the_map_matches_the_report_and_is_drawn(tmp_path):
-    from slideplan.check_scene import check_scene
-    from slideplan.objects import load_object
+    from slideplan.checks.scene import check_scene
+    from slideplan.world.objects import load_object
 
     scene = load_scene("square")
     result = check_scene(scene, load_object("square", table_height=scene.table.height, pose=(0.55, 0.0, 0.0)))
@@ -120,7 +120,7 @@ def test_a_round_table_is_summarised_by_ranges_of_edges_covering_each_edge_once(
 
 
 def test_a_grasp_blocked_by_the_arm_itself_is_not_told_to_change_the_standoff():
-    from slideplan.check_scene import _grasp_advice
+    from slideplan.checks.scene import _grasp_advice
     from slideplan.plan.robot import robot_model
     robot = robot_model(load_scene("square"))
     assert "grasp_standoff" not in _grasp_advice(robot, "grasp in collision (wam_link1-wam_link3)")

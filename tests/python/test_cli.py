@@ -160,7 +160,7 @@ def test_a_time_limit_spent_setting_up_says_so(planned):
 
 
 def test_ctrl_c_exits_130_with_one_line(monkeypatch):
-    from slideplan import pipeline
+    from slideplan.checks import pipeline
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
@@ -175,7 +175,7 @@ def test_a_run_whose_camera_lost_the_object_says_so_and_how_to_move_it(monkeypat
     # On a new arm 58 of 70 looks lost the object and the console said only "ok ... 1 re-plans".
     from types import SimpleNamespace
 
-    import slideplan.closed_loop
+    import slideplan.sim.closed_loop
 
     cameras = []
 
@@ -183,7 +183,7 @@ def test_a_run_whose_camera_lost_the_object_says_so_and_how_to_move_it(monkeypat
         cameras.append(camera)
         return SimpleNamespace(summary=lambda: "ok (closed loop, nominal)", success=True, looks=70, lost_looks=58)
 
-    monkeypatch.setattr(slideplan.closed_loop, "run", fake_run)
+    monkeypatch.setattr(slideplan.sim.closed_loop, "run", fake_run)
     result = run("run", "--pose", "0.55", "-0.08", "0.4", "--camera", "0.5", "0.3", "0.8", "0.6", "0", "0")
     assert result.exit_code == 0, result.output + result.stderr
     assert "did not see the object in 58 of 70 looks" in result.stderr

@@ -1,5 +1,5 @@
-"""The closed loop (its decisions, slideplan.loop and slideplan.watch; its MuJoCo harness,
-slideplan.closed_loop; and ``slideplan run``): tracking with the arm in view, recovery from a disturbance
+"""The closed loop (its decisions, slideplan.loop.decisions and slideplan.loop.watch; its MuJoCo harness,
+slideplan.sim.closed_loop; and ``slideplan run``): tracking with the arm in view, recovery from a disturbance
 that the open loop cannot recover from, determinism, bad input."""
 
 import math
@@ -12,14 +12,14 @@ from typer.testing import CliRunner
 
 from slideplan import InputError, PlannerConfig, load_scene, plan
 from slideplan.cli import app
-from slideplan.closed_loop import default_camera, run
-from slideplan.closed_loop_settings import Disturbance
-from slideplan.objects import load_object
-from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_spec
-from slideplan.tracking import Tracker
+from slideplan.sim.closed_loop import default_camera, run
+from slideplan.sim.conditions import Disturbance
+from slideplan.world.objects import load_object
+from slideplan.sim.rendering import Box, depth_image, noisy_depth, place_objects, scene_spec
+from slideplan.perception.tracking import Tracker
 from slideplan.transforms import row_to_pose, wrap_angle
 from slideplan.transforms import planar_motion
-from slideplan.watch import Watch
+from slideplan.loop.watch import Watch
 
 DEMO = ("square", "crescent", (0.55, -0.08, 0.4))
 PUSHED = Disturbance(0.0, -0.03, 0.17, 2.0)  # 3 cm and 10 degrees, 2 s into the slide
@@ -59,10 +59,10 @@ def test_tracking_with_the_arm_in_view_finds_the_object_along_a_plan():
     os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo is first imported: offscreen rendering
     import mujoco
 
-    from slideplan.execute import ExecutionSettings
-    from slideplan.execute.model import DEPTH_CAMERA, build_model
-    from slideplan.rendering import camera_depth, noisy_depth
-    from slideplan.tracking import Tracker
+    from slideplan.sim import ExecutionSettings
+    from slideplan.sim.model import DEPTH_CAMERA, build_model
+    from slideplan.sim.rendering import camera_depth, noisy_depth
+    from slideplan.perception.tracking import Tracker
 
     scene_name, name, pose = DEMO
     scene = load_scene(scene_name)
@@ -124,7 +124,7 @@ def test_cli_run_checks_the_disturbance_as_ros_sim_does(disturb, problem):
 
 def _demo_segment():
     """The demo task's scene, object, planner settings, plan, and that plan as a slide to follow."""
-    from slideplan.watch import slide_segment
+    from slideplan.loop.watch import slide_segment
 
     scene_name, name, pose = DEMO
     scene = load_scene(scene_name)
@@ -151,7 +151,7 @@ def test_a_slide_is_kept_while_it_still_ends_graspable_from_where_the_object_is_
 def test_a_fingertip_inside_the_objects_edge_is_on_it_as_the_planner_takes_a_start(monkeypatch):
     # With the tracker's error (3 mm) as a margin inside the hull, a finger near the object's edge asked for a
     # re-plan, which the planner started from that same contact: 20 re-plans on one nominal slide.
-    from slideplan import watch
+    from slideplan.loop import watch
 
     scene, obj, config, result, segment = _demo_segment()
     monkeypatch.setattr(watch.Ending, "graspable", lambda *_: True)  # the ending aside: only where the tip is
@@ -206,8 +206,8 @@ def test_a_turn_that_leaves_the_footprint_as_it_was_is_no_pose_error():
 def test_a_perceived_object_a_millimetre_over_an_edge_is_moved_onto_the_table():
     # The camera's estimate of an object lying at an edge can put a millimetre of it over (the planner
     # refuses an object off the table); a centimetre over is not the camera's error and stays.
-    from slideplan.closed_loop import ON_TABLE_SLACK_M, _on_table
-    from slideplan.objects import load_outline, place_outline
+    from slideplan.sim.closed_loop import ON_TABLE_SLACK_M, _on_table
+    from slideplan.world.objects import load_outline, place_outline
 
     table = load_scene("square").table.polygon
     outline = load_outline("square")[0]
@@ -226,7 +226,7 @@ def test_a_perceived_object_a_millimetre_over_an_edge_is_moved_onto_the_table():
 def test_an_object_perceived_over_an_edge_is_a_run_failed_at_planning_not_an_error(monkeypatch):
     # The dev sweep (a380440): in 9 of 200 tasks a camera mounted off moved the perceived object a centimetre
     # over an edge, the planner refused it as input, and the task raised, losing all eight of its runs.
-    from slideplan import closed_loop
+    from slideplan.sim import closed_loop
 
     scene = load_scene("square")
     edge_y = scene.table.polygon.bounds[3]
@@ -240,8 +240,8 @@ def test_when_the_arm_hides_the_object_at_the_end_the_finger_rises_clear_to_look
     # A camera beside the slide's end: at the end of the slide the hand hides the object from it. The
     # finger rises clear, the look from there finds the object, and the loop goes on from what it saw.
     # (No blind stops, so that the end look alone is tested.)
-    from slideplan import loop
-    from slideplan.camera import Camera
+    from slideplan.loop import decisions as loop
+    from slideplan.perception.camera import Camera
 
     monkeypatch.setattr(loop, "BLIND_S", math.inf)
     height = load_scene("square").table.height
@@ -257,8 +257,8 @@ def test_when_the_arm_hides_the_object_at_the_end_the_finger_rises_clear_to_look
 def test_with_a_camera_behind_the_arm_the_finger_moves_aside_to_look(monkeypatch):
     # Behind the arm and above its shoulder, the camera sees the object past the hand, but at the slide's
     # end the forearm hides it, also from 10 cm higher: only a move across clears its lines of sight.
-    from slideplan import loop
-    from slideplan.camera import Camera
+    from slideplan.loop import decisions as loop
+    from slideplan.perception.camera import Camera
 
     monkeypatch.setattr(loop, "BLIND_S", math.inf)
     height = load_scene("square").table.height
@@ -275,8 +275,8 @@ def test_a_slide_hidden_from_the_camera_stops_to_look_from_above_and_recovers_fr
     # push goes unseen until the slide stops, the finger rises clear and looks from there.
     import dataclasses
 
-    from slideplan.loop import BLIND_S
-    from slideplan.tracking import Tracker
+    from slideplan.loop.decisions import BLIND_S
+    from slideplan.perception.tracking import Tracker
 
     real_track = Tracker.track
 
@@ -337,7 +337,7 @@ def test_a_stopped_blind_slide_not_seen_from_above_either_goes_on_with_the_rest_
     # it would have without the stop, rather than grasping where the slide stopped (short of the edge).
     import dataclasses
 
-    from slideplan.tracking import Tracker
+    from slideplan.perception.tracking import Tracker
 
     real_track = Tracker.track
 
@@ -392,11 +392,11 @@ def test_an_object_seen_over_the_edge_with_the_finger_off_it_is_grasped_from_a_t
     """The object slid on ahead of the finger to where it already overhangs (a heavy object on a slippery
     table): the planner takes an object over an edge only from a state, so a new contact puts the finger
     down on it where it is seen, and plans from there, rather than grasping where Eq. 2 put the object.
-    A plan the verifier rejects is not run (the loop plans through slideplan.pipeline)."""
-    from slideplan import pipeline
-    from slideplan.loop import SlideLoop
+    A plan the verifier rejects is not run (the loop plans through slideplan.checks.pipeline)."""
+    from slideplan.checks import pipeline
+    from slideplan.loop.decisions import SlideLoop
     from slideplan.plan.robot import build_robot
-    from slideplan.verify import verify
+    from slideplan.checks.verify import verify
 
     scene = load_scene(DEMO[0])
     config = PlannerConfig.for_scene(scene, seed=1)
@@ -439,7 +439,7 @@ def test_an_object_seen_over_the_edge_with_the_finger_off_it_is_grasped_from_a_t
 def test_a_run_seen_over_the_edge_whose_object_was_not_held_fails_whatever_the_runner_says(monkeypatch):
     # The disturbed demo, its closed loop seen over u* after the slide; the grasp skipped and reported fine:
     # no object was held, so the world says no.
-    from slideplan.execute.runner import Runner
+    from slideplan.sim.runner import Runner
 
     monkeypatch.setattr(Runner, "grasp", lambda self, *args: None)
     report = run(*DEMO, seed=1, closed=True, disturbance=PUSHED)
@@ -477,7 +477,7 @@ def test_a_run_seen_short_whose_object_was_held_succeeds_and_a_lost_look_is_repo
 def test_a_capped_closed_loop_re_plans_no_more_and_says_so(monkeypatch):
     # The disturbed demo with the re-plan cap at 0: the push is not chased, the slide runs to its end and the
     # row says why the loop stopped deciding.
-    import slideplan.loop as loop
+    import slideplan.loop.decisions as loop
 
     monkeypatch.setattr(loop, "MAX_REPLANS", 0)
     report = run(*DEMO, seed=1, closed=True, disturbance=PUSHED)
@@ -516,7 +516,7 @@ def test_the_camera_finds_the_object_on_a_small_arms_table():
     # for the table and the table for clutter, and no run on it could start.
     from scipy.spatial import cKDTree
 
-    from slideplan.closed_loop import _perceived_object
+    from slideplan.sim.closed_loop import _perceived_object
 
     scene = load_scene("so101_square")
     pose = (0.37, 0.0, 0.4)

@@ -30,7 +30,7 @@ def object_overlaps_an_obstacle_along_the_slide(result) -> bool:
     """Independent of the planner and the verifier: the object's points at every waypoint by Eq. 2."""
     from slideplan.transforms import row_to_pose
     from slideplan.transforms import planar_motion
-    from slideplan.verify import obstacle_footprints
+    from slideplan.checks.verify import obstacle_footprints
 
     footprints = obstacle_footprints(result)
     points = np.asarray(result.object["points"])[:, :2]

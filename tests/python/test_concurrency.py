@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from slideplan import PlannerConfig, load_object, load_scene, plan, verify
-from slideplan.objects import load_outline, sample_pose_on_table
+from slideplan.world.objects import load_outline, sample_pose_on_table
 
 OBJECTS = ["square", "circle", "crescent", "triangle"]
 RUNS = 5

@@ -1,6 +1,6 @@
 """slideplan demos: episodes recorded as a LeRobotDataset v3.0. The checks of the request, the draw and the
-folder run without MuJoCo or lerobot; the whole generations (marked physics) need the lerobot extra, which
-`make test-physics` installs."""
+folder run without MuJoCo or lerobot; the whole generations (marked lerobot) need the lerobot extra, which
+`make test-lerobot` installs."""
 
 from __future__ import annotations
 
@@ -24,8 +24,8 @@ from slideplan.demos.draw import draw, episode_seed
 from slideplan.demos.frames import CameraSpec
 from slideplan.demos.generate import REQUEST_FILE, Request, prepare
 from slideplan.errors import InputError
-from slideplan.objects import load_outline, place_outline
-from slideplan.scenes import load_scene
+from slideplan.world.objects import load_outline, place_outline
+from slideplan.world.scenes import load_scene
 
 runner = CliRunner()
 DEMOS_DOC = Path(__file__).resolve().parents[2] / "docs" / "demos.md"
@@ -125,7 +125,7 @@ def test_camera_specs():
             CameraSpec.parse(bad)
 
 
-# ---- whole generations: MuJoCo and the lerobot extra ----
+# ---- whole generations: MuJoCo and the lerobot extra (marker lerobot: make test-lerobot) ----
 
 def generate(out: Path, *extra: str, episodes: int = 3, workers: int = 2) -> subprocess.CompletedProcess:
     command = [sys.executable, "-m", "slideplan.cli", "demos", "--scene", "square", "--episodes", str(episodes),
@@ -145,7 +145,7 @@ def frames_of(root: Path):
     return pd.concat([pd.read_parquet(path) for path in sorted((root / "data").rglob("*.parquet"))], ignore_index=True)
 
 
-@pytest.mark.physics
+@pytest.mark.lerobot
 def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path, monkeypatch):
     import torch
 
@@ -183,7 +183,7 @@ def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path, mo
         assert np.array_equal(np.stack(a[column]), np.stack(b[column])), column
 
 
-@pytest.mark.physics
+@pytest.mark.lerobot
 def test_a_generation_on_a_dask_cluster_is_the_local_pools(tmp_path, monkeypatch):
     from distributed import LocalCluster
 
@@ -203,7 +203,7 @@ def test_a_generation_on_a_dask_cluster_is_the_local_pools(tmp_path, monkeypatch
         assert np.array_equal(np.stack(a[column]), np.stack(b[column])), column
 
 
-@pytest.mark.physics
+@pytest.mark.lerobot
 def test_a_killed_worker_loses_one_episode_and_the_rerun_completes_without_duplicates(tmp_path):
     out = tmp_path / "d"
     command = [sys.executable, "-m", "slideplan.cli", "demos", "--scene", "square", "--episodes", "4", "--out", str(out),
@@ -234,7 +234,7 @@ def test_a_killed_worker_loses_one_episode_and_the_rerun_completes_without_dupli
         assert (frames["episode_index"] == index).sum() == record["frames"]  # whole episodes, none twice
 
 
-@pytest.mark.physics
+@pytest.mark.lerobot
 def test_an_so101_generation_is_written_in_lerobots_so101_convention(tmp_path):
     out = tmp_path / "so101"
     command = [sys.executable, "-m", "slideplan.cli", "demos", "--scene", "so101_square", "--episodes", "1", "--out", str(out),
@@ -278,7 +278,7 @@ def test_lerobots_so101_convention_names_and_units():
     assert convention_for(["j1", "j2"], ["gripper"]) is None  # other arms keep their URDF names
 
 
-@pytest.mark.physics  # needs the lerobot extra, which make test-physics installs
+@pytest.mark.lerobot
 def test_an_episode_written_without_lerobots_image_embedding_has_the_same_parquet(tmp_path, monkeypatch):
     import contextlib
 

@@ -25,8 +25,8 @@ def user_files(tmp_path_factory) -> Path:
     """What the examples expect a user to have at hand: a plan written by ``slideplan plan --json``
     and a depth camera's scene cloud (a rendered one) as ``scene.ply``."""
     from slideplan import load_scene
-    from slideplan.camera import Camera
-    from slideplan.rendering import place_objects, render_scene
+    from slideplan.perception.camera import Camera
+    from slideplan.sim.rendering import place_objects, render_scene
 
     folder = tmp_path_factory.mktemp("user")
     result = CliRunner().invoke(app, ["plan", "--scene", "square", "--object", "crescent", "--pose", "0.55", "-0.08", "0.4",
@@ -128,7 +128,7 @@ def test_the_readme_commands_run_in_order_after_make_demo(tmp_path, monkeypatch)
 
 @pytest.mark.parametrize("document", ["README.md", "docs/ros2.md"])
 def test_the_bounds_of_a_run_are_documented_as_the_loop_has_them(document):
-    from slideplan.bounds import MAX_REPLANS, MAX_SLIDE_S, NO_PROGRESS_MOVE_M, NO_PROGRESS_TRAVEL_M
+    from slideplan.loop.bounds import MAX_REPLANS, MAX_SLIDE_S, NO_PROGRESS_MOVE_M, NO_PROGRESS_TRAVEL_M
 
     text = " ".join((ROOT / document).read_text().split())
     assert f"after {MAX_REPLANS} re-plans or {MAX_SLIDE_S:g} s of sliding" in text

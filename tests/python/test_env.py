@@ -74,7 +74,7 @@ def test_an_ee_delta_step_moves_the_fingertip_and_holds_a_joint_at_its_limit():
     # following and the ee_delta expert re-planned until it ran out of re-plans.
     from slideplan.demos.env import _fingertip_step
     from slideplan.plan.robot import robot_model
-    from slideplan.scenes import load_scene
+    from slideplan.world.scenes import load_scene
 
     robot = robot_model(load_scene("square"))
     lower, upper = np.asarray(robot.lower_limits), np.asarray(robot.upper_limits)
@@ -152,7 +152,7 @@ def test_demonstrations_replayed_by_their_joint_actions_end_as_recorded(tmp_path
 
 @pytest.mark.physics
 def test_the_expert_replans_after_a_push_and_still_lifts():
-    from slideplan.closed_loop_settings import Disturbance
+    from slideplan.sim.conditions import Disturbance
 
     env = SlideToEdgeEnv()
     env.reset(seed=3)

@@ -14,9 +14,9 @@ import shapely
 from slideplan.errors import InputError
 from slideplan.experiments import build_spec
 from slideplan.experiments.tasks import EVAL2_SEED, FIXED_SEEDS, TABLES, task_set
-from slideplan.objects import load_outline
+from slideplan.world.objects import load_outline
 from slideplan.paths import builtin_objects, builtin_scenes, held_out
-from slideplan.scenes import load_scene
+from slideplan.world.scenes import load_scene
 
 REPO = Path(__file__).resolve().parents[2]
 PERCEPTION_MIN_THICKNESS_M = 0.002  # the thinnest object the perception finds (docs/perception.md)

@@ -1,4 +1,4 @@
-"""Execution in MuJoCo (slideplan.execute and ``slideplan execute``): physics against Eq. 2, grasps, bad input."""
+"""Execution in MuJoCo (slideplan.sim and ``slideplan execute``): physics against Eq. 2, grasps, bad input."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 from handmade_plan import DEPTH_M, build_grasp_plan
 from slideplan import PlanResult
 from slideplan.cli import app
-from slideplan.execute import ExecutionSettings, execute
+from slideplan.sim import ExecutionSettings, execute
 
 
 @pytest.fixture(scope="module")
@@ -84,9 +84,9 @@ def _largest_acceleration(path, times):
 
 
 def test_untimed_plan_is_executed_under_the_limits_of_its_settings(slide_plan, monkeypatch):
-    from slideplan.execute import runner as runner_module
+    from slideplan.sim import runner as runner_module
     from slideplan.plan.robot import build_robot
-    from slideplan.timing import NEAR_TABLE_M
+    from slideplan.plan.timing import NEAR_TABLE_M
 
     followed = []
     follow = runner_module.Runner.follow
@@ -190,7 +190,7 @@ def test_cli_executes_and_writes_the_report(tmp_path, slide_plan):
 
 @pytest.mark.physics
 def test_timed_plan_uses_its_timing_block(tmp_path, slide_plan):
-    from slideplan.timing import TimingOptions, parameterize
+    from slideplan.plan.timing import TimingOptions, parameterize
 
     slow = dataclasses.replace(slide_plan, timing=parameterize(slide_plan, TimingOptions(fingertip_speed=0.005)))
     result = PlanResult.load(_write(tmp_path, slow.to_dict()))
@@ -249,7 +249,7 @@ def test_a_non_convex_outline_is_a_union_of_convex_pieces_covering_it():
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
-    from slideplan.mjscene import prism_pieces
+    from slideplan.sim.mjscene import prism_pieces
 
     ell = Polygon([(0.3, -0.3), (0.9, -0.3), (0.9, 0.0), (0.6, 0.0), (0.6, 0.3), (0.3, 0.3)])
     pieces = [Polygon(piece) for piece in prism_pieces(ell)]
@@ -263,8 +263,8 @@ def test_object_boxes_cover_a_non_convex_outline_and_not_its_hollow():
     from shapely.geometry import Point, box
     from shapely.ops import unary_union
 
-    from slideplan.execute import object_boxes
-    from slideplan.objects import load_object
+    from slideplan.sim import object_boxes
+    from slideplan.world.objects import load_object
 
     crescent = load_object("crescent", table_height=0.0, pose=(0.5, 0.0, 0.3))
     boxes = object_boxes(crescent.points, 0.0125)
@@ -297,7 +297,7 @@ def test_cli_progress_line_is_one_line_per_interval_in_a_log(capsys):
 def test_the_video_keeps_the_table_and_the_hand_in_view_through_the_transfer(tmp_path, monkeypatch):
     # The Panda's approach rises far above the table: a camera fixed on the object lost its hand.
     from slideplan import PlannerConfig, load_object, load_scene, plan
-    from slideplan.execute import video
+    from slideplan.sim import video
 
     scene = load_scene("panda_square")
     result = plan(scene, load_object("crescent", table_height=scene.table.height, pose=(0.55, -0.08, 0.4)), PlannerConfig(seed=1))
@@ -357,7 +357,7 @@ def test_a_hand_with_nothing_to_close_executes_the_slide_and_says_why_it_cannot_
 
 def _rig(name: str):
     from slideplan import PlannerConfig, load_object, load_scene
-    from slideplan.execute.model import Rig
+    from slideplan.sim.model import Rig
     from slideplan.plan.robot import robot_model
 
     scene = load_scene(name)
@@ -372,7 +372,7 @@ def test_the_panda_closes_its_own_prismatic_fingers_and_the_mimic_follows():
     URDF. Held open while sliding, closed to 0 (the fingers meet) with nothing between them."""
     import mujoco
 
-    from slideplan.execute.model import build_model
+    from slideplan.sim.model import build_model
 
     settings = ExecutionSettings()
     built = build_model(_rig("panda_square"), settings)
@@ -400,7 +400,7 @@ def test_the_t42_tendon_closes_both_fingers_to_the_grasp_plane_together():
     distal links reach the grasp plane (y = 0 of the grasp frame) at the same moment of the ramp."""
     import mujoco
 
-    from slideplan.execute.model import build_model
+    from slideplan.sim.model import build_model
 
     settings = ExecutionSettings()
     rig = _rig("square")
@@ -436,7 +436,7 @@ def test_a_parallel_gripper_lifts_the_object_with_its_own_prismatic_jaws(scene_n
     still pressed in, dragged this object off the table (the check read the tip link's origin, 5 cm up
     the finger)."""
     from slideplan import PlannerConfig, load_object, load_scene, plan
-    from slideplan.objects import load_outline, sample_pose_on_table
+    from slideplan.world.objects import load_outline, sample_pose_on_table
 
     scene = load_scene(scene_name)
     pose = sample_pose_on_table(load_outline("square")[0], scene.table, rng=np.random.default_rng(0))
@@ -453,7 +453,7 @@ def test_the_z1_jaw_meshes_become_convex_parts_that_leave_the_gap_between_the_ja
     import mujoco
     from scipy.spatial import ConvexHull
 
-    from slideplan.execute.model import build_model
+    from slideplan.sim.model import build_model
 
     rig = _rig("z1_square")
     model, data = (built := build_model(rig, ExecutionSettings())).model, built.data
@@ -483,7 +483,7 @@ def test_the_z1_jaw_meshes_become_convex_parts_that_leave_the_gap_between_the_ja
 def test_convex_parts_are_read_back_from_the_cache_without_decomposing_again(monkeypatch):
     import coacd
 
-    from slideplan.execute.model import build_model
+    from slideplan.sim.model import build_model
 
     first = build_model(_rig("z1_square"), ExecutionSettings()).model  # decomposes, or reads an earlier test's parts
     monkeypatch.setattr(coacd, "run_coacd", lambda *args, **kwargs: pytest.fail("decomposed again"))
@@ -527,7 +527,7 @@ def test_the_planners_grasp_lifts_straight_up_where_its_wrist_sits_at_a_limit():
     # limit; one IK 5 cm higher "lifted" by turning that joint a full turn, so the planner's lift check
     # passed and the execution found no straight lift (2-3 runs per setting of the closed-loop sweep).
     from slideplan import load_object, load_scene, plan
-    from slideplan.motions import straight_up
+    from slideplan.plan.motions import straight_up
     from slideplan.experiments.tasks import build_spec
 
     scene = load_scene("long")
@@ -544,7 +544,7 @@ def test_the_planners_first_contact_can_be_come_down_onto_straight():
     # joints at their limits, where the fingertip cannot rise approach_height straight up, so the reach had
     # no way down onto the contact (CI's ROS test refused the plan: "no inverse kinematics straight up").
     from slideplan import PlannerConfig, load_object, load_scene, plan
-    from slideplan.motions import reach_path, straight_up
+    from slideplan.plan.motions import reach_path, straight_up
 
     scene = load_scene("square")
     obj = load_object("crescent", table_height=scene.table.height, pose=(0.55, -0.08, 0.4))
@@ -568,7 +568,7 @@ def test_a_move_straight_up_stays_on_the_vertical_and_on_the_arms_branch():
     # through the table and dragged the object. Solved a centimetre at a time, the way rises straight.
     from slideplan import load_object, load_scene, plan
     from slideplan import _core
-    from slideplan.motions import straight_up
+    from slideplan.plan.motions import straight_up
     from slideplan.experiments.tasks import build_spec
 
     scene = load_scene("square")
@@ -595,7 +595,7 @@ def test_a_state_mujoco_resets_silently_is_named_as_the_cause():
     # stepping loop (execute, run, ros sim) must end there, naming it (once a 1e300 trajectory reset the arm).
     import mujoco
 
-    from slideplan.execute.runner import instability
+    from slideplan.sim.runner import instability
 
     model = mujoco.MjModel.from_xml_string("<mujoco><worldbody><body><freejoint/><geom size='0.1'/></body></worldbody></mujoco>")
     data = mujoco.MjData(model)
@@ -613,8 +613,8 @@ def test_following_a_path_ends_on_a_state_mujoco_reset_within_a_few_steps():
 
     import mujoco
 
-    from slideplan.execute import ExecutionSettings
-    from slideplan.execute.runner import _CHECK_EVERY, Runner, Unstable
+    from slideplan.sim import ExecutionSettings
+    from slideplan.sim.runner import _CHECK_EVERY, Runner, Unstable
 
     model = mujoco.MjModel.from_xml_string(
         "<mujoco><worldbody><body><joint name='j' type='slide'/><geom size='0.1'/></body></worldbody>"
@@ -641,7 +641,7 @@ def test_a_mark_is_written_on_the_frames_that_follow_it_and_the_depth_cameras_qu
     os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo is first imported: offscreen rendering
     import imageio.v2 as imageio
     import mujoco
-    from slideplan.execute.video import MARK_S, Recorder
+    from slideplan.sim.video import MARK_S, Recorder
 
     model = mujoco.MjModel.from_xml_string(  # a sphere moving across the view: no two frames alike (a GIF merges those)
         "<mujoco><option gravity='0 0 0'/><worldbody><light pos='0 0 2'/><body><joint type='slide' axis='1 0 0'/>"
@@ -671,7 +671,7 @@ def test_a_render_process_that_fails_is_reported_with_its_reason(tmp_path):
 
     os.environ.setdefault("MUJOCO_GL", "egl")
     import mujoco
-    from slideplan.execute.video import Recorder
+    from slideplan.sim.video import Recorder
 
     model = mujoco.MjModel.from_xml_string("<mujoco><worldbody><geom type='sphere' size='.1'/></worldbody></mujoco>")
     data = mujoco.MjData(model)

@@ -19,7 +19,7 @@ from scipy.stats import binomtest
 from typer.testing import CliRunner
 
 from slideplan.cli import app
-from slideplan.scenes import load_scene
+from slideplan.world.scenes import load_scene
 from slideplan.experiments import (
     ROW_SCHEMA,
     DaskExecutor,
@@ -33,8 +33,8 @@ from slideplan.experiments import (
     wilson_interval,
 )
 from slideplan.experiments.tasks import cached_scene, scaled_outline
-from slideplan.objects import place_outline
-from slideplan.plots import (
+from slideplan.world.objects import place_outline
+from slideplan.experiments.plots import (
     SHADED_MIN_RUNS,
     draw_interval,
     plot_planning_time_by_geometry,

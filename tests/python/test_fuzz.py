@@ -23,9 +23,9 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from slideplan import InputError, PlannerConfig, PlanResult, SupportSurface, ThinObject, load_object, load_scene, perceive, plan, verify
-from slideplan.export import export_plan
+from slideplan.outputs.export import export_plan
 from slideplan.plan.robot import robot_model
-from slideplan.verify import require_motion
+from slideplan.checks.verify import require_motion
 
 # Fixtures (tmp_path_factory, capfd) serve every example: each example writes its own files or reads
 # what it alone printed.

@@ -8,7 +8,7 @@ from shapely.geometry import Polygon
 
 from slideplan import _core
 from slideplan.errors import InputError
-from slideplan.geometry import Ending, SupportSurface
+from slideplan.world.geometry import Ending, SupportSurface
 
 SQUARE = [[0.35, -0.25], [0.85, -0.25], [0.85, 0.25], [0.35, 0.25]]
 L_SHAPE = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.4], [0.4, 0.4], [0.4, 1.0], [0.0, 1.0]]

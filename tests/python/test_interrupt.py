@@ -91,3 +91,11 @@ def test_ctrl_c_while_the_command_imports_exits_130_with_one_line():
     done = subprocess.run([sys.executable, "-c", LAUNCH], capture_output=True, text=True, timeout=60)
     assert done.returncode == 130, done.stderr
     assert done.stderr.strip() == "slideplan: aborted"
+
+
+def test_the_entry_point_and_the_command_line_exit_130_alike():
+    import _slideplan_entry
+
+    from slideplan.cli.common import EXIT_INTERRUPTED
+
+    assert _slideplan_entry.EXIT_INTERRUPTED == EXIT_INTERRUPTED == 130

@@ -9,8 +9,8 @@ import shapely
 from shapely.geometry import Polygon
 
 from slideplan.errors import InputError
-from slideplan.geometry import SupportSurface
-from slideplan.objects import (
+from slideplan.world.geometry import SupportSurface
+from slideplan.world.objects import (
     ThinObject,
     load_object,
     load_outline,
@@ -19,7 +19,7 @@ from slideplan.objects import (
     sample_pose_on_table,
 )
 from slideplan.paths import builtin_objects, builtin_scenes
-from slideplan.scenes import load_scene
+from slideplan.world.scenes import load_scene
 
 BUILTIN_OBJECTS = ["square", "circle", "triangle", "crescent", "irregular", "Y", "A", "L", "E"]
 

@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 from slideplan import _core, parameters
 from slideplan.cli import app
 from slideplan.plan.config import PARAMETERS, PlannerConfig
-from slideplan.scenes import load_scene
+from slideplan.world.scenes import load_scene
 
 ROOT = Path(__file__).resolve().parents[2]
 NAMES = set(parameters.NAMES)

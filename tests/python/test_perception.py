@@ -1,4 +1,4 @@
-"""Perception on clouds rendered by MuJoCo (slideplan.rendering): accuracy against the ground truth,
+"""Perception on clouds rendered by MuJoCo (slideplan.sim.rendering): accuracy against the ground truth,
 a plan from the perceived scene checked against the true geometry, and bad input."""
 
 import dataclasses
@@ -13,14 +13,14 @@ from typer.testing import CliRunner
 
 from slideplan import InputError, load_scene, perceive
 from slideplan.cli import app
-from slideplan.objects import ThinObject, load_object, load_outline
-from slideplan.registration import register_outline
-from slideplan.perception_files import write_perception
+from slideplan.world.objects import ThinObject, load_object, load_outline
+from slideplan.perception.registration import register_outline
+from slideplan.perception.files import write_perception
 from slideplan.plan.config import PlannerConfig
 from slideplan.plan.result import PlanResult
-from slideplan.rendering import Box, place_objects, render_scene
-from slideplan.geometry import overhang
-from slideplan.verify import verify
+from slideplan.sim.rendering import Box, place_objects, render_scene
+from slideplan.world.geometry import overhang
+from slideplan.checks.verify import verify
 
 runner = CliRunner()
 

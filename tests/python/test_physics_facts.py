@@ -1,5 +1,5 @@
 """The measured MuJoCo facts the execution model is calibrated to (docs/physics-facts.md), asserted on
-today's model (slideplan.execute.contacts.CURRENT: the object on feet, sleeping islands): each setting
+today's model (slideplan.sim.contacts.CURRENT: the object on feet, sleeping islands): each setting
 the page says matters still matters, and the model still has what the page says it needs."""
 
 from __future__ import annotations
@@ -12,11 +12,11 @@ import shapely
 
 from handmade_plan import DEPTH_M, build_plan
 from slideplan import PlannerConfig, load_scene, plan
-from slideplan.execute import ExecutionSettings, contacts, execute
-from slideplan.execute import replay
-from slideplan.execute.model import build_model, cloud_footprint
-from slideplan.execute.runner import Runner
-from slideplan.objects import load_object, load_outline, sample_pose_on_table
+from slideplan.sim import ExecutionSettings, contacts, execute
+from slideplan.sim import replay
+from slideplan.sim.model import build_model, cloud_footprint
+from slideplan.sim.runner import Runner
+from slideplan.world.objects import load_object, load_outline, sample_pose_on_table
 
 
 @pytest.fixture(scope="module")

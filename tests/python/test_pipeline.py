@@ -1,14 +1,14 @@
-"""The one pipeline (slideplan.pipeline): plan, verify, mark; margins raised for a perceived object."""
+"""The one pipeline (slideplan.checks.pipeline): plan, verify, mark; margins raised for a perceived object."""
 
 import dataclasses
 
 import pytest
 
-from slideplan import pipeline
-from slideplan.objects import load_object
+from slideplan.checks import pipeline
+from slideplan.world.objects import load_object
 from slideplan.plan.config import PlannerConfig
-from slideplan.scenes import load_scene
-from slideplan.verify import Verification
+from slideplan.world.scenes import load_scene
+from slideplan.checks.verify import Verification
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from slideplan.plan.config import PlannerConfig
 from slideplan.plan.schema import PLAN_SCHEMA
 from slideplan.plan.robot import base_pose_matrix
 from slideplan.plan.result import PlanResult
-from slideplan.scenes import load_scene
+from slideplan.world.scenes import load_scene
 from slideplan.transforms import (matrix_from_quaternion, pose_to_row, quaternion_from_matrix, rotation_from_rpy, rotation_vector,
                                   row_to_pose)
 
@@ -289,8 +289,8 @@ def test_a_plan_is_opened_from_any_directory(tmp_path, monkeypatch, planned):
 
 def test_a_report_refuses_nan_in_its_json_and_a_plan_writes_it():
     # One to_json for plans and reports (slideplan.jsontext.Document): only a report promises no NaN.
-    from slideplan.closed_loop_run import ClosedLoopRun
-    from slideplan.execute.report import Execution
+    from slideplan.sim.closed_loop_run import ClosedLoopRun
+    from slideplan.sim.report import Execution
     from slideplan.jsontext import Document
 
     class Plain(Document):

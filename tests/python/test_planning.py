@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from slideplan import InputError, PlannerConfig, PlanResult, load_object, load_scene, plan, verify
 from slideplan.cli import app
-from slideplan.objects import load_outline, sample_pose_on_table
+from slideplan.world.objects import load_outline, sample_pose_on_table
 from slideplan.plan.robot import robot_model
 from slideplan.plan.planner import _cached_grasp_map, grasp_map
 from slideplan.transforms import row_to_pose
@@ -198,7 +198,7 @@ def test_the_paper_preset_is_recorded_and_overrides_the_hands_departures(tmp_pat
 
 
 def test_the_centre_of_mass_is_the_area_centroid_whatever_the_cloud_density():
-    from slideplan.geometry import area_centroid
+    from slideplan.world.geometry import area_centroid
 
     crescent = load_object("crescent", table_height=0.0, pose=(0.5, 0.0, 0.3))
     truth = np.array(crescent.outline.centroid.coords[0])
@@ -213,7 +213,7 @@ def test_the_centre_of_mass_is_the_area_centroid_whatever_the_cloud_density():
 
 def test_the_cpp_area_centroid_matches_the_scipy_reference_on_every_bundled_object_and_hard_clouds():
     from centroid_reference import area_centroid_reference
-    from slideplan.geometry import area_centroid
+    from slideplan.world.geometry import area_centroid
 
     rng = np.random.default_rng(3)
     import slideplan
@@ -238,7 +238,7 @@ def test_the_cpp_area_centroid_matches_the_scipy_reference_on_every_bundled_obje
 
 @pytest.mark.parametrize("bad", [np.zeros((0, 2)), np.zeros((5, 3)), np.array([[0.0, np.nan], [1.0, 0.0], [0.0, 1.0]])])
 def test_area_centroid_refuses_what_is_not_a_cloud(bad):
-    from slideplan.geometry import area_centroid
+    from slideplan.world.geometry import area_centroid
 
     with pytest.raises(InputError, match="xy"):
         area_centroid(bad)
@@ -359,7 +359,7 @@ def test_a_plan_from_a_state_at_an_edge_keeps_the_centre_of_mass_on_the_table():
     edge (the closed loop's inputs, tests/python/data) swung its centre of mass 2 cm over the edge and back
     under the paper's final-pose check, and in MuJoCo the object fell there. With the check every state's
     centre of mass is on the table, and the verifier holds a plan that claims it to that."""
-    from slideplan.objects import ThinObject
+    from slideplan.world.objects import ThinObject
     from slideplan.transforms import move_planar
 
     data = json.loads((Path(__file__).parent / "data" / "replan_at_edge.json").read_text())

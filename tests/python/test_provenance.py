@@ -36,7 +36,7 @@ def git(*args: str) -> str:
 
 
 def test_build_info_names_the_commit_the_installed_package_was_built_from():
-    from slideplan import _build  # written by CMake at configure time: an installed package has it
+    from slideplan import _build
 
     info = slideplan.build_info()
     assert set(info) == {"build", "commit", "dirty", "version"}

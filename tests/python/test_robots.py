@@ -14,11 +14,11 @@ from typer.testing import CliRunner
 
 from slideplan import PlannerConfig, _core, load_object, load_scene, plan, verify
 from slideplan.cli import app
-from slideplan.objects import load_outline, sample_pose_on_table
+from slideplan.world.objects import load_outline, sample_pose_on_table
 from slideplan.plan.robot import robot_model
 from slideplan.plan.planner import grasp_map
 from slideplan.transforms import row_to_pose
-from slideplan.scenes import package_search_dirs
+from slideplan.world.scenes import package_search_dirs
 
 TABLE = "[table]\npolygon = [[0.3, -0.2], [0.7, -0.2], [0.7, 0.2], [0.3, 0.2]]\n"
 
@@ -405,7 +405,7 @@ def _stepped_by_ik(robot, config, offset):
 
 @pytest.mark.parametrize("scene_name", ["square", "so101_square"])
 def test_the_straight_line_is_the_cores_and_moves_as_ik_stepped_a_centimetre_at_a_time(scene_name):
-    from slideplan.motions import straight_line, straight_up
+    from slideplan.plan.motions import straight_line, straight_up
 
     robot = robot_model(load_scene(scene_name))
     rng = np.random.default_rng(3)

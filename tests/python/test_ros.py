@@ -27,17 +27,17 @@ from std_srvs.srv import Trigger  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory  # noqa: E402
 from visualization_msgs.msg import Marker, MarkerArray  # noqa: E402
 
-from slideplan.closed_loop import default_camera  # noqa: E402
+from slideplan.sim.closed_loop import default_camera  # noqa: E402
 from slideplan.errors import InputError  # noqa: E402
-from slideplan.objects import load_object  # noqa: E402
+from slideplan.world.objects import load_object  # noqa: E402
 from slideplan.plan.config import PlannerConfig  # noqa: E402
 from slideplan.plan.robot import robot_model
 from slideplan.ros.messages import cloud_message, cloud_points, pose_matrix, seconds, trajectory_arrays, trajectory_message  # noqa: E402,E501
 from slideplan.ros.execution import Execution, tracking_camera  # noqa: E402
 from slideplan.ros.task import Refused, Task, cloud_in_world  # noqa: E402
 from slideplan.ros.sim import Sim, camera_pose_of  # noqa: E402
-from slideplan.scenes import load_scene  # noqa: E402
-from slideplan.geometry import overhang  # noqa: E402
+from slideplan.world.scenes import load_scene  # noqa: E402
+from slideplan.world.geometry import overhang  # noqa: E402
 
 _DOMAINS = itertools.count(os.getpid() % 100 + 100)  # this run's domains: parallel runs keep apart
 POSE = (0.55, -0.08, 0.4)  # the crescent on the square table (as tests/python/test_closed_loop.py)

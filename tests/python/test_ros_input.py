@@ -25,7 +25,7 @@ from slideplan.ros.guards import discovery_notice  # noqa: E402
 from slideplan.ros.messages import cloud_message  # noqa: E402
 from slideplan.ros.serve import PlanningNode  # noqa: E402
 from slideplan.ros.task import Refused  # noqa: E402
-from slideplan.scenes import load_scene  # noqa: E402
+from slideplan.world.scenes import load_scene  # noqa: E402
 from test_ros import _DOMAINS, _environment  # noqa: E402
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from slideplan.errors import InputError
 from slideplan.paths import builtin_scenes, data_dir
-from slideplan.scenes import Scene, load_scene
+from slideplan.world.scenes import Scene, load_scene
 
 TABLE_AREAS = {
     "square": 0.4 * 0.4,
@@ -187,7 +187,7 @@ def test_default_robot_urdf_has_the_default_tip_and_contact_links():
 @pytest.mark.parametrize("name", ["square", "panda_square", "ur5_round", "z1_square"])
 def test_robot_toml_writes_a_robot_and_hand_that_load_back_the_same(name, tmp_path):
     from slideplan.plan.robot import robot_description
-    from slideplan.scenes import robot_toml
+    from slideplan.world.scenes import robot_toml
 
     scene = load_scene(name)
     path = tmp_path / "elsewhere.toml"

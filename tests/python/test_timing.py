@@ -18,13 +18,13 @@ from typer.testing import CliRunner
 from slideplan import _core
 from slideplan.cli import app
 from slideplan.errors import InputError
-from slideplan.motions import rest_to_rest
-from slideplan.objects import load_object
+from slideplan.plan.motions import rest_to_rest
+from slideplan.world.objects import load_object
 from slideplan.plan.config import PlannerConfig
 from slideplan.plan.result import PlanResult
 from slideplan.plan.planner import plan
-from slideplan.scenes import load_scene
-from slideplan.timing import (
+from slideplan.world.scenes import load_scene
+from slideplan.plan.timing import (
     DEFAULT_FINGERTIP_SPEED,
     DEFAULT_JOINT_ACCELERATION,
     DEFAULT_JOINT_VELOCITY,
@@ -121,7 +121,7 @@ def test_rest_to_rest_times_a_path_the_plan_does_not_hold_as_the_plan_times_its_
 def test_a_look_from_clear_is_capped_only_near_the_object(handmade):
     # The closed loop's look from clear (up off the object and back) was capped all the way: 10 cm up,
     # 15 cm across and back took 10 s of a run at the slide's 5 cm/s.
-    from slideplan.motions import dense, straight_up
+    from slideplan.plan.motions import dense, straight_up
 
     robot, limits = handmade.robot_model(), handmade.timing["limits"]
     path = dense(list(straight_up(robot, np.asarray(handmade.trajectory[-1]), 0.12)))
@@ -392,7 +392,7 @@ def test_the_cxx_profile_matches_toppra_within_two_percent(table_plans):
     # The C++ TOPP-RA against the Python toppra it replaced (toppra_reference.py): same limits, same grid, durations
     # within 2% (they agree to about 1e-4 on the Fig. 10 plans: benchmarks/timing_bench.py).
     import toppra_reference  # tests/python; toppra is in the test extra
-    from slideplan.timing import resolve_limits
+    from slideplan.plan.timing import resolve_limits
 
     for result in table_plans:
         limits = resolve_limits(result)

@@ -1,4 +1,4 @@
-"""Tracking the object in rendered depth frames (slideplan.tracking)."""
+"""Tracking the object in rendered depth frames (slideplan.perception.tracking)."""
 
 import math
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from slideplan import InputError, load_object, load_scene
-from slideplan.camera import Camera
-from slideplan.rendering import Box, depth_image, noisy_depth, place_objects, scene_spec
-from slideplan.tracking import Tracker
+from slideplan.perception.camera import Camera
+from slideplan.sim.rendering import Box, depth_image, noisy_depth, place_objects, scene_spec
+from slideplan.perception.tracking import Tracker
 from slideplan.transforms import wrap_angle
 
 
@@ -136,8 +136,8 @@ def test_a_straight_edge_alone_does_not_fix_the_pose(square):
     # so no fit says where it is; with the ends in view the same strip is found.
     from shapely.geometry import box as rectangle
 
-    from slideplan.objects import ThinObject
-    from slideplan.rendering import PlacedObject
+    from slideplan.world.objects import ThinObject
+    from slideplan.sim.rendering import PlacedObject
 
     table, camera = square
     strip = ThinObject.from_outline(rectangle(-0.2, -0.03, 0.2, 0.03), thickness=0.004, table_height=table.height,
@@ -173,7 +173,7 @@ def test_a_fit_where_the_frame_shows_the_table_is_refused(square):
 def test_the_icp_core_matches_the_numpy_reference_on_a_rendered_frame(square):
     from icp_reference import icp_reference
 
-    from slideplan.tracking import GRID_CELL_M, INLIER_M, _nearest_grid
+    from slideplan.perception.tracking import GRID_CELL_M, INLIER_M, _nearest_grid
 
     table, camera = square
     rng = np.random.default_rng(11)
@@ -198,9 +198,9 @@ def test_a_camera_mounted_millimetres_off_still_tracks_with_the_table_plane_it_s
     # be. The table it sees lies millimetres off the scene's height, as high as the object is thick: against
     # the level table no pixel is table or object; against the plane perception fits in the same frames,
     # the object is where the frames show it.
-    from slideplan.camera import back_project
-    from slideplan.closed_loop_settings import camera_as_mounted
-    from slideplan.perception import perceive
+    from slideplan.perception.camera import back_project
+    from slideplan.sim.conditions import camera_as_mounted
+    from slideplan.perception.tabletop import perceive
 
     table, believed = square
     draws = {"camera_dx_m": 0.002, "camera_dy_m": -0.003, "camera_dz_m": -0.004,

@@ -1,5 +1,5 @@
 """Issue 53's closed loop judged by what happened, on constructed data: the world's verdict
-(slideplan.verdict) against what the camera saw, the hard setting's draws, the bounds' no-progress test,
+(slideplan.checks.verdict) against what the camera saw, the hard setting's draws, the bounds' no-progress test,
 the dev and eval task sets, and the report's statistics."""
 
 from __future__ import annotations
@@ -11,12 +11,12 @@ import pandas as pd
 import pytest
 
 from slideplan import InputError, load_scene
-from slideplan.bounds import NO_PROGRESS_MOVE_M, NO_PROGRESS_TRAVEL_M, Progress
-from slideplan.closed_loop_settings import (HARD_PUSH_COM_INSIDE_M, HARD_RANGES, Disturbance, camera_as_mounted,
+from slideplan.loop.bounds import NO_PROGRESS_MOVE_M, NO_PROGRESS_TRAVEL_M, Progress
+from slideplan.sim.conditions import (HARD_PUSH_COM_INSIDE_M, HARD_RANGES, Disturbance, camera_as_mounted,
                                             execution_settings, hard_push, push_candidates, setting_draws)
-from slideplan.execute.settings import ExecutionSettings
-from slideplan.camera import Camera
-from slideplan.verdict import HOLD_HEIGHT_M, Hold, held, judge
+from slideplan.sim.settings import ExecutionSettings
+from slideplan.perception.camera import Camera
+from slideplan.checks.verdict import HOLD_HEIGHT_M, Hold, held, judge
 
 TABLE_TOP = 0.75
 U_STAR = 0.02
@@ -242,8 +242,8 @@ def test_the_experiment_s_set_option_refuses_what_it_does_not_know_naming_the_op
 
 
 def test_every_bound_a_closed_loop_meets_is_recorded_and_a_cap_holds_after_a_no_progress_stop():
-    from slideplan.loop import SlideLoop
-    from slideplan.bounds import MAX_REPLANS, MAX_SLIDE_S
+    from slideplan.loop.decisions import SlideLoop
+    from slideplan.loop.bounds import MAX_REPLANS, MAX_SLIDE_S
 
     class Clock:
         now = 0.0

@@ -7,13 +7,13 @@ import pytest
 from handmade_plan import DEPTH_M, PITCH, THICKNESS, build_grasp_plan, contact_target
 
 from slideplan.plan.robot import robot_model
-from slideplan.scenes import load_scene
+from slideplan.world.scenes import load_scene
 from slideplan.transforms import pose_to_row
-from slideplan.geometry import overhang
+from slideplan.world.geometry import overhang
 from slideplan.transforms import planar_motion
-from slideplan.verify import verify
-from slideplan.geometry import SupportSurface
-from slideplan.viz import draw_plan
+from slideplan.checks.verify import verify
+from slideplan.world.geometry import SupportSurface
+from slideplan.outputs.pictures import draw_plan
 
 
 @pytest.fixture(scope="module")
@@ -97,7 +97,7 @@ def test_turning_and_contact_bounds_are_checked(grasp_plan):
 
 
 def test_timing_beyond_its_limits_is_reported(grasp_plan):
-    from slideplan.timing import parameterize
+    from slideplan.plan.timing import parameterize
 
     plan = copy.deepcopy(grasp_plan)
     plan.timing = parameterize(plan)
@@ -227,7 +227,7 @@ def test_the_picture_draws_the_object_along_the_slide_under_the_fingertip():
     from slideplan import PlannerConfig, load_object
     from slideplan import plan as make_plan
     from slideplan.transforms import move_planar, row_to_pose
-    from slideplan.viz import SLIDE_SPACING_M, slide_motions
+    from slideplan.outputs.pictures import SLIDE_SPACING_M, slide_motions
 
     scene = load_scene("square")
     valid_plan = make_plan(scene, load_object("crescent", table_height=0.0, pose=(0.55, -0.08, 0.4)),
@@ -247,7 +247,7 @@ def test_the_picture_draws_the_object_along_the_slide_under_the_fingertip():
 def test_a_dense_clouds_point_spacing_comes_from_a_sample_and_still_bounds_the_start_contact():
     # 40,000 points 2 mm apart: every point's nearest neighbour took seconds; a stride sample gives the
     # same spacing, so a fingertip 1 cm off the plate is still refused and one on it is not.
-    from slideplan.verify import SPACING_SAMPLE, _start_contact_violations
+    from slideplan.checks.verify import SPACING_SAMPLE, _start_contact_violations
 
     axis = np.arange(200) * 0.002
     cloud = np.column_stack([axis.repeat(200), np.tile(axis, 200)]) + [0.4, -0.2]
@@ -264,7 +264,7 @@ def test_a_crescent_overhanging_with_both_horns_is_grasped_on_a_horn_not_between
     from shapely.geometry import Polygon, box
     from shapely.affinity import rotate, translate
 
-    from slideplan.objects import load_object
+    from slideplan.world.objects import load_object
     from slideplan.plan.config import PlannerConfig
     from slideplan.plan.planner import plan
     from slideplan.transforms import row_to_pose

@@ -24,7 +24,7 @@ from handmade_plan import build_plan
 from slideplan.cli import app
 from slideplan import PlannerConfig, load_object, load_scene, plan
 from slideplan.transforms import move_planar, row_to_pose
-from slideplan.view import OBJECT_COLOR, ROBOT_COLOR, TABLE_COLOR, _server, object_motions, open_view, record
+from slideplan.outputs.view3d import OBJECT_COLOR, ROBOT_COLOR, TABLE_COLOR, _server, object_motions, open_view, record
 
 CHROMIUM = "/usr/bin/chromium"
 VIEWPORT = {"width": 800, "height": 600}

@@ -20,7 +20,7 @@ _MIN_PATH_STEP = 1e-6  # path-parameter step for repeated waypoints, so that tim
 
 
 def time_path(path: np.ndarray, tips: np.ndarray, capped: np.ndarray, limits: dict[str, Any], name: str) -> dict[str, np.ndarray]:
-    """:func:`slideplan.timing.time_path` (same arguments, same result) computed by toppra.
+    """:func:`slideplan.plan.timing.time_path` (same arguments, same result) computed by toppra.
 
     Raises:
         RuntimeError: toppra finds no parameterization (a path it cannot follow at rest-to-rest).

@@ -4,7 +4,7 @@ closed loop), ``experiment``, ``plot`` (docs/design.md 5), ``demos`` (docs/demos
 
 Exit codes of ``plan``: 0 solved (and verified), 1 not solved within the time limit,
 2 bad input (one line ``slideplan: error: ...`` on stderr), 3 solved but the plan fails
-verification (``slideplan.verify``: a planner bug; the violations go to stderr and the JSON
+verification (``slideplan.checks.verify``: a planner bug; the violations go to stderr and the JSON
 is written with status ``"invalid"``); every command exits 130 when stopped by Ctrl-C.
 
 ``experiment`` and ``plot`` need the ``experiments`` extra (pandas, pyarrow, dask); ``view`` the
@@ -18,7 +18,7 @@ lists them so).
 """
 
 # Each module adds its commands to app when imported; --help lists them in this order.
-from . import plans, outputs, physics, experiments, ros  # noqa: F401, I001
+from . import plans, outputs, physics, experiments, ros
 from .common import app
 
 __all__ = ["app"]

@@ -13,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 import typer
-from _slideplan_entry import EXIT_INTERRUPTED  # Ctrl-C: the entry point's, one value for both
 from typer.core import TyperGroup
 
 try:  # typer 0.28 carries its own copy of click; earlier releases use click itself
@@ -22,13 +21,14 @@ except ImportError:
     from click import exceptions as click_errors
 
 from ..errors import InputError, SlideplanWarning
-from ..objects import CLOUD_SUFFIXES, ThinObject, load_object, load_outline, sample_pose_on_table
+from ..world.objects import CLOUD_SUFFIXES, ThinObject, load_object, load_outline, sample_pose_on_table
 from ..plan.config import PlannerConfig
 from ..plan.result import PlanResult
-from ..scenes import Scene
+from ..world.scenes import Scene
 
 
 EXIT_SOLVED, EXIT_NOT_SOLVED, EXIT_BAD_INPUT, EXIT_INVALID_PLAN = 0, 1, 2, 3
+EXIT_INTERRUPTED = 130  # Ctrl-C: 128 + SIGINT, the shell's convention (the entry point, which cannot import this, keeps a copy)
 PICTURE_SUFFIXES = (".png", ".svg")
 MIN_TABLE_REACH = 0.5  # perceive warns when the fingertip reaches less of the table than this (plan.robot.table_reach)
 VIDEO_SUFFIXES = (".mp4", ".gif", ".png")
@@ -185,7 +185,7 @@ def _write_scene_cloud(scene: Scene, object_name: str, pose, path: Path, seed: i
     try:
         import plyfile
 
-        from ..rendering import place_objects, render_scene
+        from ..sim.rendering import place_objects, render_scene
 
         points = render_scene(scene.table, place_objects([(object_name, pose)]), seed=seed).points
     except ImportError:  # mujoco is imported when rendering
@@ -219,9 +219,9 @@ def _summary(result: PlanResult) -> str:
 
 def _plan_verify_write(scene: Scene, obj: ThinObject, config: PlannerConfig, json_path: Path | None,
                        png_path: Path | None) -> PlanResult:
-    """Plan, verify a solved plan (:func:`slideplan.pipeline.plan_checked`: marked ``invalid`` if it fails,
+    """Plan, verify a solved plan (:func:`slideplan.checks.pipeline.plan_checked`: marked ``invalid`` if it fails,
     its violations printed) and write the outputs asked for."""
-    from ..pipeline import plan_checked
+    from ..checks.pipeline import plan_checked
 
     with _warnings_as_lines():
         checked = plan_checked(scene, obj, config)
@@ -280,7 +280,7 @@ def _write_outputs(result: PlanResult, json_path: Path | None, png_path: Path | 
     if json_path is not None:
         _write_text(json_path, result.to_json(indent=1), "--json")
     if png_path is not None:
-        from ..viz import draw_plan
+        from ..outputs.pictures import draw_plan
 
         draw_plan(result, png_path, label)
 

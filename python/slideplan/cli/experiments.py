@@ -97,7 +97,12 @@ def experiment_command(
         for path in plot_execution(results, out):
             typer.echo(str(path))
     if figure == "closed-loop":
-        from ..experiments.closed_loop import closed_loop_runs, load_closed_loop, plot_closed_loop, summarize_closed_loop
+        from ..experiments.closed_loop import (
+            closed_loop_runs,
+            load_closed_loop,
+            plot_closed_loop,
+            summarize_closed_loop,
+        )
 
         runs = closed_loop_runs(load_closed_loop(out))
         typer.echo(summarize_closed_loop(runs).to_string(index=False))
@@ -119,7 +124,7 @@ def plot_command(
     Exit codes: 0 figures written, 2 bad input (no such path, or no results of fig10-12 in it).
     """
     try:
-        from ..plots import plot_results
+        from ..experiments.plots import plot_results
 
         paths = plot_results(results, out)
     except (ImportError, OSError, ValueError) as error:  # pyarrow's unreadable-file errors are ValueErrors

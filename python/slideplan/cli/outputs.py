@@ -25,7 +25,7 @@ def export_command(
 
     Exit codes: 0 written, 2 bad input (unreadable or unknown plan, plan not solved, unknown format).
     """
-    from ..export import export_plan
+    from ..outputs.export import export_plan
 
     try:
         result = PlanResult.load(plan_file)
@@ -54,7 +54,7 @@ def view_command(
     Exit codes: 0 (after Ctrl-C, or once the recording is written), 2 bad input.
     """
     try:
-        from .. import view
+        from ..outputs import view3d as view
 
         record_out = _output_file(record_out, "--record")
         result = PlanResult.load(plan_file)

@@ -12,11 +12,19 @@ import numpy as np
 import typer
 
 from ..errors import InputError
-from ..objects import load_outline, sample_pose_on_table
+from ..world.objects import load_outline, sample_pose_on_table
 from ..plan.result import PlanResult
-from ..scenes import load_scene
+from ..world.scenes import load_scene
 from .common import (
-    EXIT_NOT_SOLVED, EXIT_SOLVED, VIDEO_SUFFIXES, _OPTION_OF_FIELD, _disturb_values, _fail, _output_file, _write_text, app,
+    EXIT_NOT_SOLVED,
+    EXIT_SOLVED,
+    VIDEO_SUFFIXES,
+    _OPTION_OF_FIELD,
+    _disturb_values,
+    _fail,
+    _output_file,
+    _write_text,
+    app,
 )
 
 
@@ -61,7 +69,7 @@ def execute_command(
     execution failed (the report says where), 2 bad input. Needs the ``execution`` extra.
     """
     try:
-        from ..execute import ExecutionSettings, execute
+        from ..sim import ExecutionSettings, execute
 
         json_out, video = _output_file(json_out, "--json"), _output_file(video, "--video", VIDEO_SUFFIXES)
         result = PlanResult.load(plan_file)
@@ -108,8 +116,8 @@ def run_command(
     ``perception`` extras.
     """
     try:
-        from ..closed_loop import run
-        from ..closed_loop_settings import Disturbance
+        from ..sim.closed_loop import run
+        from ..sim.conditions import Disturbance
 
         json_out, video = _output_file(json_out, "--json"), _output_file(video, "--video", VIDEO_SUFFIXES)
         scene = load_scene(scene_name)
@@ -141,8 +149,8 @@ LOST_LOOKS_SHARE = 0.5  # beyond this share of looks without the object, the cam
 
 def _run_camera(scene, camera: tuple | None):
     """``run``'s depth camera: the closed loop's default for the scene, or (X, Y, Z, TX, TY, TZ) as given."""
-    from ..closed_loop import default_camera
-    from ..camera import Camera
+    from ..sim.closed_loop import default_camera
+    from ..perception.camera import Camera
 
     if camera is None:
         return default_camera(scene)

@@ -13,11 +13,23 @@ from .. import grasp_cache
 from ..errors import InputError
 from ..plan.config import PLANNERS, PlannerConfig
 from ..plan.robot import table_reach
-from ..scenes import load_scene
+from ..world.scenes import load_scene
 from .common import (
-    EXIT_INVALID_PLAN, EXIT_NOT_SOLVED, EXIT_SOLVED, MIN_TABLE_REACH, PICTURE_SUFFIXES, _config_from_options,
-    _exit_for, _fail, _load_object, _output_file, _parse_params, _plan_verify_write, _summary,
-    _write_scene_cloud, app,
+    EXIT_INVALID_PLAN,
+    EXIT_NOT_SOLVED,
+    EXIT_SOLVED,
+    MIN_TABLE_REACH,
+    PICTURE_SUFFIXES,
+    _config_from_options,
+    _exit_for,
+    _fail,
+    _load_object,
+    _output_file,
+    _parse_params,
+    _plan_verify_write,
+    _summary,
+    _write_scene_cloud,
+    app,
 )
 
 
@@ -122,9 +134,9 @@ def perceive_command(
     Exit codes: 0 perceived (and, with --plan-target, solved and verified), 1 not solved,
     2 bad input (including no table, a tilted table, no object), 3 plan fails verification.
     """
-    from ..objects import load_point_cloud
-    from ..perception import perceive
-    from ..perception_files import write_perception
+    from ..world.objects import load_point_cloud
+    from ..perception.tabletop import perceive
+    from ..perception.files import write_perception
     try:
         json_out, png_out = _output_file(json_out, "--json"), _output_file(png_out, "--png", PICTURE_SUFFIXES)
         if plan_target is not None and plan_target < 0:
@@ -163,7 +175,7 @@ def perceive_command(
         return
     try:
         config = _config_from_options(scene, seed, time_limit, None, "slideplan", [])
-        from ..pipeline import for_perceived
+        from ..checks.pipeline import for_perceived
 
         margin = perception.edge_uncertainty
         config = for_perceived(config, margin)
@@ -191,7 +203,7 @@ def check_scene_command(
 
     Exit codes: 0 the scene can plan, 1 it cannot (the first lines say why), 2 bad input.
     """
-    from ..check_scene import check_scene
+    from ..checks.scene import check_scene
 
     try:
         png_out = _output_file(png_out, "--png", PICTURE_SUFFIXES)
@@ -199,7 +211,7 @@ def check_scene_command(
         obj, _ = _load_object(scene, object_name, None, 0)
         result = check_scene(scene, obj, PlannerConfig.for_scene(scene, **_parse_params(param)))
         if png_out is not None:
-            from ..viz import draw_scene_check
+            from ..outputs.pictures import draw_scene_check
 
             draw_scene_check(scene, result, png_out)
     except (InputError, ValueError, OSError) as error:

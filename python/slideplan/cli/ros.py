@@ -9,8 +9,8 @@ import typer
 
 from .._fields import as_number
 from ..errors import InputError
-from ..objects import load_outline, sample_pose_on_table
-from ..scenes import load_scene
+from ..world.objects import load_outline, sample_pose_on_table
+from ..world.scenes import load_scene
 from .common import EXIT_NOT_SOLVED, _OPTION_OF_FIELD, _OneLineErrors, _disturb_values, _fail, _numbers, app
 
 
@@ -106,7 +106,7 @@ def ros_sim_command(
     ros_args = _ros_args(context)
     sim = _ros_import("sim")
     try:
-        from ..closed_loop_settings import Disturbance
+        from ..sim.conditions import Disturbance
 
         scene = load_scene(scene_name)
         if pose is None:

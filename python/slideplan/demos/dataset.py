@@ -79,7 +79,7 @@ class Convention:
 
     def apply(self, rows: list[dict], gripper) -> None:
         """Rewrite the rows' joints in the convention's unit and the gripper's closing as 0..100 of its joint's
-        range (``gripper``: the model's :class:`~slideplan.execute.model.Gripper`, one joint)."""
+        range (``gripper``: the model's :class:`~slideplan.sim.model.Gripper`, one joint)."""
         scale = math.degrees(1.0) if self.unit == "deg" else 1.0
         opened, closed = float(gripper.opened[0]), float(gripper.closed[0])
         low, high = (float(value) for value in gripper.limits[0])

@@ -8,10 +8,10 @@ import dataclasses
 
 import numpy as np
 
-from ..closed_loop_settings import SETTINGS
+from ..sim.conditions import SETTINGS
 from ..errors import InputError
-from ..objects import load_outline, sample_pose_on_table
-from ..scenes import Scene
+from ..world.objects import load_outline, sample_pose_on_table
+from ..world.scenes import Scene
 
 # An object kept this far inside the table's edges: one drawn overhanging already is no demonstration.
 EDGE_MARGIN_M = 0.01
@@ -44,7 +44,7 @@ def check_setting(setting: str) -> None:
 
 def draw(scene: Scene, objects: tuple[str, ...], setting: str, seed: int) -> Draw:
     """The episode of ``seed``: an object drawn from ``objects`` and a pose with it wholly on the table
-    (uniform, :func:`slideplan.objects.sample_pose_on_table`, kept :data:`EDGE_MARGIN_M` inside).
+    (uniform, :func:`slideplan.world.objects.sample_pose_on_table`, kept :data:`EDGE_MARGIN_M` inside).
 
     Args:
         scene: the scene (its table).

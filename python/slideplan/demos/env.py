@@ -1,7 +1,7 @@
 """``slideplan/SlideToEdge-v0``: the slide, grasp and lift as a Gymnasium environment, to evaluate the
 policies trained on ``slideplan demos`` datasets in the same physics.
 
-An episode starts as a demonstration does (:class:`slideplan.closed_loop.Start`: the same draw for the same
+An episode starts as a demonstration does (:class:`slideplan.sim.closed_loop.Start`: the same draw for the same
 seed, the object perceived, the first plan made, the finger pressed at its first contact). A step holds an
 action for ``1 / fps`` simulated seconds. Success is the world's verdict: the object held in the hand, its
 lowest point at least half the lift height above the table, for the hold time.
@@ -16,21 +16,21 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ..bounds import MAX_REPLANS, MAX_SLIDE_S
-from ..closed_loop import Start
-from ..closed_loop_settings import execution_settings, hard_push, push_candidates
+from ..loop.bounds import MAX_REPLANS, MAX_SLIDE_S
+from ..sim.closed_loop import Start
+from ..sim.conditions import execution_settings, hard_push, push_candidates
 from ..errors import InputError
-from ..execute.model import DEPTH_CAMERA, build_model, enable_hand_collisions
-from ..execute.runner import CLOSE_S, SETTLE_S, Runner, instability, timing_options
-from ..geometry import Ending
-from ..motions import Unreachable, plan_times, reach_path, reference, rest_to_rest, straight_up
-from ..loop import plan_anew
+from ..sim.model import DEPTH_CAMERA, build_model, enable_hand_collisions
+from ..sim.runner import CLOSE_S, SETTLE_S, Runner, instability, timing_options
+from ..world.geometry import Ending
+from ..plan.motions import Unreachable, plan_times, reach_path, reference, rest_to_rest, straight_up
+from ..loop.decisions import plan_anew
 from ..plan.robot import build_robot, robot_model
-from ..rendering import camera_depth
-from ..scenes import Scene, load_scene
-from ..timing import resolve_limits
+from ..sim.rendering import camera_depth
+from ..world.scenes import Scene, load_scene
+from ..plan.timing import resolve_limits
 from ..transforms import compose_planar, planar_motion, rotation_2d, rotation_vector, row_to_pose
-from ..watch import pose_error
+from ..loop.watch import pose_error
 from .draw import draw
 from .frames import CameraSpec, Frames, state_names
 from .generate import Request, front_points
@@ -43,7 +43,7 @@ REWARD_TYPES = ("sparse", "dense")
 # demonstrations' ee_delta actions lie in the action space.
 _EE_SPEED = (1.2, 3.5)
 _POSTURE_GAIN = 0.2  # the share of its way back to the reset posture an ee_delta step takes in the null space
-# As long as a run may take: its slide bounded by slideplan.bounds (60 s), then the approach, grasp, lift and hold.
+# As long as a run may take: its slide bounded by slideplan.loop.bounds (60 s), then the approach, grasp, lift and hold.
 EPISODE_S = MAX_SLIDE_S + 20.0
 _FELL_M = 0.05  # the object's centre this far below the table top: off the table, the episode over
 # The fingertip this far from where the expert's reference has it (m, rad): a policy took the arm elsewhere.
@@ -331,7 +331,7 @@ class _World:
         return bool(np.linalg.norm(want[:3, 3] - tip[:3, 3]) > _OFF_REFERENCE[0] or turned > _OFF_REFERENCE[1])
 
     def _replan(self, t: float) -> None:
-        """Plan for the object where it is (:func:`slideplan.loop.plan_anew`: over an edge too) and reach its first
+        """Plan for the object where it is (:func:`slideplan.loop.decisions.plan_anew`: over an edge too) and reach its first
         contact from here; keep the reference if there is none."""
         self.replans += 1
         motion = self.motion()
@@ -405,7 +405,7 @@ class _World:
         return float(shift[0]), float(shift[1]), float(turn)
 
     def moved(self):
-        """The object where it truly is now (a :class:`~slideplan.objects.ThinObject`)."""
+        """The object where it truly is now (a :class:`~slideplan.world.objects.ThinObject`)."""
         return self.start.truth.moved(self.motion())
 
     def ending(self) -> Ending:

@@ -61,11 +61,11 @@ EE_ACTION_NAMES = ["dx", "dy", "dz", "drx", "dry", "drz", "gripper"]  # the fing
 
 class Frames:
     """Takes a frame every ``1 / fps`` simulated seconds; hand :meth:`after_step` to the run as the
-    listener of each step (:func:`slideplan.closed_loop.run`'s ``observe``).
+    listener of each step (:func:`slideplan.sim.closed_loop.run`'s ``observe``).
 
     Args:
-        built: the run's MuJoCo model (:class:`slideplan.execute.model.Model`).
-        runner: its servos (:class:`slideplan.execute.runner.Runner`: the phase).
+        built: the run's MuJoCo model (:class:`slideplan.sim.model.Model`).
+        runner: its servos (:class:`slideplan.sim.runner.Runner`: the phase).
         robot: the core robot model (the fingertip's pose).
         fps: frames per simulated second.
         cameras: the images to take.
@@ -75,8 +75,8 @@ class Frames:
     def __init__(self, built, runner, robot, fps: int, cameras: tuple[CameraSpec, ...], front_points) -> None:
         import mujoco
 
-        from ..execute.model import DEPTH_CAMERA
-        from ..execute.video import framed_camera
+        from ..sim.model import DEPTH_CAMERA
+        from ..sim.video import framed_camera
 
         self.built, self.runner, self.robot, self.fps = built, runner, robot, fps
         model = built.model

@@ -105,7 +105,7 @@ def front_points(scene) -> np.ndarray:
 def run_episode(episode: Episode) -> dict:
     """Run and record one episode (in a worker): its folder holds ``record.json`` and, if kept, the
     episode's dataset (``dataset/``). Returns the record."""
-    from ..closed_loop import run
+    from ..sim.closed_loop import run
     from ..experiments.tasks import cached_scene
 
     request, out = episode.request, Path(episode.out)

@@ -2,9 +2,9 @@
 
 Each task is one object pose of a task set (``--set dev``: the execution experiment's Fig. 10 set, 5
 objects x 4 tables; ``--set eval``: the held-out letters, :func:`slideplan.experiments.tasks.closed_loop_eval_spec`);
-its worker runs :func:`slideplan.closed_loop.run` in every setting (nominal, stress, random, hard) and
+its worker runs :func:`slideplan.sim.closed_loop.run` in every setting (nominal, stress, random, hard) and
 mode (open, closed): perceive, plan, slide, grasp, lift, hold, judged by the world
-(:mod:`slideplan.verdict`). The random and hard settings' draws come from the task's seed alone, so open
+(:mod:`slideplan.checks.verdict`). The random and hard settings' draws come from the task's seed alone, so open
 and closed loop meet the same physics. One part file per task holds its eight runs side by side
 (``<setting>_<mode>_<column>``); :func:`closed_loop_runs` turns them into one row per run::
 
@@ -26,8 +26,8 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from ..closed_loop import run
-from ..closed_loop_settings import SETTINGS
+from ..sim.closed_loop import run
+from ..sim.conditions import SETTINGS
 from ..provenance import PROVENANCE_COLUMNS, run_provenance
 from .execution import TASK_COLUMNS
 from .results import PROVENANCE_FIELDS, load_results
@@ -52,14 +52,14 @@ CLOSED_LOOP_ROW_SCHEMA = pa.schema(
     + PROVENANCE_FIELDS
 )
 """Columns of a task's part file: the task, its ``task_set`` (``dev`` or ``eval``), ``solved`` (every run of
-it finished), then each run's outcome (:class:`slideplan.closed_loop_run.ClosedLoopRun`; ``max_latency_s`` the
+it finished), then each run's outcome (:class:`slideplan.sim.closed_loop_run.ClosedLoopRun`; ``max_latency_s`` the
 slowest re-plan; as JSON: ``draws`` the physics, ``disturbance`` the push, ``seen_frames`` the frames of the
 look after the slide, ``decision_frames`` each deciding look's trigger, outcome and frames), then ``error``
 (a run that raised), then the provenance columns of :data:`slideplan.experiments.results.ROW_SCHEMA`."""
 
 
 def run_columns(report) -> dict[str, Any]:
-    """A :class:`~slideplan.closed_loop_run.ClosedLoopRun` as the values of :data:`_RUN_COLUMNS`."""
+    """A :class:`~slideplan.sim.closed_loop_run.ClosedLoopRun` as the values of :data:`_RUN_COLUMNS`."""
     outcome = dataclasses.asdict(report)
     for name in ("draws", "disturbance", "seen_frames"):
         outcome[name] = json.dumps(outcome[name], sort_keys=True)
@@ -173,7 +173,7 @@ def plot_closed_loop(runs: pd.DataFrame, out_dir: str | Path, name: str = "close
     from matplotlib.figure import Figure
     from matplotlib.ticker import NullFormatter
 
-    from ..plots import save_figures
+    from .plots import save_figures
 
     summary = summarize_closed_loop(runs)
     figure = Figure(figsize=(17, 3.8))

@@ -3,14 +3,14 @@ mode with 95% Wilson intervals, a paired exact McNemar test of closed against op
 the failure causes. docs/results/make_tables.py writes :func:`report` into docs/results/closed_loop.md.
 
 The rows are :func:`slideplan.experiments.closed_loop.closed_loop_runs`'s, one per run; ``success`` is
-the world's verdict (:mod:`slideplan.verdict`), the same for both modes.
+the world's verdict (:mod:`slideplan.checks.verdict`), the same for both modes.
 """
 
 from __future__ import annotations
 
 import pandas as pd
 
-from ..closed_loop_settings import SETTINGS
+from ..sim.conditions import SETTINGS
 from .stats import wilson_interval
 
 SETS = ("dev", "eval", "eval2")  # eval: the former held-out set, spent, worked on as dev; eval2: held out

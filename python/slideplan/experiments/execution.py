@@ -1,7 +1,7 @@
 """The execution experiment (issue 9): plans of the Fig. 10 set executed in MuJoCo.
 
 Each task plans as in Fig. 10 (full size) and, if solved, executes the plan with
-:func:`slideplan.execute.execute` twice: in the **nominal** setting (:class:`ExecutionSettings`
+:func:`slideplan.sim.execute` twice: in the **nominal** setting (:class:`ExecutionSettings`
 defaults) and in a **stress** setting (torsional friction at the fingertip halved, and the finger
 pressing at the band's shallowest depth ``dz_min`` at every waypoint instead of the planned
 depth). One Parquet row per task holds the plan's features and both outcomes::
@@ -20,8 +20,8 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from ..execute import ExecutionSettings, execute, path_features, stress_settings
-from ..pipeline import plan_checked
+from ..sim import ExecutionSettings, execute, path_features, stress_settings
+from ..checks.pipeline import plan_checked
 from ..provenance import run_provenance
 from ..transforms import row_to_pose
 from .results import PROVENANCE_FIELDS, ROW_SCHEMA, load_results
@@ -50,7 +50,7 @@ EXECUTION_ROW_SCHEMA = pa.schema(
 )
 """Columns of an execution row: the task, the plan (``tip_path_m`` and ``straight_m``: fingertip
 path length and the straight distance between its ends; ``yaw_travel_deg``: total turning of the
-fingertip), then ``nominal_*`` and ``stress_*`` outcomes (:class:`slideplan.execute.Execution`;
+fingertip), then ``nominal_*`` and ``stress_*`` outcomes (:class:`slideplan.sim.Execution`;
 ``normal_force_n`` is the mean while sliding), then the provenance columns of
 :data:`slideplan.experiments.results.ROW_SCHEMA`. Outcomes are null when the plan was not solved."""
 
@@ -149,7 +149,7 @@ def plot_execution(results: pd.DataFrame, out_dir: str | Path, name: str = "exec
     """
     from matplotlib.figure import Figure
 
-    from ..plots import save_figures
+    from .plots import save_figures
 
     executed = results[results["solved"].fillna(False) & results["error"].isna()]
     figure = Figure(figsize=(13, 3.8))

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..pipeline import plan_checked
+from ..checks.pipeline import plan_checked
 from ..provenance import run_provenance
 from .executors import LocalPoolExecutor, TaskExecutor
 from .results import ROW_SCHEMA, STAT_COLUMNS, finished_task_ids, results_dir, write_row

@@ -20,10 +20,10 @@ import shapely.affinity
 from shapely.geometry import Polygon
 
 from ..errors import InputError
-from ..objects import ThinObject, load_outline, sample_pose_on_table
+from ..world.objects import ThinObject, load_outline, sample_pose_on_table
 from ..plan.config import PLANNERS, PlannerConfig
 from ..paths import held_out
-from ..scenes import Scene, load_scene
+from ..world.scenes import Scene, load_scene
 
 FIGURES = ("fig10", "fig11", "fig12")
 EXPERIMENTS = FIGURES + ("execution", "closed-loop")  # Fig. 10's set executed in MuJoCo: its plans (issue 9), whole tasks (issue 24)
@@ -170,7 +170,7 @@ def cached_scene(name: str) -> Scene:
 def scaled_outline(name: str, scale: float) -> tuple[Polygon, float]:
     """Return an object's outline scaled in x and y about its origin, and its thickness (cached).
 
-    The same scaling as :func:`slideplan.objects.load_object`, so a pose sampled for this
+    The same scaling as :func:`slideplan.world.objects.load_object`, so a pose sampled for this
     outline keeps the loaded object on the table.
 
     Raises:
@@ -198,7 +198,7 @@ def initial_pose_and_seed(
     """Draw the initial pose and planner seed of one (scene, object, scale, pose index).
 
     Uniform position and yaw with the whole (scaled) object on the table, by
-    :func:`slideplan.objects.sample_pose_on_table`.
+    :func:`slideplan.world.objects.sample_pose_on_table`.
 
     Args:
         scene: built-in scene name.

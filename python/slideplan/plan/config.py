@@ -13,7 +13,7 @@ import numpy as np
 from .. import _core, parameters
 from .._fields import as_number, is_number
 from ..errors import InputError, require_type
-from ..scenes import Scene
+from ..world.scenes import Scene
 
 PLANNERS = ("slideplan", "cbirrt", "cbirrt2")
 

@@ -1,5 +1,5 @@
-"""Planning: :func:`plan` turns a :class:`~slideplan.scenes.Scene` and a
-:class:`~slideplan.objects.ThinObject` into the C++ core's inputs (:func:`core_task`), runs Algorithm 1
+"""Planning: :func:`plan` turns a :class:`~slideplan.world.scenes.Scene` and a
+:class:`~slideplan.world.objects.ThinObject` into the C++ core's inputs (:func:`core_task`), runs Algorithm 1
 (``_core.plan_sliding``, timed in the same call) with the scene's cached grasp map, and wraps the answer
 in a :class:`~slideplan.plan.result.PlanResult`."""
 
@@ -14,9 +14,9 @@ import numpy as np
 from .. import _core, grasp_cache, parameters
 from .._fields import as_numbers
 from ..errors import InputError, require_type
-from ..objects import ThinObject
-from ..scenes import Scene
-from ..timing import TimingOptions, core_limits, robot_limits
+from ..world.objects import ThinObject
+from ..world.scenes import Scene
+from .timing import TimingOptions, core_limits, robot_limits
 from ..transforms import pose_to_row
 from .config import PlannerConfig
 from .result import PlanResult
@@ -102,7 +102,7 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
         config: planner parameters, seed, time limit and planner (default:
             :meth:`PlannerConfig.for_scene`, the hand's defaults); its unset parameters are filled
             from the scene's hand, then the built-in defaults (:meth:`PlannerConfig.resolved`).
-        timing: limits of the time parameterization, a :class:`slideplan.timing.TimingOptions`
+        timing: limits of the time parameterization, a :class:`slideplan.plan.timing.TimingOptions`
             (default: URDF velocity limits and the documented defaults).
         start_config: planning from a state (beyond the paper, for re-planning during a slide): the
             ``(dof,)`` configuration the arm is in, its finger in contact with ``obj``. The plan
@@ -110,7 +110,7 @@ def plan(scene: Scene, obj: ThinObject, config: PlannerConfig | None = None, tim
 
     Returns:
         The result; ``status`` is ``"solved"`` or ``"timeout"``. A solved plan carries its
-        ``timing``. The planner does not run :func:`slideplan.verify.verify`; call it to re-check a plan.
+        ``timing``. The planner does not run :func:`slideplan.checks.verify.verify`; call it to re-check a plan.
 
     Raises:
         InputError: the object is not on the table, the robot cannot be loaded, the core

@@ -27,7 +27,7 @@ class PlanResult(jsontext.Document):
     """One planning run, as stored in the plan JSON (``slideplan.plan/2``, docs/design.md 5).
 
     It holds everything needed to re-check the plan without the planner
-    (:func:`slideplan.verify.verify` does). Arrays are numpy arrays; when ``status`` is
+    (:func:`slideplan.checks.verify.verify` does). Arrays are numpy arrays; when ``status`` is
     not ``"solved"`` the configuration and trajectory arrays are empty.
 
     Attributes:
@@ -55,7 +55,7 @@ class PlanResult(jsontext.Document):
             dense path from the goal configuration to the grasp configuration}``.
         stats: planner counters (iterations, start_roots, goal_roots, pairs_checked, ...).
         timing: times, velocities and accelerations of ``trajectory`` and ``grasp.approach`` and
-            the limits used (:func:`slideplan.timing.parameterize`); None when the plan is not
+            the limits used (:func:`slideplan.plan.timing.parameterize`); None when the plan is not
             solved or was read from a ``slideplan.plan/1`` file.
     """
 

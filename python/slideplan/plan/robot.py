@@ -19,7 +19,7 @@ import shapely
 from .. import _core
 from .._limits import MAX_ROBOT_FILE_BYTES, read_regular_file
 from ..errors import InputError, MeshWarning
-from ..scenes import Scene, package_search_dirs
+from ..world.scenes import Scene, package_search_dirs
 from ..transforms import homogeneous, rotation_from_rpy, yawed_pose
 from .config import PlannerConfig
 
@@ -98,7 +98,7 @@ def _urdf_root(path: Path, field: str = "") -> ElementTree.Element:
 
 def search_dirs(description: dict[str, Any]) -> list[str]:
     """Where the ``package://`` URIs of a robot block resolve: its own ``package_dirs``, then this
-    machine's (:func:`~slideplan.scenes.package_search_dirs`; a plan records only its scene's own)."""
+    machine's (:func:`~slideplan.world.scenes.package_search_dirs`; a plan records only its scene's own)."""
     return [str(entry) for entry in package_search_dirs(tuple(Path(entry) for entry in description["package_dirs"]))]
 
 

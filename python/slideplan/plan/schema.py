@@ -15,7 +15,7 @@ from .. import parameters
 from .._fields import as_number, as_numbers, is_number, require_within
 from .._limits import MAX_MAGNITUDE, require_waypoints
 from ..errors import InputError
-from ..geometry import SupportSurface
+from ..world.geometry import SupportSurface
 from .config import PlannerConfig
 
 CONFIG_TOLERANCE = 1e-9  # rad: configurations that must be the same (approach ends)

@@ -1,5 +1,5 @@
 """One ``/slideplan/execute`` of the planning node (:class:`Execution`): reach, slide (watched and
-re-planned with ``closed_loop``: the loop's decisions of :mod:`slideplan.loop` over the node's
+re-planned with ``closed_loop``: the loop's decisions of :mod:`slideplan.loop.decisions` over the node's
 controller and clouds, :class:`_Controlled`), approach, close, lift."""
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ from typing import Callable
 
 import numpy as np
 
-from ..camera import Camera
-from ..loop import SlideLoop, Stop
-from ..motions import reference, rest_to_rest
+from ..perception.camera import Camera
+from ..loop.decisions import SlideLoop, Stop
+from ..plan.motions import reference, rest_to_rest
 from ..plan.robot import base_pose_matrix
 from ..plan.result import PlanResult
-from ..watch import Watch
+from ..loop.watch import Watch
 from .task import Refused, Task, cloud_in_world, lift_path
 
 # The closed loop, as slideplan run's defaults: a drift is 3 mm / 2 deg off the prediction; each re-plan has 1 s.
@@ -32,7 +32,7 @@ class Execution:
 
     def __init__(self, node, task: Task) -> None:
         self.node, self.task = node, task
-        self.events: list = []  # the closed loop's looks that asked for a plan (slideplan.watch.Replan)
+        self.events: list = []  # the closed loop's looks that asked for a plan (slideplan.loop.watch.Replan)
         self.lookahead_s = LOOKAHEAD_S
         self.judge: Watch | None = None
 
@@ -43,7 +43,7 @@ class Execution:
         names = result.joint_names
         node.move(names, task.reach, rest_to_rest(result.robot_model(), task.reach, result.timing["limits"], "reach", capped=False), "reach")
         result, loop, expected = self.slide(result)
-        if loop.abandoned:  # as slideplan.closed_loop.run judges it: no grasp of an object the finger lost
+        if loop.abandoned:  # as slideplan.sim.closed_loop.run judges it: no grasp of an object the finger lost
             raise Refused("slide", "no progress: the finger travelled on and the object did not, and no new plan "
                                    f"followed (slide_stop {loop.stopped})")
         approach = np.asarray(result.grasp["approach"], dtype=float)
@@ -65,7 +65,7 @@ class Execution:
 
     def slide(self, result: PlanResult) -> tuple[PlanResult, SlideLoop, tuple]:
         """Follow the slide; with ``closed_loop``, watch the object in each new cloud and re-plan as
-        :func:`slideplan.closed_loop.run` does (:class:`~slideplan.loop.SlideLoop`, within its bounds).
+        :func:`slideplan.sim.closed_loop.run` does (:class:`~slideplan.loop.decisions.SlideLoop`, within its bounds).
         Return the plan whose grasp is made, the loop (its re-plans and the bound it met), and where the
         object is expected at the grasp (motion from its perceived pose: as last seen, or as Eq. 2 puts it)."""
         node, task = self.node, self.task
@@ -118,7 +118,7 @@ class Execution:
     def check_lifted(self, expected) -> bool:
         """After the lift, look for the object on the table: where it was grasped, then (from an organized
         cloud) anywhere on the table, as the closed loop searches for a lost object
-        (:meth:`~slideplan.watch.Watch.locate`, then a fit there). Seen on the table, the grasp
+        (:meth:`~slideplan.loop.watch.Watch.locate`, then a fit there). Seen on the table, the grasp
         missed it, let it go or knocked it away. Return False when too little of the place where it was
         grasped is in view to tell.
 
@@ -176,7 +176,7 @@ def _hold(config: np.ndarray) -> dict[str, np.ndarray]:
 
 
 class _Controlled:
-    """The :class:`~slideplan.loop.Arm` of an execution: trajectories on the controller's topic, a
+    """The :class:`~slideplan.loop.decisions.Arm` of an execution: trajectories on the controller's topic, a
     look at each new cloud; a new plan starts where the arm will be ``lookahead_s`` after the frame (it
     goes on moving while the loop plans)."""
 

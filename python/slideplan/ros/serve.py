@@ -1,13 +1,13 @@
 """``slideplan ros serve``: the planning node ``slideplan`` (docs/ros2.md).
 
-``/slideplan/plan`` perceives the latest ``/camera/points`` cloud (:func:`slideplan.perception.perceive`,
+``/slideplan/plan`` perceives the latest ``/camera/points`` cloud (:func:`slideplan.perception.tabletop.perceive`,
 the robot from the node's scene), plans the slide for the object ``target`` and a reach to its first
 contact from the arm's current joint state, verifies the plan and publishes its markers.
 ``/slideplan/execute`` plans if there is no plan yet, then drives the robot: opens the hand, publishes
 the reach, the slide and the approach on ``/<controller>/joint_trajectory`` (each when the last has
 arrived), closes the hand through ``/gripper/set`` and lifts. With ``closed_loop`` it watches the object
-in the clouds while sliding and re-plans as ``slideplan run`` does (:class:`slideplan.loop.SlideLoop`,
-:class:`slideplan.watch.Watch`).
+in the clouds while sliding and re-plans as ``slideplan run`` does (:class:`slideplan.loop.decisions.SlideLoop`,
+:class:`slideplan.loop.watch.Watch`).
 
 Every response's ``message`` is one line of JSON: ``status`` (``solved``, ``done`` or what failed) and
 the numbers, or the ``reason`` it failed.
@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import InputError
 from ..plan.robot import robot_model
 from ..plan.result import PlanResult
-from ..scenes import Scene
+from ..world.scenes import Scene
 from .guards import Arrivals, Ignored, declare_checked, discovery_notice, joint_state, rcl_errors
 from .execution import Execution
 from .task import Refused, Task, one_line, plan_task

@@ -1,4 +1,4 @@
-"""``slideplan ros sim``: the MuJoCo execution model (:mod:`slideplan.execute`) as a ROS 2 robot, node
+"""``slideplan ros sim``: the MuJoCo execution model (:mod:`slideplan.sim`) as a ROS 2 robot, node
 ``slideplan_sim``.
 
 It runs in real time where the physics keeps up (slower where it cannot: everything is timed in
@@ -29,18 +29,18 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera import Camera
-from ..closed_loop import DEPTH_DROPOUT, default_camera
-from ..closed_loop_settings import Disturbance, execution_settings, setting_draws
+from ..perception.camera import Camera
+from ..sim.closed_loop import DEPTH_DROPOUT, default_camera
+from ..sim.conditions import Disturbance, execution_settings, setting_draws
 from ..errors import InputError
-from ..execute.model import DEPTH_CAMERA, Rig, build_model, enable_hand_collisions, set_servo_gains
-from ..execute.runner import instability
-from ..motions import reference
-from ..objects import load_object
+from ..sim.model import DEPTH_CAMERA, Rig, build_model, enable_hand_collisions, set_servo_gains
+from ..sim.runner import instability
+from ..plan.motions import reference
+from ..world.objects import load_object
 from ..plan.config import PlannerConfig
 from ..plan.robot import build_robot, robot_description
-from ..rendering import camera_depth, noisy_depth
-from ..scenes import Scene
+from ..sim.rendering import camera_depth, noisy_depth
+from ..world.scenes import Scene
 from ..transforms import homogeneous
 
 JOINT_STATE_HZ = 100.0
@@ -60,7 +60,7 @@ class Sim:
         setting: ``nominal``, ``stress`` (torsional friction halved) or ``random`` (frictions, mass and
             depth noise drawn from ``seed``), as ``slideplan run``.
         seed: the random setting's draws and the camera noise.
-        camera: the depth camera (default: the closed loop's, :func:`slideplan.closed_loop.default_camera`).
+        camera: the depth camera (default: the closed loop's, :func:`slideplan.sim.closed_loop.default_camera`).
         home: the arm's first configuration (default: every joint at 0, clipped into its limits).
         disturbance: move the object ``after_s`` after the fingertip first touches it, or None.
 
@@ -74,7 +74,7 @@ class Sim:
         os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo is first imported
         import mujoco
 
-        if setting == "hard":  # its camera error and push are slideplan.closed_loop.run's, not this simulator's
+        if setting == "hard":  # its camera error and push are slideplan.sim.closed_loop.run's, not this simulator's
             raise InputError("the hard setting runs in `slideplan run` and the closed-loop experiment only", field="setting")
         self.draws = setting_draws(setting, seed)
         self.truth = load_object(object_name, table_height=scene.table.height, pose=pose)
@@ -190,7 +190,7 @@ class Sim:
 
     def _set_hand(self, closed: bool) -> None:
         """Closed: every hand link touches the world, the finger's flexure stiffens and the closing torque
-        is capped (as :meth:`slideplan.execute.runner.Runner.grasp`); open: the pad alone touches."""
+        is capped (as :meth:`slideplan.sim.runner.Runner.grasp`); open: the pad alone touches."""
         built, model = self.built, self.model
         enable_hand_collisions(built, closed)
         model.jnt_stiffness[built.spring_joint] = self._stiffness * (50.0 if closed else 1.0)

@@ -10,12 +10,12 @@ import numpy as np
 
 from .. import jsontext
 from ..errors import InputError
-from ..motions import Unreachable, reach_path, straight_up
-from ..objects import ThinObject
+from ..plan.motions import Unreachable, reach_path, straight_up
+from ..world.objects import ThinObject
 from ..plan.config import PlannerConfig
 from ..plan.robot import base_pose_matrix
 from ..plan.result import PlanResult
-from ..scenes import Scene
+from ..world.scenes import Scene
 
 
 LIFT_M = 0.05  # the lift after the grasp
@@ -42,13 +42,13 @@ def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: in
                    table_plane=None) -> tuple[Scene, ThinObject, int, tuple, float]:
     """The perceived scene (its table and clutter, the robot from ``scene``), the object ``target``, how
     many objects were seen, the table plane (``table_plane``: the plane of an earlier cloud of the
-    same camera, :func:`slideplan.perception.perceive`'s) and how far the perceived edges may be off (m).
+    same camera, :func:`slideplan.perception.tabletop.perceive`'s) and how far the perceived edges may be off (m).
 
     Raises:
         Refused: an empty cloud (``no_cloud``), nothing perceived (``perception``), or a target that is
             not one of the objects seen (``target``).
     """
-    from ..perception import perceive
+    from ..perception.tabletop import perceive
 
     if len(world_points) == 0:
         raise Refused("no_cloud", "the latest cloud on /camera/points has no finite points")
@@ -67,7 +67,7 @@ def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: in
 
 
 def lift_path(result: PlanResult) -> np.ndarray:
-    """From the grasp straight up LIFT_M, a centimetre at a time (:func:`slideplan.motions.straight_up`).
+    """From the grasp straight up LIFT_M, a centimetre at a time (:func:`slideplan.plan.motions.straight_up`).
 
     Raises:
         Refused: (``lift``) no IK for the lifted grasp.
@@ -101,7 +101,7 @@ def plan_task(scene: Scene, points: np.ndarray, joints: np.ndarray | None, *, ca
         Refused: no joint state yet (``no_joint_state``), a failed perception, an unsolved plan
             (``timeout`` or the planner's status), a plan that fails the verifier (``invalid``) or no reach.
     """
-    from ..pipeline import for_perceived, plan_checked
+    from ..checks.pipeline import for_perceived, plan_checked
 
     started = time.perf_counter()
     perceived_scene, obj, seen, plane, margin = perceived_task(scene, cloud_in_world(points, camera_pose), target, seed,

@@ -1,0 +1,124 @@
+"""Does a change keep behaviour? An older build and this one make the README's plans and a closed-loop dev
+subset in one run, and the results are compared.
+
+- The README's plans (``slideplan plan``): the plan JSON must be identical but for clock readings
+  (``planning_time_s``, the core's set-up times) and where the package lies (the URDF's folder).
+- The closed loop's dev subset, ``slideplan experiment closed-loop --scene square --poses 1`` (5 objects x
+  4 settings x 2 modes = 40 runs): every column of every row must be equal but the provenance and the
+  wall times; the simulated seconds per wall second of each build, per mode, are reported (medians,
+  p10 and p90), both measured in this run, one build after the other, the other core idle.
+
+Writes docs/benchmarks/same_behaviour.md, with the build, CPU and date. Not a test: ``make bench``
+leaves it out (it needs the older build); run it after a change that must not change behaviour:
+
+    pip install --no-deps --no-build-isolation --target /tmp/before .   # at the older commit
+    python benchmarks/same_behaviour.py --before /tmp/before
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import pandas as pd
+
+from plan_bench import write_report  # benchmarks/ is the script's directory, hence on sys.path
+
+README_PLANS = (  # README.md's commands, each with its --json
+    ["--scene", "square", "--object", "crescent", "--pose", "0.55", "-0.08", "0.4", "--seed", "1", "--time-limit", "10"],
+    ["--scene", "panda_square", "--object", "crescent", "--seed", "1", "--param", "u_star=0.025"],
+    ["--scene", "round", "--object", "Y", "--pose", "0.5", "0.0", "1.0", "--seed", "3", "--time-limit", "10"],
+)
+CLOCK_KEYS = {"planning_time_s", "precompute_time", "setup_time"}
+SUBSET = ["closed-loop", "--set", "dev", "--scene", "square", "--poses", "1", "--workers", "1"]
+# Columns that say who ran a row and how long it took, not what happened.
+NOT_BEHAVIOUR = {"build", "dirty", "cpu", "date", "host", "python", "wall_time_s", "plan_time_s", "replan_time_s",
+                 "work_s", "worker", "started", "finished"}
+
+
+def slideplan(python_path: str | None, *arguments: str) -> subprocess.CompletedProcess:
+    """``python -m slideplan.cli`` with the older build first on the path (None: this build)."""
+    env = dict(os.environ, SLIDEPLAN_NO_CACHE="1")
+    env.pop("PYTHONPATH", None)
+    if python_path:
+        env["PYTHONPATH"] = python_path
+    return subprocess.run([sys.executable, "-m", "slideplan.cli", *arguments], env=env, capture_output=True, text=True)
+
+
+def behaviour(value):
+    """The plan JSON without its clock readings, the URDF by its file name."""
+    if isinstance(value, dict):
+        return {key: Path(item).name if key == "urdf" else behaviour(item)
+                for key, item in value.items() if key not in CLOCK_KEYS}
+    if isinstance(value, list):
+        return [behaviour(item) for item in value]
+    return value
+
+
+def compare_plans(before: str, work: Path) -> list[str]:
+    lines = []
+    for index, arguments in enumerate(README_PLANS):
+        plans = []
+        for label, path in (("before", before), ("after", None)):
+            out = work / f"plan{index}-{label}.json"
+            done = slideplan(path, "plan", *arguments, "--json", str(out))
+            if done.returncode not in (0, 1):
+                raise SystemExit(f"{label}: slideplan plan {' '.join(arguments)} failed: {done.stderr}")
+            plans.append(behaviour(json.loads(out.read_text())))
+        same = plans[0] == plans[1]
+        lines.append(f"| `slideplan plan {' '.join(arguments)}` | {plans[1]['status']} | {'identical' if same else 'DIFFERENT'} |")
+    return lines
+
+
+def subset_rows(python_path: str | None, out: Path) -> pd.DataFrame:
+    done = slideplan(python_path, "experiment", *SUBSET, "--out", str(out))
+    if done.returncode != 0:
+        raise SystemExit(f"the closed-loop subset failed: {done.stderr[-2000:]}")
+    return pd.concat([pd.read_parquet(path) for path in sorted((out / "results").glob("*.parquet"))], ignore_index=True)
+
+
+def speed(rows: pd.DataFrame) -> dict[str, str]:
+    factor = rows["sim_time_s"] / rows["wall_time_s"]
+    return {mode: f"{factor[rows['mode'] == mode].median():.2f}x (p10 {factor[rows['mode'] == mode].quantile(0.1):.2f}x, "
+                  f"p90 {factor[rows['mode'] == mode].quantile(0.9):.2f}x)" for mode in ("open", "closed")}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--before", required=True, help="a folder holding the older build's installed slideplan")
+    parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / "same_behaviour.md"))
+    args = parser.parse_args()
+    before_build = subprocess.run(
+        [sys.executable, "-c", "from slideplan.provenance import build_info; print(build_info()['build'])"],
+        env=dict(os.environ, PYTHONPATH=args.before), capture_output=True, text=True, check=True).stdout.strip()
+    with tempfile.TemporaryDirectory() as folder:
+        work = Path(folder)
+        plan_lines = compare_plans(args.before, work)
+        rows = {label: subset_rows(path, work / label) for label, path in (("before", args.before), ("after", None))}
+    key = ["task_id", "setting", "mode"]
+    columns = sorted(set(rows["after"].columns) - NOT_BEHAVIOUR - {"sim_time_s"} - {c for c in rows["after"] if c.endswith("_wall_s")})
+    left, right = (rows[label].sort_values(key).reset_index(drop=True)[columns] for label in ("before", "after"))
+    differing = [column for column in columns if column not in left or not left[column].equals(right[column])]
+    speeds = {label: speed(frame) for label, frame in rows.items()}
+    lines = [
+        "# Same behaviour: an older build against this one",
+        f"The older build: {before_build} (`{args.before}`). Command: `python benchmarks/same_behaviour.py --before DIR`.",
+        "",
+        "| README plan | status | plan JSON (clock readings aside) |", "|---|---|---|", *plan_lines, "",
+        f"Closed-loop dev subset (`slideplan experiment {' '.join(SUBSET)}`): {len(rows['after'])} runs; "
+        + (f"every row identical in all {len(columns)} columns of behaviour." if not differing and len(left) == len(right)
+           else f"DIFFERENT in {differing}."),
+        "",
+        "| build | open loop, simulated s per wall s | closed loop |", "|---|---|---|",
+        *(f"| {label} | {speeds[label]['open']} | {speeds[label]['closed']} |" for label in ("before", "after")),
+    ]
+    write_report(lines, Path(args.out))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,78 @@
+"""The world's verdict on a whole task (issue 53): what happened to the object, from the simulator's true
+state, the same rule for every mode.
+
+A run succeeds when the object is in the hand, at least :data:`HOLD_HEIGHT_M` above the table top,
+through the whole hold after the lift. What a camera saw is a diagnostic, never part of the verdict.
+:class:`Hold` is the object's true trajectory over the hold (sampled by
+:meth:`slideplan.sim.runner.Runner.grasp`); :func:`held` judges it, a pure function of it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+HOLD_HEIGHT_M = 0.03  # issue 53: the object's lowest point at least 3 cm above the table top
+SAMPLE_GAP_S = 0.02  # samples further apart than this (or a record that starts or ends this far from the hold's ends) do not cover it
+
+
+@dataclass(frozen=True)
+class Hold:
+    """The object's true state over the hold, sampled.
+
+    Attributes:
+        times: (N,) time since the hold began (s), increasing.
+        lowest_z: (N,) height of the object's lowest point (m, world).
+        in_hand: (N,) the object touched the robot (and only what touches it holds it up off the table).
+        duration_s: how long the hold was meant to last (s).
+    """
+
+    times: np.ndarray
+    lowest_z: np.ndarray
+    in_hand: np.ndarray
+    duration_s: float
+
+    @classmethod
+    def from_samples(cls, samples: list[tuple[float, float, bool]], duration_s: float) -> Hold:
+        """From ``(time, lowest z, in hand)`` tuples."""
+        array = np.asarray(samples, dtype=float).reshape(-1, 3)
+        return cls(array[:, 0], array[:, 1], array[:, 2].astype(bool), float(duration_s))
+
+
+def held(hold: Hold | None, table_top: float, height: float = HOLD_HEIGHT_M) -> tuple[bool, str]:
+    """Whether the object was in the hand, at least ``height`` above ``table_top``, through the whole hold.
+
+    Args:
+        hold: the true trajectory over the hold; None when there was none (no grasp, or the run ended first).
+        table_top: the table top's height (m).
+        height: the least clearance of the object's lowest point over the table top (m).
+
+    Returns:
+        (True, "") or (False, why: when in the hold and how the rule was broken).
+    """
+    if hold is None or len(hold.times) == 0:
+        return False, "no hold: the run never reached it"
+    times = np.asarray(hold.times, dtype=float)
+    if times[0] > SAMPLE_GAP_S or times[-1] < hold.duration_s - SAMPLE_GAP_S or np.any(np.diff(times) > SAMPLE_GAP_S):
+        return False, f"the record covers {times[0]:.2f}-{times[-1]:.2f} s of a {hold.duration_s:.2f} s hold"
+    clearance = np.asarray(hold.lowest_z, dtype=float) - table_top
+    broken = ~np.asarray(hold.in_hand, dtype=bool) | (clearance < height)
+    if not broken.any():
+        return True, ""
+    first = int(np.argmax(broken))
+    if not hold.in_hand[first]:
+        return False, f"the object was out of the hand {times[first]:.2f} s into the hold"
+    return False, (f"the object was {100 * clearance[first]:.1f} cm above the table top {times[first]:.2f} s into the hold "
+                   f"(< {100 * height:.0f} cm)")
+
+
+def judge(hold: Hold | None, table_top: float, failure: tuple[str, str] | None = None) -> tuple[bool, str | None, str]:
+    """A run's outcome: ``(success, failed stage or None, why)``. Success is :func:`held` alone; a failure's
+    stage is the one the run reported on the way (``failure``: e.g. ``("grasp", "not lifted")``), else
+    ``"hold"`` (lifted, then lost or sagging in the hold)."""
+    ok, why = held(hold, table_top)
+    if ok:
+        return True, None, ""
+    stage, message = failure or ("hold", why)
+    return False, stage, message
