@@ -63,7 +63,7 @@ def main() -> None:
     with redirect_stdout(checks):
         held = execute_fidelity.compare_rows(rows)
     lines = [
-        "# Execution benchmark: simulated seconds per wall second (issue 52)",
+        "# Execution benchmark: simulated seconds per wall second",
         "",
         f"`benchmarks/execute_bench.py --start {args.start} --stride {args.stride} --count {args.count}`, one process "
         f"(one core; {args.conditions}), {time.perf_counter() - started:.0f} s for the open-loop part. The model before issue 52 "

@@ -76,10 +76,13 @@ def compare_plans(before: str, work: Path) -> list[str]:
 
 
 def subset_rows(python_path: str | None, out: Path) -> pd.DataFrame:
+    """One row per run of the subset, run by the given build into ``out`` (resuming what is there)."""
+    from slideplan.experiments.closed_loop import closed_loop_runs, load_closed_loop
+
     done = slideplan(python_path, "experiment", *SUBSET, "--out", str(out))
     if done.returncode != 0:
         raise SystemExit(f"the closed-loop subset failed: {done.stderr[-2000:]}")
-    return pd.concat([pd.read_parquet(path) for path in sorted((out / "results").glob("*.parquet"))], ignore_index=True)
+    return closed_loop_runs(load_closed_loop(out))
 
 
 def speed(rows: pd.DataFrame) -> dict[str, str]:
@@ -91,13 +94,15 @@ def speed(rows: pd.DataFrame) -> dict[str, str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--before", required=True, help="a folder holding the older build's installed slideplan")
+    parser.add_argument("--work", default=None, help="keep the runs here (a rerun resumes them); default: a temporary folder")
     parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / "same_behaviour.md"))
     args = parser.parse_args()
     before_build = subprocess.run(
         [sys.executable, "-c", "from slideplan.provenance import build_info; print(build_info()['build'])"],
         env=dict(os.environ, PYTHONPATH=args.before), capture_output=True, text=True, check=True).stdout.strip()
     with tempfile.TemporaryDirectory() as folder:
-        work = Path(folder)
+        work = Path(args.work or folder)
+        work.mkdir(parents=True, exist_ok=True)
         plan_lines = compare_plans(args.before, work)
         rows = {label: subset_rows(path, work / label) for label, path in (("before", args.before), ("after", None))}
     key = ["task_id", "setting", "mode"]

@@ -66,7 +66,7 @@ def main() -> None:
                     call(path)
                     walls[(case, variant)].append(time.perf_counter() - started)
     replay.Recorder = closed_loop.Recorder = today
-    lines = ["# Video benchmark: what a video costs a run (issue 52)",
+    lines = ["# Video benchmark: what a video costs a run",
              f"`benchmarks/video_bench.py --repeats {args.repeats}`, one process stepping (the render process and "
              "ffmpeg, encoding the MP4, are processes of their own), the variants interleaved; wall time from the "
              f"call to the finished file. Frames: 640x480, {video.VIDEO_FPS} per simulated second, x264 preset "

@@ -206,7 +206,7 @@ namespace slideplan
     void SlidingPlanner::shortcut(std::vector<Eigen::VectorXd> &path, std::vector<Eigen::Isometry3d> &tips,
                                   const ob::PlannerTerminationCondition &ptc)
     {
-        // What execution pays for (issue 9): fingertip travel over the table and the object's turning.
+        // What execution pays for : fingertip travel over the table and the object's turning.
         const auto stepCost = [this](const Eigen::Isometry3d &from, const Eigen::Isometry3d &to) {
             return (to.translation() - from.translation()).head<2>().norm() +
                    params_.shortcutYawWeight * std::abs(objectMotion(from, to).yaw);

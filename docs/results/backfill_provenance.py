@@ -2,7 +2,7 @@
 
 Rows written by the experiments now carry ``build``, ``version``, ``cpu``, ``date`` and
 ``build_recorded_at_run`` = True (:func:`slideplan.provenance.run_provenance`). The Parquet files in this
-folder and in ``partial/`` predate them: this script fills their rows from what the results pages
+folder predate them: this script fills their rows from what the results pages
 (``README.md``, ``execution.md``, ``closed_loop.md``) say about each file, with ``build_recorded_at_run`` =
 False, so that nobody mistakes a backfill for a record. A value no page states, or that differs between
 rows the file cannot tell apart, is ``"unrecorded"``; no page names a package version. Dates are the
@@ -42,12 +42,7 @@ FILES = {
     # are what the page said of the rows before, used only for a row that recorded none.
     "execution.parquet": ("d3e2f75", AMD, UNRECORDED),
     "execution_paper.parquet": ("03f2c70", UNRECORDED, UNRECORDED),
-    "closed_loop.parquet": ("49efcf6", AMD, "2026-12-05"),  # closed_loop.md, "The sweep"
-    "closed_loop_e0328a8.parquet": ("e0328a8", AMD, "2026-12-05"),
-    "closed_loop_tasks_e0328a8.parquet": ("e0328a8", AMD, "2026-12-05"),
-    "partial/closed_loop.parquet": ("b74bcec", AMD, "2026-12-04"),
-    "partial/closed_loop_e0328a8.parquet": ("e0328a8", AMD, "2026-12-05"),
-    # Issue 53's sets: every row recorded its build at run time (closed_loop.md names them); these values
+    # The closed-loop sets: every row recorded its build at run time (closed_loop.md names them); these values
     # would serve only a row that recorded none.
     "closed_loop_dev.parquet": ("a380440", "Intel(R) Xeon(R) Processor", "2026-12-06"),
     "closed_loop_eval.parquet": ("a380440", "Intel(R) Xeon(R) Processor", "2026-12-06"),

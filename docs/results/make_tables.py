@@ -1,5 +1,5 @@
 """Regenerate every number that comes from the committed rows: tables.md whole, and each marked block
-of README.md and docs/results/*.md.
+of README.md, docs/planning.md and docs/results/*.md.
 
 One command rewrites them all from the Parquet files next to this script (through the loaders of
 ``slideplan.experiments``); ``--check`` rewrites nothing and exits 1 naming each file and block that
@@ -31,7 +31,7 @@ To commit the results of a run::
     .venv/bin/python docs/results/backfill_provenance.py fig11.parquet  # the committed column types; keeps the builds
     .venv/bin/python docs/results/make_tables.py
 
-Other options: ``--root DIR`` (the repository whose README.md and docs/results/*.md are rewritten;
+Other options: ``--root DIR`` (the repository whose README.md, docs/planning.md and docs/results/*.md are rewritten;
 the data always come from this folder), ``--figures`` (also redraw figures/execution.png), ``--replan``
 (print the execution page's grasp, contact and depth tables, which the rows do not hold, by re-planning
 each task: right only with the build that made execution.parquet). Unsolved runs count at their time
@@ -53,7 +53,7 @@ from slideplan.experiments.stats import setting_label, settings_in_order
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
-MARKED_PAGES = ("README.md", "docs/results/*.md")  # globs under the root: every page that may hold blocks
+MARKED_PAGES = ("README.md", "docs/planning.md", "docs/results/*.md")  # globs under the root: every page that may hold blocks
 TABLES = "docs/results/tables.md"  # generated whole
 FIGURE_INPUTS = ("fig10.parquet", "fig10_paper.parquet", "fig11.parquet", "fig11_paper.parquet",
                  "fig12.parquet", "fig12_paper.parquet")
@@ -183,10 +183,11 @@ def all_values() -> dict[str, str]:
     import numbers_closed_loop
     import numbers_execution
     import numbers_hands
+    import numbers_headline
     import numbers_planning
 
     parts = [numbers_planning.values(), numbers_execution.values(), numbers_closed_loop.values(), numbers_benchmarks.values(),
-             numbers_hands.values()]
+             numbers_hands.values(), numbers_headline.values()]
     names = [name for part in parts for name in part]
     clash = {name for name in names if names.count(name) > 1}
     assert not clash, f"block names defined twice: {sorted(clash)}"
@@ -228,7 +229,7 @@ def main(argv: list[str] | None = None) -> int:
     """Rewrite or check the generated text; return the exit code (1: ``--check`` found changes, 2: bad markers)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true", help="change nothing; exit 1 naming each block that would change")
-    parser.add_argument("--root", type=Path, default=ROOT, help="repository whose README.md and docs/results/*.md to rewrite")
+    parser.add_argument("--root", type=Path, default=ROOT, help="repository whose README.md, docs/planning.md and docs/results/*.md to rewrite")
     parser.add_argument("--figures", action="store_true", help="also redraw figures/execution.png and .svg")
     parser.add_argument("--replan", action="store_true",
                         help="print the execution page's re-planned tables (needs the build of execution.parquet)")

@@ -1,4 +1,4 @@
-"""Generated blocks of issue 53's closed-loop evaluation (docs/results/closed_loop.md): the world's verdict
+"""Generated blocks of the closed-loop evaluation (docs/results/closed_loop.md): the world's verdict
 per task set, setting and mode, from ``closed_loop_dev.parquet`` and ``closed_loop_eval.parquet`` (one row
 per run, :func:`slideplan.experiments.closed_loop.closed_loop_runs`). A set without its file is reported as
 not run yet."""
@@ -11,7 +11,7 @@ import numpy as np
 from numbers_common import HERE, rows
 from slideplan.experiments.closed_loop_report import SETS, mcnemar, report
 
-HARD_TARGET = 0.90  # issue 53: the closed loop's true success in the hard setting on eval...
+HARD_TARGET = 0.90  # the closed loop's true success in the hard setting on eval...
 HARD_P = 0.01  # ...above the open loop's with McNemar p below this
 LARGE_CAMERA_ERROR_M = 0.01  # a hard draw's camera offset counted as large
 
@@ -48,7 +48,7 @@ def _rate(group) -> tuple[int, int, float]:
 
 
 def targets_sentence(runs) -> str:
-    """Issue 53's targets on the eval set, each said met or missed with its numbers."""
+    """the evaluation's targets on the eval set, each said met or missed with its numbers."""
     hard = runs[runs["setting"] == "hard"]
     closed_ok, closed_n, closed_pct = _rate(hard[hard["mode"] == "closed"])
     _, _, open_pct = _rate(hard[hard["mode"] == "open"])

@@ -1,5 +1,4 @@
-"""Generated blocks of the physics experiments: docs/results/closed_loop.md (the closed-loop sweeps) and
-docs/results/execution.md (the Fig. 10 plans executed), and the top-level README's closed-loop summary.
+"""Generated blocks of the execution experiment: docs/results/execution.md (the Fig. 10 plans executed).
 
 The execution page's grasp, contact and depth tables are not in the rows: :func:`replanned_tables`
 re-plans each task (``make_tables.py --replan``) and is right only with the planner that made the rows.
@@ -8,24 +7,12 @@ re-plans each task (``make_tables.py --replan``) and is right only with the plan
 from __future__ import annotations
 
 import dataclasses
-import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from numbers_common import HERE, build_of, count, percent, rows, span
-from slideplan.experiments.stats import wilson_interval
-
-# One entry per committed closed-loop file: (block prefix, file, loader).
-CLOSED_LOOP_FILES = (
-    ("cl-49efcf6", "closed_loop.parquet", "runs"),
-    ("cl-e0328a8", "closed_loop_e0328a8.parquet", "runs"),
-    ("cl-e0328a8-partial", "partial/closed_loop_e0328a8.parquet", "closed_loop"),
-    ("cl-b74bcec-partial", "partial/closed_loop.parquet", "closed_loop"),
-)
-STAGE_HEADERS = {"slide": "slide (ends short as seen)", "release": "release", "grasp": "grasp (not lifted)"}
-
+from numbers_common import HERE, build_of, percent, rows
 
 def markdown(frame: pd.DataFrame) -> str:
     """A GitHub markdown table of a DataFrame (index dropped)."""
@@ -36,139 +23,6 @@ def markdown(frame: pd.DataFrame) -> str:
 
 def _ok(series: pd.Series) -> pd.Series:
     return series.fillna(False).astype(bool)
-
-
-def _task(row) -> str:
-    return f"{row.scene}/{row.object} {row.pose_index}"
-
-
-def closed_loop_summary(runs: pd.DataFrame) -> str:
-    """Per setting and mode: runs, successes, 95% Wilson interval, re-plans, re-plan latency."""
-    table = []
-    for (setting, mode), group in runs.groupby(["setting", "mode"], sort=False):
-        successes = int(_ok(group["success"]).sum())
-        low, high = wilson_interval(successes, len(group))
-        latency = group["replan_latency_s"].dropna()
-        table.append({
-            "setting": setting, "mode": mode, "runs": len(group),
-            "success": f"{successes} ({percent(successes, len(group))})",
-            "95% interval": f"{100 * low:.0f}-{100 * high:.0f}%",
-            "re-plans per run (mean, max)": f"{group['replans'].mean():.1f}, {int(group['replans'].max())}",
-            "median re-plan latency of a run: median, p95":
-                f"{1000 * latency.median():.0f} ms, {1000 * latency.quantile(0.95):.0f} ms" if len(latency) else "-",
-        })
-    return markdown(pd.DataFrame(table))
-
-
-def closed_loop_failures(runs: pd.DataFrame) -> str:
-    """Per setting and mode: failed runs by the stage that failed."""
-    stages = [stage for stage in STAGE_HEADERS if stage in set(runs["failed_stage"].dropna())] or list(STAGE_HEADERS)
-    stages += sorted(set(runs["failed_stage"].dropna()) - set(stages))
-    table = []
-    for (setting, mode), group in runs.groupby(["setting", "mode"], sort=False):
-        failed = group[~_ok(group["success"])]
-        table.append({"setting": setting, "mode": mode,
-                      **{STAGE_HEADERS.get(stage, stage): int((failed["failed_stage"] == stage).sum()) for stage in stages}})
-    return markdown(pd.DataFrame(table))
-
-
-def _rates(runs: pd.DataFrame, by: str) -> pd.DataFrame:
-    return runs.assign(ok=_ok(runs["success"])).groupby([by, "mode"])["ok"].mean().unstack("mode")
-
-
-def closed_loop_file(prefix: str, runs: pd.DataFrame) -> dict[str, str]:
-    values = {f"{prefix}-summary": closed_loop_summary(runs), f"{prefix}-failures": closed_loop_failures(runs)}
-    rates = _rates(runs, "scene").sort_values("closed", ascending=False, kind="stable")
-    values[f"{prefix}-by-table"] = ", ".join(
-        f"{scene} {100 * row.closed:.1f}% ({100 * row.open:.1f})" for scene, row in rates.iterrows())
-    closed = runs[runs["mode"] == "closed"]
-    by_setting = _rates(runs, "setting").loc[list(dict.fromkeys(runs["setting"]))]
-    latency = closed.groupby("setting", sort=False)["replan_latency_s"]
-    values[f"{prefix}-rates"] = (
-        "the closed loop succeeded in " + ", ".join(f"{100 * rate:.1f}% ({setting})" for setting, rate in by_setting["closed"].items())
-        + " of runs, the open loop in " + ", ".join(f"{100 * rate:.1f}%" for rate in by_setting["open"])
-        + f", median re-plan latency {span(1000 * latency.median(), lambda v: f'{v:.0f}')} ms, "
-        f"p95 {span(1000 * latency.quantile(0.95), lambda v: f'{v:.0f}')} ms")
-    values[f"{prefix}-tasks"] = (f"{count(runs['task_id'].nunique())} tasks, {count(len(runs))} runs")
-    wall = runs.groupby("task_id")["wall_time_s"].sum()
-    values[f"{prefix}-task-wall"] = f"{wall.median():.0f} s"
-    open_failed = runs[(runs["mode"] == "open") & ~_ok(runs["success"])]
-    values[f"{prefix}-open-slides"] = f"{int((open_failed['failed_stage'] == 'slide').sum())} of {len(open_failed)}"
-    closed_failed = closed[~_ok(closed["success"])]
-    values[f"{prefix}-closed-failures"] = f"{len(closed_failed)}"
-    short = runs[~_ok(runs["success"]) & (runs["failed_stage"] == "slide")].groupby("mode")["setting"].value_counts()
-    values[f"{prefix}-short-slides"] = " to ".join(
-        span([short.get((mode, setting), 0) for setting in by_setting.index], str) for mode in ("open", "closed"))
-    grasps = runs[~_ok(runs["success"]) & (runs["failed_stage"] == "grasp")].groupby("mode")["setting"].value_counts()
-    values[f"{prefix}-grasp-failures"] = (
-        f"{span([grasps.get(('closed', setting), 0) for setting in by_setting.index], str)} runs per setting; open loop "
-        f"{span([grasps.get(('open', setting), 0) for setting in by_setting.index], str)}")
-    return values
-
-
-def closed_loop_49efcf6(runs: pd.DataFrame) -> dict[str, str]:
-    """The sweep's closed-loop failures, one by one, and the open loop on the same draws."""
-    closed = runs[(runs["mode"] == "closed") & ~_ok(runs["success"])]
-    open_runs = runs[runs["mode"] == "open"].set_index(["task_id", "setting"])
-    listing, both, open_lifted = [], [], []
-    for row in closed.itertuples():
-        listing.append(f"{_task(row)} ({row.setting}): {row.failure}")
-        twin = open_runs.loc[(row.task_id, row.setting)]
-        if row.failed_stage == "grasp" and twin["failed_stage"] == "grasp":
-            both.append(_task(row))
-        elif row.failed_stage == "grasp" and bool(twin["lifted"]):
-            open_lifted.append(f"{_task(row)} (open loop: {'success' if bool(twin['success']) else twin['failure']})")
-    grasps = int((closed["failed_stage"] == "grasp").sum())
-    values = {"cl-49efcf6-closed-listing": "; ".join(listing),
-              "cl-49efcf6-grasp-overlap": (
-                  f"the open loop's grasp failed on {len(both)} of these {grasps} draws ({', '.join(both)}); on "
-                  f"{' and '.join(open_lifted) if open_lifted else 'none'} the open loop lifted the object and the "
-                  f"closed loop did not")}
-    heavy = closed.loc[closed["replans"].idxmax()]
-    draws = json.loads(heavy["draws"])
-    values["cl-49efcf6-most-replans"] = (
-        f"on {_task(heavy)} ({heavy['setting']}; mass x{draws['mass_scale']:.1f}, pad friction {draws['pad_friction']:.2f} "
-        f"against table {draws['table_friction']:.2f}) the loop re-planned {int(heavy['replans'])} times in "
-        f"{heavy['sim_time_s']:.0f} s of simulated time")
-    return values
-
-
-def closed_loop_partials(before: pd.DataFrame, after: pd.DataFrame) -> dict[str, str]:
-    """The e0328a8 partial run against the b74bcec one on the tasks both ran: failures and latency."""
-    common = sorted(set(before["task_id"]) & set(after["task_id"]))
-    before, after = before[before["task_id"].isin(common)], after[after["task_id"].isin(common)]
-
-    def failures(runs):
-        return set(runs.loc[~_ok(runs["success"]), ["task_id", "setting", "mode"]].itertuples(index=False, name=None))
-
-    def replans(runs):
-        return runs.set_index(["task_id", "setting", "mode"])["replans"].sort_index()
-
-    same = failures(before) == failures(after)
-    outcome = (f"every run ends as it did with build b74bcec: the same {len(failures(after))} failures" if same else
-               f"the failures differ from build b74bcec's ({len(failures(before))} there, {len(failures(after))} here)")
-    equal = int((replans(before) == replans(after)).sum())
-    outcome += (", and the same re-plan counts" if equal == len(after) else
-                f", and the same re-plan count in {equal} of the {len(after)} runs")
-
-    def latency(runs):
-        return span(1000 * runs[runs["mode"] == "closed"].groupby("setting")["replan_latency_s"].median(), lambda v: f"{v:.0f}")
-
-    return {"cl-partials-tasks": f"{len(common)}", "cl-partials-outcome": outcome,
-            "cl-partials-latency": f"from {latency(before)} ms to {latency(after)} ms"}
-
-
-def closed_loop_values() -> dict[str, str]:
-    values = {}
-    for prefix, name, loader in CLOSED_LOOP_FILES:
-        runs = rows(name, loader)
-        values.update(closed_loop_file(prefix, runs))
-        values[f"build-{name.removesuffix('.parquet')}"] = build_of(name)
-    values.update(closed_loop_49efcf6(rows("closed_loop.parquet", "runs")))
-    values.update(closed_loop_partials(rows("partial/closed_loop.parquet", "closed_loop"),
-                                       rows("partial/closed_loop_e0328a8.parquet", "closed_loop")))
-    values["build-closed_loop_tasks_e0328a8"] = build_of("closed_loop_tasks_e0328a8.parquet")
-    return values
 
 
 # --- execution.md ---------------------------------------------------------------------------------
@@ -340,18 +194,5 @@ def draw_execution_figure(out_dir: Path = HERE / "figures") -> list[Path]:
 
 
 def values() -> dict[str, str]:
-    """Every block of the physics experiments."""
-    out = {**closed_loop_values(), **execution_values()}
-    runs = rows("closed_loop.parquet", "runs")
-    out["readme-closed-loop"] = closed_loop_file("cl-49efcf6", runs)["cl-49efcf6-rates"]
-    out["readme-closed-loop-task-wall"] = closed_loop_file("cl-49efcf6", runs)["cl-49efcf6-task-wall"]
-    out["readme-closed-loop-lifted"] = closed_loop_lifted(runs)
-    return out
-
-
-def closed_loop_lifted(runs: pd.DataFrame) -> str:
-    """Per setting, the share of runs whose object the simulator shows lifted, closed loop against open."""
-    lifted = runs.groupby(["setting", "mode"], sort=False)["lifted"].mean()
-    settings = list(dict.fromkeys(runs["setting"]))
-    return ("the closed loop lifted the object in " + ", ".join(f"{100 * lifted[(s, 'closed')]:.1f}% ({s})" for s in settings)
-            + " of runs, the open loop in " + ", ".join(f"{100 * lifted[(s, 'open')]:.1f}%" for s in settings))
+    """Every block of the execution experiment."""
+    return execution_values()

@@ -160,8 +160,8 @@ def test_a_scene_number_beyond_the_bound_names_the_file_and_field(tmp_path, text
     assert_one_line(done.exit_code, done.stderr, str(scene), field)
 
 
-def test_the_readme_states_the_limits_the_readers_apply():
-    readme = " ".join((Path(__file__).resolve().parents[2] / "README.md").read_text().split())
+def test_the_planning_guide_states_the_limits_the_readers_apply():
+    readme = " ".join((Path(__file__).resolve().parents[2] / "docs" / "planning.md").read_text().split())
     power = lambda value: f"{value:.0e}".replace("e+0", "e")  # 1e9
     for stated in (f"plan file over {MAX_PLAN_BYTES >> 20} MB", f"of over {MAX_WAYPOINTS:,} waypoints",
                    f"beyond {power(MAX_MAGNITUDE)} in magnitude", f"is over {MAX_ROBOT_FILE_BYTES >> 20} MB",

@@ -15,7 +15,7 @@ from slideplan.cli import app
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = re.compile(r"```python\n(.*?)```", re.S)
-# docs/demos.md's examples load a generated dataset with the lerobot extra: test_demos runs them, under make test-physics.
+# docs/demos.md's examples load a generated dataset with the lerobot extra: test_demos runs them, under make test-lerobot.
 DOCUMENTS = [path for path in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
              if EXAMPLE.search(path.read_text()) and path.name != "demos.md"]
 
@@ -64,7 +64,7 @@ def shell_commands(path: Path) -> list[list[str]]:
 
     commands = []
     for language, body in FENCE.findall(path.read_text()):
-        if language == "python":
+        if language in ("python", "text"):
             continue
         for line in body.replace("\\\n", " ").splitlines():
             words = shlex.split(line.split("  #")[0])
@@ -108,7 +108,9 @@ def test_a_mistyped_command_does_not_parse():
         parse(["ros", "serve", "--camera-pose", "1", "2"])
 
 
-LONG_RUNNING = ("experiment", "plot", "ros")  # hours of sweeps, their plots, nodes that serve until stopped
+# Hours of sweeps, their plots, nodes that serve until stopped; and demos, whose lerobot extra make test-physics
+# does not install (test_demos runs generations like it under make test-lerobot).
+LONG_RUNNING = ("experiment", "plot", "ros", "demos")
 
 
 @pytest.mark.physics
@@ -123,10 +125,10 @@ def test_the_readme_commands_run_in_order_after_make_demo(tmp_path, monkeypatch)
         result = runner.invoke(app, words)
         assert result.exit_code == 0, (words, result.output)
         ran += 1
-    assert ran >= 7 and Path("execution.mp4").stat().st_size > 0 and Path("perceived/scene.toml").exists()
+    assert ran >= 3 and Path("execution.mp4").stat().st_size > 0 and Path("plan.json").exists()
 
 
-@pytest.mark.parametrize("document", ["README.md", "docs/ros2.md"])
+@pytest.mark.parametrize("document", ["docs/closed-loop.md", "docs/ros2.md"])
 def test_the_bounds_of_a_run_are_documented_as_the_loop_has_them(document):
     from slideplan.loop.bounds import MAX_REPLANS, MAX_SLIDE_S, NO_PROGRESS_MOVE_M, NO_PROGRESS_TRAVEL_M
 

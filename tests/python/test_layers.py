@@ -254,3 +254,11 @@ def test_reading_or_making_a_plan_loads_no_perception_simulation_or_verifier(mod
     assert module in loaded and "slideplan.plan.planner" in loaded
     assert [name for name in loaded if name.split(".")[0] == "mujoco" or name.startswith(
         ("slideplan.perception", "slideplan.sim", "slideplan.checks"))] == []
+
+
+def test_the_layout_s_counts_are_the_tree_s():
+    layout = DESIGN.read_text().split("## 4. Layout", 1)[1].split("###", 1)[0]
+    headers = len(list((ROOT / "cpp" / "include" / "slideplan").glob("*.hpp")))
+    scenes, objects = (len(list((ROOT / "data" / kind).glob("*.toml"))) for kind in ("scenes", "objects"))
+    assert f"one header per concept ({headers})" in layout
+    assert f"{scenes} scenes (TOML)" in layout and f"{objects} outlines (TOML)" in layout

@@ -1,5 +1,5 @@
 /// \file ompl_peer.hpp
-/// A peer for the planning benchmark (issue 10): OMPL's own constrained planning stack
+/// A peer for the planning benchmark: OMPL's own constrained planning stack
 /// (ompl::base::ProjectedStateSpace + ompl::geometric::RRTConnect) on our constraint and validity,
 /// connecting a given valid start/goal pair, so that ConstrainedExtend is compared with OMPL's on
 /// the same problems.

@@ -1,4 +1,4 @@
-"""The world's verdict on a whole task (issue 53): what happened to the object, from the simulator's true
+"""The world's verdict on a whole task: what happened to the object, from the simulator's true
 state, the same rule for every mode.
 
 A run succeeds when the object is in the hand, at least :data:`HOLD_HEIGHT_M` above the table top,
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-HOLD_HEIGHT_M = 0.03  # issue 53: the object's lowest point at least 3 cm above the table top
+HOLD_HEIGHT_M = 0.03  # the object's lowest point at least 3 cm above the table top
 SAMPLE_GAP_S = 0.02  # samples further apart than this (or a record that starts or ends this far from the hold's ends) do not cover it
 
 

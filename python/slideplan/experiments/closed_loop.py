@@ -1,4 +1,4 @@
-"""The closed-loop experiment (issues 24 and 53): whole tasks in MuJoCo, open and closed loop.
+"""The closed-loop experiment: whole tasks in MuJoCo, open and closed loop.
 
 Each task is one object pose of a task set (``--set dev``: the execution experiment's Fig. 10 set, 5
 objects x 4 tables; ``--set eval``: the held-out letters, :func:`slideplan.experiments.tasks.closed_loop_eval_spec`);

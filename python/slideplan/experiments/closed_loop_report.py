@@ -1,4 +1,4 @@
-"""The closed loop judged by the world (issue 53), from committed rows: true success per set, setting and
+"""The closed loop judged by the world, from committed rows: true success per set, setting and
 mode with 95% Wilson intervals, a paired exact McNemar test of closed against open loop per setting, and
 the failure causes. docs/results/make_tables.py writes :func:`report` into docs/results/closed_loop.md.
 

@@ -1,4 +1,4 @@
-"""The execution experiment (issue 9): plans of the Fig. 10 set executed in MuJoCo.
+"""The execution experiment: plans of the Fig. 10 set executed in MuJoCo.
 
 Each task plans as in Fig. 10 (full size) and, if solved, executes the plan with
 :func:`slideplan.sim.execute` twice: in the **nominal** setting (:class:`ExecutionSettings`

@@ -26,7 +26,7 @@ from ..paths import held_out
 from ..world.scenes import Scene, load_scene
 
 FIGURES = ("fig10", "fig11", "fig12")
-EXPERIMENTS = FIGURES + ("execution", "closed-loop")  # Fig. 10's set executed in MuJoCo: its plans (issue 9), whole tasks (issue 24)
+EXPERIMENTS = FIGURES + ("execution", "closed-loop")  # Fig. 10's set executed in MuJoCo: its plans, whole tasks
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")  # the paper's 5 test objects (Fig. 7)
 TABLES = ("square", "round", "triangle", "long")  # the paper's 4 support surfaces (Fig. 9)
 SCALES = (1.0, 0.5)  # Fig. 10: full size and half size

@@ -1,4 +1,4 @@
-"""Bounds on a closed-loop run (issue 53): a run ends its sliding when the finger travels and the object
+"""Bounds on a closed-loop run: a run ends its sliding when the finger travels and the object
 does not, after :data:`MAX_REPLANS` re-plans, or after :data:`MAX_SLIDE_S` of sliding; the run's report
 says which (:attr:`slideplan.sim.closed_loop_run.ClosedLoopRun.slide_stop`)."""
 

@@ -281,7 +281,7 @@ def run(
         closed: re-plan from what the camera sees (True) or execute the first plan blind (False).
         setting: ``"nominal"``, ``"stress"`` (torsional friction halved, the finger at ``dz_min``),
             ``"random"`` (frictions, mass and depth noise drawn per run: :data:`RANDOM_RANGES`) or ``"hard"``
-            (issue 53's: :mod:`slideplan.sim.conditions`).
+            (fixed in advance: :mod:`slideplan.sim.conditions`).
         disturbance: move the object during the slide (a test hook and a demo; in the hard setting, in
             place of its own push), or None.
         config: planner parameters (default: the scene's hand, ``seed``).

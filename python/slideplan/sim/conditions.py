@@ -2,7 +2,7 @@
 ``stress``, ``random`` and ``hard``, each run's draws from its seed alone (the same for open and closed
 loop), and the pushes that disturb a slide.
 
-The ``hard`` setting is fixed by issue 53 and is not to be tuned: frictions, mass and the finger's spring
+The ``hard`` setting is fixed in advance and is not to be tuned: frictions, mass and the finger's spring
 drawn in :data:`HARD_RANGES`; a camera pose error the planner and the tracker do not know
 (:func:`camera_as_mounted`); the arm following its references :data:`HARD_LAG_S` late; and with
 probability :data:`HARD_PUSH_PROBABILITY` a push at a time uniform over the slide
@@ -29,7 +29,7 @@ RANDOM_RANGES = {  # the random setting draws each uniformly in its range, per r
     "mass_scale": (0.5, 2.0),
     "depth_noise_at_1m": (0.001, 0.004),  # m
 }
-HARD_RANGES = {  # issue 53, fixed: uniform per run
+HARD_RANGES = {  # fixed in advance: uniform per run
     "table_friction": (0.15, 0.8),
     "pad_friction": (0.4, 1.5),
     "torsional_friction": (0.001, 0.03),  # m

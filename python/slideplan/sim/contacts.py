@@ -1,4 +1,4 @@
-"""Who touches whom, and how MuJoCo solves the contacts (issue 52: the same physics, faster).
+"""Who touches whom, and how MuJoCo solves the contacts (the same physics as the model before the feet, faster).
 
 Collision groups (``contype``/``conaffinity``; MuJoCo collides two geoms when the type of either
 matches the affinity of the other):
@@ -20,7 +20,7 @@ rests on the table and the arm moves elsewhere (the approach).
 Measured (benchmarks/execute_fidelity.py, docs/benchmarks/execution.md): against :data:`LEGACY` on
 plans of the Fig. 10 set.
 
-:data:`LEGACY` is the model before issue 52 (the shell touching the table, no feet, noslip
+:data:`LEGACY` is the model before the feet (the shell touching the table, no feet, noslip
 throughout, no sleeping), kept so that the fidelity check runs both in one process.
 """
 
@@ -91,6 +91,6 @@ class ContactModel:
 
 CURRENT = ContactModel()
 LEGACY = ContactModel(feet=None, sleep=False, noslip_after_slide=None, noslip_tolerance=1e-6)
-"""The model before issue 52 (the fidelity check's reference)."""
+"""The model before the feet (the fidelity check's reference)."""
 
 ACTIVE = [CURRENT]  # what build_model uses unless told: the fidelity check switches it to LEGACY

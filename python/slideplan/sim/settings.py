@@ -45,7 +45,7 @@ class ExecutionSettings:
         lift_height: lift of the hand after closing (m).
         hold_s: hold time after the lift (s).
         timestep: simulation step (s).
-        spring_scale: factor on the finger compliance's stiffness (the hard setting's draw, issue 53).
+        spring_scale: factor on the finger compliance's stiffness (the hard setting's draw).
         reference_lag_s: the arm follows its joint references this late (s; the hard setting's 30 ms).
         position_tolerance: a slide succeeds within this position error (m)...
         yaw_tolerance: ... and this yaw error (rad) of Eq. 2.
