@@ -5,8 +5,10 @@ subset in one run, and the results are compared.
   (``planning_time_s``, the core's set-up times) and where the package lies (the URDF's folder).
 - The closed loop's dev subset, ``slideplan experiment closed-loop --scene square --poses 1`` (5 objects x
   4 settings x 2 modes = 40 runs): every column of every row must be equal but the provenance and the
-  wall times; the simulated seconds per wall second of each build, per mode, are reported (medians,
-  p10 and p90), both measured in this run, one build after the other, the other core idle.
+  wall-clock ones (times, re-plan latencies); the simulated seconds per wall second of each build, per
+  mode, are reported (medians, p10 and p90 over every pass), measured in this run with the other core
+  idle, in passes whose order alternates (older first, then this build first) so that a drift in the
+  machine's speed falls on both.
 
 Writes docs/benchmarks/same_behaviour.md, with the build, CPU and date. Not a test: ``make bench``
 leaves it out (it needs the older build); run it after a change that must not change behaviour:
@@ -38,7 +40,7 @@ CLOCK_KEYS = {"planning_time_s", "precompute_time", "setup_time"}
 SUBSET = ["closed-loop", "--set", "dev", "--scene", "square", "--poses", "1", "--workers", "1"]
 # Columns that say who ran a row and how long it took, not what happened.
 NOT_BEHAVIOUR = {"build", "dirty", "cpu", "date", "host", "python", "wall_time_s", "plan_time_s", "replan_time_s",
-                 "work_s", "worker", "started", "finished"}
+                 "work_s", "worker", "started", "finished", "replan_latency_s", "max_latency_s"}
 
 
 def slideplan(python_path: str | None, *arguments: str) -> subprocess.CompletedProcess:
@@ -94,6 +96,7 @@ def speed(rows: pd.DataFrame) -> dict[str, str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--before", required=True, help="a folder holding the older build's installed slideplan")
+    parser.add_argument("--passes", type=int, default=2, help="runs of the subset per build, the order alternating")
     parser.add_argument("--work", default=None, help="keep the runs here (a rerun resumes them); default: a temporary folder")
     parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / "same_behaviour.md"))
     args = parser.parse_args()
@@ -104,22 +107,30 @@ def main() -> None:
         work = Path(args.work or folder)
         work.mkdir(parents=True, exist_ok=True)
         plan_lines = compare_plans(args.before, work)
-        rows = {label: subset_rows(path, work / label) for label, path in (("before", args.before), ("after", None))}
+        builds = (("before", args.before), ("after", None))
+        passes = []
+        for index in range(args.passes):
+            order = builds if index % 2 == 0 else builds[::-1]
+            passes.append({label: subset_rows(path, work / f"pass{index}" / label) for label, path in order})
+        rows = passes[0]
     key = ["task_id", "setting", "mode"]
     columns = sorted(set(rows["after"].columns) - NOT_BEHAVIOUR - {"sim_time_s"} - {c for c in rows["after"] if c.endswith("_wall_s")})
     left, right = (rows[label].sort_values(key).reset_index(drop=True)[columns] for label in ("before", "after"))
     differing = [column for column in columns if column not in left or not left[column].equals(right[column])]
-    speeds = {label: speed(frame) for label, frame in rows.items()}
+    differing += [f"pass {index}: {column}" for index, run in enumerate(passes[1:], 1) for column in columns
+                  if not run["after"].sort_values(key).reset_index(drop=True)[column].equals(right[column])]
+    speeds = {label: speed(pd.concat([run[label] for run in passes], ignore_index=True)) for label in ("before", "after")}
     lines = [
         "# Same behaviour: an older build against this one",
         f"The older build: {before_build} (`{args.before}`). Command: `python benchmarks/same_behaviour.py --before DIR`.",
         "",
         "| README plan | status | plan JSON (clock readings aside) |", "|---|---|---|", *plan_lines, "",
-        f"Closed-loop dev subset (`slideplan experiment {' '.join(SUBSET)}`): {len(rows['after'])} runs; "
+        f"Closed-loop dev subset (`slideplan experiment {' '.join(SUBSET)}`): {len(rows['after'])} runs a build and "
+        f"pass, {len(passes)} passes; "
         + (f"every row identical in all {len(columns)} columns of behaviour." if not differing and len(left) == len(right)
            else f"DIFFERENT in {differing}."),
         "",
-        "| build | open loop, simulated s per wall s | closed loop |", "|---|---|---|",
+        f"| build | open loop, simulated s per wall s ({len(passes)} passes) | closed loop |", "|---|---|---|",
         *(f"| {label} | {speeds[label]['open']} | {speeds[label]['closed']} |" for label in ("before", "after")),
     ]
     write_report(lines, Path(args.out))

@@ -11,6 +11,27 @@ def main() -> None:
     try:
         from slideplan.cli import app
     except KeyboardInterrupt:
-        sys.stderr.write("slideplan: aborted\n")
-        sys.exit(EXIT_INTERRUPTED)
+        _aborted()
+    except ImportError as error:
+        # A Ctrl-C inside a C extension's import (NumPy's) comes out as that package's ImportError ("Importing
+        # the numpy C-extensions failed"), which would send the user to reinstall it: an interrupt all the same.
+        if _interrupted(error):
+            _aborted()
+        raise
     app()
+
+
+def _interrupted(error: BaseException) -> bool:
+    """Whether a KeyboardInterrupt lies anywhere in the chain of causes that led to ``error``."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, KeyboardInterrupt):
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
+
+
+def _aborted() -> None:
+    sys.stderr.write("slideplan: aborted\n")
+    sys.exit(EXIT_INTERRUPTED)

@@ -24,7 +24,7 @@ modules), :mod:`~slideplan.world`, :mod:`~slideplan.plan`, :mod:`~slideplan.chec
 
 import os
 
-from . import _core, _moved
+from . import _core, _environments, _moved
 from .errors import InputError
 from .plan.config import PlannerConfig
 from .plan.planner import plan
@@ -35,6 +35,7 @@ from .world.objects import ThinObject, load_object
 from .world.scenes import Scene, load_scene
 
 _moved.install()
+_environments.install()  # gym.make("slideplan/SlideToEdge-v0") after import slideplan
 _ON_FIRST_USE = {"Perception": "slideplan.perception.tabletop", "perceive": "slideplan.perception.tabletop",
                  "Verification": "slideplan.checks.verify", "verify": "slideplan.checks.verify"}
 

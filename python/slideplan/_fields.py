@@ -29,7 +29,7 @@ def read_toml(path: Path) -> dict[str, Any]:
         The top-level table.
 
     Raises:
-        InputError: the file is missing, unreadable or not valid TOML.
+        InputError: the file is missing, unreadable or not valid TOML (nested too deeply included).
     """
     try:
         with open(path, "rb") as stream:
@@ -42,6 +42,8 @@ def read_toml(path: Path) -> dict[str, Any]:
         raise InputError(f"invalid TOML ({error})", source=str(path)) from None
     except UnicodeDecodeError as error:
         raise InputError(f"not UTF-8 text ({error})", source=str(path)) from None
+    except RecursionError:  # tomllib parses nested arrays by recursion: thousands deep exhaust the stack
+        raise InputError("invalid TOML (arrays or tables nested too deeply)", source=str(path)) from None
 
 
 def is_number(value: Any) -> bool:
@@ -64,6 +66,20 @@ def require_within(values: Any, bound: float, *, source: str = "", field: str = 
         value = float(numbers[first])
         problem = f"{value} is not a finite number" if not math.isfinite(value) else f"{value:g} is beyond {bound:g} in magnitude"
         raise InputError(problem, source=source, field=field + "".join(f"[{index}]" for index in first))
+
+
+SEED_LIMIT = 2**64  # seeds are the core's uint64: every seed a plan takes, the perception and the physics take too
+
+
+def as_seed(value: Any, *, field: str = "seed") -> int:
+    """A seed: a whole number in ``[0, 2**64)``.
+
+    Raises:
+        InputError: (``field``) anything else, naming it.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value < SEED_LIMIT:
+        raise InputError(f"must be a whole number in [0, 2**64), got {value!r}", field=field)
+    return int(value)
 
 
 def as_number(value: Any, *, source: str, field: str, positive: bool = False, bound: float = math.inf) -> float:

@@ -51,10 +51,11 @@ def read_regular_file(path: str | os.PathLike, limit: int, what: str, field: str
         handle = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # a FIFO opens at once, not when a writer comes
     except OSError as error:
         raise fail(f"cannot read {what} ({error.strerror})") from None
+    status = os.fstat(handle)
+    if not stat.S_ISREG(status.st_mode):  # before fdopen, which refuses a directory naming the descriptor alone
+        os.close(handle)
+        raise fail(f"{what} is not a regular file" + (" but a directory" if stat.S_ISDIR(status.st_mode) else ""))
     with os.fdopen(handle, "rb") as stream:
-        status = os.fstat(handle)
-        if not stat.S_ISREG(status.st_mode):
-            raise fail(f"{what} is not a regular file")
         data = stream.read(limit + 1) if status.st_size <= limit else b""  # read to limit + 1: it may grow
         size = max(status.st_size, len(data))
     if size > limit:

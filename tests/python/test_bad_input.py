@@ -1,5 +1,5 @@
 """Bad plan and scene files met with one clear line naming the file and field: never a traceback, a hang
-or unbounded memory (issue 56)."""
+or unbounded memory."""
 
 import json
 import os
@@ -189,3 +189,39 @@ def test_a_list_of_positive_numbers_names_the_first_that_is_not():
         as_numbers([0.5, -1], 2, source="s", field="f", positive=True)
     assert (error.value.field, error.value.problem) == ("f", "must be > 0, got -1")
     assert as_numbers([0.5, -1], 2, source="s", field="f").tolist() == [0.5, -1.0]
+
+
+def test_a_directory_given_for_a_plan_is_named_as_one():
+    # Once: "[Errno 21] Is a directory: 3", the number being a file descriptor.
+    result = cli("execute", Path(__file__).parent)
+    assert_one_line(result.exit_code, result.stderr, str(Path(__file__).parent), "not a regular file but a directory")
+    assert "Errno" not in result.stderr
+
+
+def test_coincident_vertices_are_counted_as_given():
+    with pytest.raises(InputError, match=r"at least 3 vertices, got 3 \(the last repeats the first, closing the ring: 2 distinct\)"):
+        load_scene_text("[table]\npolygon = [[0.5, 0.0], [0.5, 0.0], [0.5, 0.0]]\n")
+
+
+def test_a_scene_s_own_depth_band_is_blamed_on_the_scene_not_on_an_option_never_given(tmp_path):
+    scene = tmp_path / "scene.toml"
+    scene.write_text(TABLE + "[hand]\nparams = { dz_min = 0.02, dz_max = 0.01 }\n")
+    result = cli("plan", "--scene", scene, "--object", "square", "--pose", "0.6", "0.0", "0.0")
+    assert_one_line(result.exit_code, result.stderr, str(scene), "[hand] params.dz")
+    assert "--reconfiguration-range" not in result.stderr
+
+
+def load_scene_text(text: str):
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "scene.toml"
+        path.write_text(text)
+        return load_scene(path)
+
+
+def test_a_scene_nested_thousands_deep_is_one_line_not_a_recursion_error(tmp_path):
+    scene = tmp_path / "deep.toml"
+    scene.write_text("[table]\npolygon = " + "[" * 5000 + "]" * 5000 + "\n")
+    result = cli("plan", "--scene", scene, "--object", "square", "--pose", "0.6", "0.0", "0.0")
+    assert_one_line(result.exit_code, result.stderr, str(scene), "nested too deeply")

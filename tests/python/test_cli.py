@@ -190,3 +190,36 @@ def test_a_run_whose_camera_lost_the_object_says_so_and_how_to_move_it(monkeypat
     assert "--camera 0.50 0.30 0.80 0.60 0.00 0.00" in result.stderr
     assert cameras[0].position == (0.5, 0.3, 0.8) and cameras[0].target == (0.6, 0.0, 0.0)
     assert_bad_input(run("run", "--camera", "0.5", "0.3", "0.8", "0.5", "0.3", "0.8"), "--camera", "distinct target")
+
+
+def test_a_failed_write_keeps_the_file_that_was_there_whole(tmp_path, monkeypatch):
+    # A full disk: the write gets half the text out, then fails. The plan that was there must survive whole.
+    keep = tmp_path / "keep.json"
+    keep.write_text('{"a good plan": true}\n')
+    real = Path.write_text
+
+    def full_disk(self, text, *args, **kwargs):
+        real(self, text[: len(text) // 2], *args, **kwargs)
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(Path, "write_text", full_disk)
+    result = runner.invoke(app, ["plan", "--scene", "square", "--object", "crescent", "--pose", "0.55", "-0.08", "0.4",
+                                 "--seed", "1", "--time-limit", "10", "--json", str(keep)])
+    assert result.exit_code == 2 and "No space left on device" in result.output and "--json" in result.output
+    assert keep.read_text() == '{"a good plan": true}\n'
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["keep.json"]  # no partial file left behind
+
+
+def test_files_are_renamed_into_place_only_when_complete(tmp_path):
+    from slideplan._files import replacing, write_text
+
+    target = tmp_path / "out.txt"
+    write_text(target, "first")
+    with pytest.raises(RuntimeError):
+        with replacing(target) as temporary:
+            temporary.write_text("half of the seco")
+            assert temporary.parent == tmp_path and temporary.suffix == ".txt" and target.read_text() == "first"
+            raise RuntimeError("stopped")
+    assert target.read_text() == "first" and sorted(tmp_path.iterdir()) == [target]
+    write_text(target, "second")
+    assert target.read_text() == "second" and sorted(tmp_path.iterdir()) == [target]

@@ -352,6 +352,13 @@ def test_a_stopped_blind_slide_not_seen_from_above_either_goes_on_with_the_rest_
 
 
 @pytest.mark.physics
+def test_an_object_thrown_off_the_table_mid_slide_is_not_blamed_on_the_release():
+    report = run(*DEMO, seed=1, closed=False, disturbance=Disturbance(1.2, 0.0, 0.0, 2.0))
+    assert not report.success and report.failed_stage == "slide", report.summary()
+    assert "left the table before the finger let go" in report.failure
+
+
+@pytest.mark.physics
 def test_a_push_from_under_the_finger_is_followed_by_a_new_slide_from_a_new_contact():
     # Pushed 4 cm sideways 2 s into the slide: the finger is no longer on the object as seen, so no slide
     # can go on from where the arm is; a whole new slide is planned, reached from above, and followed.

@@ -136,3 +136,8 @@ def test_the_bounds_of_a_run_are_documented_as_the_loop_has_them(document):
     assert f"after {MAX_REPLANS} re-plans or {MAX_SLIDE_S:g} s of sliding" in text
     assert (f"travels {100 * NO_PROGRESS_TRAVEL_M:g} cm while the object, as seen, does not move "
             f"{1000 * NO_PROGRESS_MOVE_M:g} mm") in text
+
+
+def test_every_apt_call_of_the_makefile_waits_for_another_apt_s_lock():
+    calls = [line for line in (ROOT / "Makefile").read_text().splitlines() if "apt-get" in line and "$(SUDO)" in line]
+    assert len(calls) >= 2 and all("-o DPkg::Lock::Timeout=" in line for line in calls), calls

@@ -28,6 +28,33 @@ def test_unknown_modes_are_named(name, value):
     assert caught.value.field == name
 
 
+@pytest.mark.parametrize("name, value", [("fps", 0), ("fps", -1), ("fps", 2.5), ("image_size", (0, 64)),
+                                         ("image_size", (64,))])
+def test_bad_rates_and_sizes_are_named_before_any_episode(name, value):
+    with pytest.raises(InputError) as caught:
+        SlideToEdgeEnv(**{name: value})
+    assert caught.value.field == name
+
+
+@pytest.mark.parametrize("first", ["slideplan", "gymnasium"])
+def test_the_environment_is_made_by_its_id_after_import_slideplan(first):
+    # A fresh interpreter: which of the two is imported first must not matter, nor must slideplan.demos.env.
+    second = {"slideplan": "gymnasium", "gymnasium": "slideplan"}[first]
+    code = (f"import {first}, {second}, sys\nimport gymnasium as gym\n"
+            "loaded = 'slideplan.demos.env' in sys.modules\n"
+            "env = gym.make('slideplan/SlideToEdge-v0')\n"
+            "print(loaded, env.spec.max_episode_steps, type(env.unwrapped).__name__)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["False", "800", "SlideToEdgeEnv"]
+
+
+def test_the_registered_step_limit_is_the_environment_s_own_at_its_default_rate():
+    from slideplan._environments import MAX_EPISODE_STEPS
+    from slideplan.demos.env import EPISODE_S
+
+    assert SlideToEdgeEnv()._max_episode_steps == round(EPISODE_S * 10) == MAX_EPISODE_STEPS
+
+
 @pytest.mark.physics
 @pytest.mark.parametrize("obs_type", ["state", "pixels", "depth"])
 def test_gymnasiums_checker_passes(obs_type):
@@ -106,7 +133,9 @@ def test_the_expert_lifts_the_object_and_success_is_the_worlds(action_type):
         rewards.append(reward)
         if terminated or truncated:
             break
-    assert info["is_success"] and terminated, info
+    assert info["is_success"] and terminated and info["end"] == "success", info
+    with pytest.raises(RuntimeError, match="ended"):  # not a silent step past the end
+        env.step(env.action_space.sample())
     assert env.unwrapped._world.replans <= 2  # it follows its plan (ee_delta: its joints drifted, 20 re-plans)
     assert observation["environment_state"][3] > start_z + 0.04  # the object's true height: lifted
     assert rewards[-1] > rewards[0]  # the dense reward grew with the overhang and the lift

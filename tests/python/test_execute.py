@@ -35,6 +35,26 @@ def test_short_slide_ends_where_eq2_says(slide_plan):
     assert execution.com_margin_m > 0
 
 
+def test_a_box_in_the_slide_s_way_stops_an_open_loop_slide_that_ignores_it(slide_plan):
+    import shapely
+    from shapely.geometry import MultiPoint
+
+    from slideplan.transforms import move_planar
+
+    points = np.asarray(slide_plan.object["points"])[:, :2]
+    start = MultiPoint([tuple(point) for point in points]).convex_hull
+    motion = slide_plan.object_motion
+    end = MultiPoint([tuple(point) for point in move_planar(points, (motion["x"], motion["y"], motion["yaw"]))]).convex_hull
+    spot = end.difference(start.buffer(0.004)).representative_point()  # where the plate goes, clear of where it lies
+    box = {"shape": "box", "center": [spot.x, spot.y, slide_plan.table["height"] + 0.025], "size": [0.01, 0.01, 0.05],
+           "yaw": 0.0}
+    blocked = execute(dataclasses.replace(slide_plan, obstacles=[box]), ExecutionSettings())
+    assert not blocked.success and blocked.failed_stage == "slide", blocked.failure
+    assert blocked.position_error_m > 0.005
+    free = execute(slide_plan, ExecutionSettings())
+    assert free.position_error_m <= 0.002  # the same slide, the box away
+
+
 def test_finger_too_shallow_does_not_move_the_object(slide_plan):
     execution = execute(slide_plan, ExecutionSettings(contact_depth=0.0))
     assert not execution.success

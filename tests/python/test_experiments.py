@@ -184,8 +184,10 @@ def test_fewer_poses_are_a_prefix_of_the_full_figure():
     reduced, full = build_spec("fig11", poses=3), build_spec("fig11")
     assert len(reduced.tasks) == 5 * 3 * 5
     assert {t.task_id for t in reduced.tasks} <= {t.task_id for t in full.tasks}  # a full run resumes on top
-    with pytest.raises(InputError, match="poses"):
-        build_spec("fig11", poses=0)
+    for bad in (0, 1001, 10**9):  # a billion poses: refused at once, not minutes of silent set-up
+        with pytest.raises(InputError, match="from 1 to 1000") as raised:
+            build_spec("fig11", poses=bad)
+        assert raised.value.field == "poses"
 
 
 @pytest.mark.parametrize("k, n", [(0, 1), (1, 1), (0, 10), (10, 10), (3, 10), (1, 100), (57, 100), (999, 1000)])

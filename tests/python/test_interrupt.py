@@ -87,6 +87,26 @@ script.load()()
 """
 
 
+# The same Ctrl-C landing inside NumPy's C extensions: NumPy re-raises it as an ImportError telling the user to
+# reinstall it ("Importing the numpy C-extensions failed"), the KeyboardInterrupt as its context.
+LAUNCH_IN_NUMPY = LAUNCH.replace("raise KeyboardInterrupt", """try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt:
+                raise ImportError("Importing the numpy C-extensions failed.")""")
+
+
+def test_ctrl_c_inside_numpy_s_import_is_an_interrupt_too():
+    done = subprocess.run([sys.executable, "-c", LAUNCH_IN_NUMPY], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.strip() == "slideplan: aborted"
+
+
+def test_an_import_error_of_its_own_is_not_taken_for_an_interrupt():
+    broken = LAUNCH.replace("raise KeyboardInterrupt", "raise ImportError('no module named something')")
+    done = subprocess.run([sys.executable, "-c", broken], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1 and "no module named something" in done.stderr
+
+
 def test_ctrl_c_while_the_command_imports_exits_130_with_one_line():
     done = subprocess.run([sys.executable, "-c", LAUNCH], capture_output=True, text=True, timeout=60)
     assert done.returncode == 130, done.stderr

@@ -236,6 +236,8 @@ def test_a_rerun_into_the_same_folder_leaves_no_object_of_the_earlier_run(tmp_pa
     ("--plan-target", "99", "no object 99: the perceived objects are 0 to 2"),
     ("--plan-target", "-1", "expected an object index >= 0"),
     ("--robot-scene", "nosuch", "nosuch"),
+    ("--time-limit", "-1", "--time-limit"),
+    ("--seed", "-5", "got -5"),
 ])
 def test_cli_bad_target_or_robot_scene_is_refused_before_anything_is_written(tmp_path, square_scene, option, value, problem):
     cloud = tmp_path / "scene.npy"
@@ -243,6 +245,24 @@ def test_cli_bad_target_or_robot_scene_is_refused_before_anything_is_written(tmp
     result = runner.invoke(app, ["perceive", str(cloud), "--out", str(tmp_path / "out"), option, value])
     assert result.exit_code == 2 and option in result.stderr and problem in result.stderr, result.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_a_mount_beyond_any_scene_s_bound_is_refused_before_anything_is_written(tmp_path, square_scene):
+    cloud = tmp_path / "scene.npy"
+    np.save(cloud, square_scene.points)
+    result = runner.invoke(app, ["perceive", str(cloud), "--out", str(tmp_path / "out"), "--robot-base-pose",
+                                 "1e300", "0", "0", "0", "0", "0"])
+    assert result.exit_code == 2 and "--robot-base-pose" in result.stderr, result.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_any_seed_a_plan_takes_perceives_the_same_table(square_scene):
+    small, large = perceive(square_scene.points, seed=7), perceive(square_scene.points, seed=2**32 + 7)
+    assert abs(large.table.height - small.table.height) < 0.001 and len(large.objects) == len(small.objects)
+    for bad in (-5, 2**64, 1.5, True):
+        with pytest.raises(InputError) as caught:
+            perceive(square_scene.points, seed=bad)
+        assert caught.value.field == "seed"
 
 
 def test_a_cloud_in_millimetres_gets_a_hint_about_units(square_scene):

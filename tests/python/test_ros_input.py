@@ -119,6 +119,10 @@ def test_nan_or_huge_joint_values_are_refused_on_arrival_naming_the_joint(planni
         assert f"position[2] ({planning.robot_joints[2]})" in reason, reason
     planning._on_joints(_joints(planning, velocity=[0.0, 0.0, 0.0, 0.0, math.nan, 0.0, 0.0]))
     assert f"velocity[4] ({planning.robot_joints[4]})" in _last_ignored(planning)["reason"]
+    # Outside the URDF's limits (wam_j1: +-2.6 rad): no arm is there, so no plan starts there.
+    planning._on_joints(_joints(planning, [6.0] + [0.0] * 6))
+    reason = _last_ignored(planning)["reason"]
+    assert f"position[0] ({planning.robot_joints[0]}) is 6 rad, outside its limits [" in reason, reason
     assert planning.joints() is kept
 
 
@@ -277,3 +281,32 @@ def test_ros_time_standing_still_is_refused_saying_whether_the_joint_states_went
     planning._on_joints(_joints(planning, header=Header(stamp=Time(sec=6))))
     with pytest.raises(Refused, match="stood still .* no newer /joint_states either"):
         planning.wait_arrived(final, 7.0, 30.0, "slide")
+
+
+@pytest.mark.parametrize("skew_s", [-10.0, 1000.0])
+def test_a_camera_whose_clock_is_off_still_brings_the_next_cloud(planning, skew_s):
+    # Once: clouds stamped 10 s behind never counted as "next" (the slide failed for no cloud), 1000 s ahead
+    # made every later look count as seen already. A cloud's time is its arrival on the node's clock.
+    _at(planning, 50.0)
+    planning._on_cloud(cloud_message(np.ones((2, 3, 3)), Header(stamp=Time(sec=int(50 + skew_s)))))
+    assert planning.newest_cloud() == pytest.approx(50.0)
+    _at(planning, 50.2)
+    planning._on_cloud(cloud_message(np.ones((2, 3, 3)), Header(stamp=Time(sec=int(50.2 + skew_s)))))
+    arrived = planning.next_cloud(after=50.1, timeout=0.0)
+    assert arrived is not None and arrived[0] == pytest.approx(50.2)
+
+
+def test_options_not_given_leave_the_node_s_parameters_to_ros_args(monkeypatch):
+    # Once: `ros serve --ros-args -p target:=1` served target 0, the command's own default overriding it.
+    from typer.testing import CliRunner
+
+    import slideplan.ros.serve
+    from slideplan.cli import app
+
+    given = []
+    monkeypatch.setattr(slideplan.ros.serve, "serve", lambda scene, parameters, ros_args, log: given.append((parameters, ros_args)))
+    ros_args = ["--ros-args", "-p", "target:=1", "-p", "closed_loop:=false", "-p", "use_sim_time:=true"]
+    assert CliRunner().invoke(app, ["ros", "serve", *ros_args]).exit_code == 0
+    assert given[-1] == ({}, ros_args)
+    assert CliRunner().invoke(app, ["ros", "serve", "--target", "2", "--open-loop", "--sim-time"]).exit_code == 0
+    assert given[-1][0] == {"target": 2, "closed_loop": False, "use_sim_time": True}

@@ -16,7 +16,7 @@ from slideplan.sim.conditions import (HARD_PUSH_COM_INSIDE_M, HARD_RANGES, Distu
                                             execution_settings, hard_push, push_candidates, setting_draws)
 from slideplan.sim.settings import ExecutionSettings
 from slideplan.perception.camera import Camera
-from slideplan.checks.verdict import HOLD_HEIGHT_M, Hold, held, judge
+from slideplan.checks.verdict import HOLD_HEIGHT_M, SAMPLE_GAP_S, Hold, HoldWatch, held, judge
 
 TABLE_TOP = 0.75
 U_STAR = 0.02
@@ -77,6 +77,35 @@ def test_a_hold_that_is_not_wholly_recorded_is_no_success():
 
 
 # --- the hard setting --------------------------------------------------------------------------------------
+
+
+def test_the_environment_s_watch_is_the_run_s_rule_over_any_stretch_of_the_episode():
+    table = 0.7
+    watch = HoldWatch(table, duration_s=1.0)
+    # Lifted 2.7 cm (a rule of half the 5 cm lift would call it held): never a success.
+    assert not any(watch.add(t, table + 0.027, True) for t in np.arange(0.0, 3.0, 0.01))
+    # 3.5 cm up from t = 3 s: held once a whole second of samples says so, the same verdict held() gives them.
+    times = np.round(np.arange(3.0, 4.2, 0.01), 6)
+    verdicts = [watch.add(t, table + 0.035, True) for t in times]
+    first = times[verdicts.index(True)]
+    assert first == pytest.approx(4.0)
+    samples = [(t - 3.0, table + 0.035, True) for t in times if t <= first]
+    assert held(Hold.from_samples(samples, 1.0), table) == (True, "")
+    # Out of the hand for one sample, or a gap in the record: the hold starts again.
+    for broken in ((table + 0.035, False), None):
+        watch = HoldWatch(table, duration_s=1.0)
+        clock = [watch.add(t, table + 0.035, True) for t in np.arange(0.0, 0.5, 0.01)]
+        later = 0.5 + (2 * SAMPLE_GAP_S if broken is None else 0.0)
+        if broken is not None:
+            watch.add(0.5, *broken)
+        again = [watch.add(t, table + 0.035, True) for t in np.round(np.arange(later + 0.01, later + 1.2, 0.01), 6)]
+        assert not any(clock) and again.index(True) >= 99
+
+
+def test_a_run_and_the_environment_sample_the_hold_often_enough_for_the_rule():
+    from slideplan.sim import runner
+
+    assert runner.HOLD_SAMPLE_EVERY * ExecutionSettings().timestep <= SAMPLE_GAP_S
 
 
 def test_the_hard_setting_s_draws_are_deterministic_recorded_and_in_their_ranges():

@@ -76,3 +76,33 @@ def judge(hold: Hold | None, table_top: float, failure: tuple[str, str] | None =
         return True, None, ""
     stage, message = failure or ("hold", why)
     return False, stage, message
+
+
+class HoldWatch:
+    """:func:`held` applied while an episode runs, for an agent that lifts when it likes (the environment): the
+    samples of the object's true state go in as they come, and the watch says when the last ``duration_s`` of
+    them pass :func:`held`, the same rule, at the same sampling, as a run's fixed hold.
+
+    Args:
+        table_top: the table top's height (m).
+        duration_s: how long the object must be held (s), a run's hold time.
+    """
+
+    def __init__(self, table_top: float, duration_s: float) -> None:
+        self.table_top, self.duration_s = float(table_top), float(duration_s)
+        self._stretch: list[tuple[float, float, bool]] = []  # the samples since the rule last broke
+
+    def add(self, time: float, lowest_z: float, in_hand: bool) -> bool:
+        """Take one sample (simulated time s, lowest point's height m, touching the robot); True once the
+        object has been held through a whole hold ending now."""
+        if self._stretch and time - self._stretch[-1][0] > SAMPLE_GAP_S:
+            self._stretch = []  # a gap in the record: it covers nothing before
+        if not in_hand or lowest_z - self.table_top < HOLD_HEIGHT_M:
+            self._stretch = []
+            return False
+        self._stretch.append((float(time), float(lowest_z), True))
+        start = self._stretch[0][0]
+        if self._stretch[-1][0] - start < self.duration_s:
+            return False
+        samples = [(t - start, z, hand) for t, z, hand in self._stretch]
+        return held(Hold.from_samples(samples, self.duration_s), self.table_top)[0]

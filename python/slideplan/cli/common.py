@@ -20,6 +20,7 @@ try:  # typer 0.28 carries its own copy of click; earlier releases use click its
 except ImportError:
     from click import exceptions as click_errors
 
+from .._files import replacing, write_text
 from ..errors import InputError, SlideplanWarning
 from ..world.objects import CLOUD_SUFFIXES, ThinObject, load_object, load_outline, sample_pose_on_table
 from ..plan.config import PlannerConfig
@@ -48,6 +49,7 @@ _OPTION_OF_FIELD = {
     "tip_speed": "--tip-speed",
     "setting": "--setting",
     "set": "--set",
+    "poses": "--poses",
 }
 
 class _OneLineErrors(TyperGroup):
@@ -157,8 +159,12 @@ def _config_from_options(
         if reconfiguration_range is not None:
             config = config.with_reconfiguration_range(reconfiguration_range)
     except InputError as error:
-        option = _OPTION_OF_FIELD.get(error.field) if error.field not in overrides else f"--param {error.field}"
-        raise InputError(error.problem, field=option or error.field) from None
+        if error.field in overrides:
+            raise InputError(error.problem, field=f"--param {error.field}") from None
+        if error.field in scene.hand.params and not (error.field in ("dz_min", "dz_max") and reconfiguration_range is not None):
+            # The scene's own [hand] params: its file is at fault, not an option the user did not give.
+            raise InputError(error.problem, source=scene.source, field=f"[hand] params.{error.field}") from None
+        raise InputError(error.problem, field=_OPTION_OF_FIELD.get(error.field) or error.field) from None
     return config
 
 
@@ -192,7 +198,8 @@ def _write_scene_cloud(scene: Scene, object_name: str, pose, path: Path, seed: i
         return None
     vertices = np.array([tuple(point) for point in points], dtype=[("x", "f4"), ("y", "f4"), ("z", "f4")])
     path.parent.mkdir(parents=True, exist_ok=True)
-    plyfile.PlyData([plyfile.PlyElement.describe(vertices, "vertex")]).write(str(path))
+    with replacing(path) as temporary:
+        plyfile.PlyData([plyfile.PlyElement.describe(vertices, "vertex")]).write(str(temporary))
     return path
 
 
@@ -271,7 +278,7 @@ def _output_file(path: Path | None, option: str, suffixes: tuple[str, ...] = ())
 def _write_text(path: Path, text: str, option: str) -> None:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(text)
+        write_text(path, text)
     except OSError as error:
         raise InputError(f"cannot write {path} ({error.strerror or error})", field=option) from None
 

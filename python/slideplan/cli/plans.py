@@ -9,12 +9,14 @@ from typing import Optional, Tuple
 import typer
 
 from .._fields import as_numbers
+from .._limits import MAX_SCENE_MAGNITUDE
 from .. import grasp_cache
 from ..errors import InputError
 from ..plan.config import PLANNERS, PlannerConfig
 from ..plan.robot import table_reach
 from ..world.scenes import load_scene
 from .common import (
+    _OPTION_OF_FIELD,
     EXIT_INVALID_PLAN,
     EXIT_NOT_SOLVED,
     EXIT_SOLVED,
@@ -146,7 +148,11 @@ def perceive_command(
         except InputError as error:
             raise InputError(error.problem, source=error.source, field="--robot-scene") from None
         if robot_base_pose is not None:
-            as_numbers(list(robot_base_pose), 6, source="", field="--robot-base-pose")
+            as_numbers(list(robot_base_pose), 6, source="", field="--robot-base-pose", bound=MAX_SCENE_MAGNITUDE)
+        try:  # the planner's options, named before any file is written
+            PlannerConfig(seed=seed, time_limit_s=time_limit).resolved()
+        except InputError as error:
+            raise InputError(error.problem, field=_OPTION_OF_FIELD.get(error.field, error.field)) from None
         perception = perceive(load_point_cloud(cloud), seed=seed, source=str(cloud))
         if plan_target is not None and plan_target >= len(perception.objects):
             raise InputError(f"no object {plan_target}: the perceived objects are 0 to {len(perception.objects) - 1}",

@@ -41,9 +41,12 @@ def ros_serve_command(
     scene_name: str = typer.Option("square", "--scene", help="The robot's scene (URDF, mount, hand): built-in name or TOML."),
     camera_pose: Optional[Tuple[float, float, float, float, float, float]] = typer.Option(
         None, "--camera-pose", help="X Y Z ROLL PITCH YAW of the cloud's frame in the world (parameter camera_pose)."),
-    target: int = typer.Option(0, "--target", help="Which object to slide, largest first (parameter target)."),
-    closed: bool = typer.Option(True, "--closed-loop/--open-loop", help="Watch and re-plan while sliding (parameter closed_loop)."),
-    sim_time: bool = typer.Option(False, "--sim-time", help="Run on the simulator's /clock (parameter use_sim_time)."),
+    target: Optional[int] = typer.Option(
+        None, "--target", help="Which object to slide, largest first (parameter target; default 0)."),
+    closed: Optional[bool] = typer.Option(
+        None, "--closed-loop/--open-loop", help="Watch and re-plan while sliding (parameter closed_loop; default on)."),
+    sim_time: Optional[bool] = typer.Option(
+        None, "--sim-time/--wall-time", help="Run on the simulator's /clock (parameter use_sim_time; default off)."),
 ) -> None:
     """The planning node ``slideplan``: services /slideplan/plan and /slideplan/execute (docs/ros2.md).
     ROS arguments (remappings, parameters) go after --ros-args. Exit codes: 0 on Ctrl-C, 2 bad input."""
@@ -53,9 +56,10 @@ def ros_serve_command(
         scene = load_scene(scene_name)
     except (InputError, OSError, ValueError) as error:
         raise _fail(error) from None
-    parameters = {"target": target, "closed_loop": closed, "use_sim_time": sim_time}
-    if camera_pose is not None:
-        parameters["camera_pose"] = [float(value) for value in camera_pose]
+    # Only the options given: the others leave the node's parameters to --ros-args -p NAME:=VALUE, then the defaults.
+    given = {"target": target, "closed_loop": closed, "use_sim_time": sim_time,
+             "camera_pose": None if camera_pose is None else [float(value) for value in camera_pose]}
+    parameters = {name: value for name, value in given.items() if value is not None}
     try:
         serve.serve(scene, parameters, ros_args=ros_args, log=typer.echo)
     except InputError as error:

@@ -3,8 +3,9 @@ policies trained on ``slideplan demos`` datasets in the same physics.
 
 An episode starts as a demonstration does (:class:`slideplan.sim.closed_loop.Start`: the same draw for the same
 seed, the object perceived, the first plan made, the finger pressed at its first contact). A step holds an
-action for ``1 / fps`` simulated seconds. Success is the world's verdict: the object held in the hand, its
-lowest point at least half the lift height above the table, for the hold time.
+action for ``1 / fps`` simulated seconds. Success is the world's verdict, the rule and sampling of every run
+(:class:`slideplan.checks.verdict.HoldWatch`): the object in the hand, its lowest point at least 3 cm above
+the table top, through a whole hold, sampled every 10 ms of the simulation.
 """
 
 from __future__ import annotations
@@ -16,12 +17,14 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from .._environments import register
+from ..checks.verdict import HoldWatch
 from ..loop.bounds import MAX_REPLANS, MAX_SLIDE_S
 from ..sim.closed_loop import Start
 from ..sim.conditions import execution_settings, hard_push, push_candidates
 from ..errors import InputError
 from ..sim.model import DEPTH_CAMERA, build_model, enable_hand_collisions
-from ..sim.runner import CLOSE_S, SETTLE_S, Runner, instability, timing_options
+from ..sim.runner import CLOSE_S, HOLD_SAMPLE_EVERY, SETTLE_S, Runner, instability, timing_options
 from ..world.geometry import Ending
 from ..plan.motions import Unreachable, plan_times, reach_path, reference, rest_to_rest, straight_up
 from ..loop.decisions import plan_anew
@@ -86,6 +89,11 @@ class SlideToEdgeEnv(gym.Env):
                                      ("render_mode", render_mode, (None, "rgb_array"))):
             if value not in allowed:
                 raise InputError(f"must be one of {', '.join(map(str, allowed))}, got {value!r}", field=name)
+        if isinstance(fps, bool) or not isinstance(fps, int) or fps < 1:
+            raise InputError(f"must be a whole number of steps per simulated second >= 1, got {fps!r}", field="fps")
+        if (len(tuple(image_size)) != 2 or any(isinstance(side, bool) or not isinstance(side, int) or side < 1
+                                                for side in image_size)):
+            raise InputError(f"must be (width, height) in whole pixels >= 1, got {image_size!r}", field="image_size")
         self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
         self.objects, self.setting, self.fps = tuple(objects), setting, int(fps)
         self.obs_type, self.action_type, self.reward_type, self.render_mode = obs_type, action_type, reward_type, render_mode
@@ -130,13 +138,15 @@ class SlideToEdgeEnv(gym.Env):
         else:
             raise RuntimeError(f"no plan for 20 draws from seed {episode_seed}")
         self._world = _World(self.scene, start, self.setting, self.fps, self.image_size, self.obs_type)
-        self._steps, self._held_s, self._done = 0, 0.0, False
+        self._steps, self._done = 0, False
         return self._observation(), {**self._info(), "redrawn": attempt, "object": drawn.object, "pose": drawn.pose,
                                      "seed": drawn.seed}
 
     def step(self, action):
         if self._world is None:
             raise RuntimeError("call reset() first")
+        if self._done:
+            raise RuntimeError("the episode has ended (info['end'] says why): call reset() first")
         world = self._world
         action = np.asarray(action, dtype=float)
         if action.shape != self.action_space.shape or not np.isfinite(action).all():
@@ -145,14 +155,16 @@ class SlideToEdgeEnv(gym.Env):
         pushed_before = world.pushed
         failure = world.hold(target, grip, 1.0 / self.fps)
         self._steps += 1
-        lifted = world.lifted()
-        self._held_s = self._held_s + 1.0 / self.fps if lifted else 0.0
-        success = self._held_s >= world.settings.hold_s - 1e-9
+        success = world.held
         fell = world.object_height() < self.scene.table.height - _FELL_M
         terminated = success or fell or failure is not None
         truncated = not terminated and self._steps >= self._max_episode_steps
         reward = float(success) if self.reward_type == "sparse" else world.progress() + float(success)
         info = {**self._info(), "is_success": success}
+        if terminated or truncated:
+            self._done = True
+            info["end"] = ("success" if success else "simulation" if failure is not None else "fell" if fell
+                           else "time_limit")
         if world.pushed is not pushed_before:
             info["pushed"] = dataclasses.asdict(world.pushed)
         if failure is not None:
@@ -246,6 +258,7 @@ class _World:
         self.posture = np.asarray(first.trajectory[0], dtype=float)  # pressed at the first contact
         self.runner.press(self.posture, float(depths[0]))
         self.closing, self.replans, self.quiet_until = False, 0, 0.0
+        self.watch, self.held, self.steps = HoldWatch(scene.table.height, self.settings.hold_s), False, 0
         width, height = image_size
         cameras = (CameraSpec("front", width, height),) if obs_type == "pixels" else ()
         self.frames = Frames(self.built, self.runner, self.robot, fps, cameras, front_points(scene))
@@ -366,6 +379,9 @@ class _World:
             runner.phase = "grasp"
         end = data.time + duration - 1e-9
         while data.time < end:
+            self.steps += 1
+            if self.steps % HOLD_SAMPLE_EVERY == 0 and not self.held:
+                self.held = self.watch.add(*runner.hold_sample(data.time))
             data.ctrl[built.arm_actuators] = target
             if len(gripper):
                 data.ctrl[gripper.actuators] = gripper.target(grip) if self.closing else gripper.opened
@@ -390,11 +406,6 @@ class _World:
     def object_state(self) -> np.ndarray:
         com, yaw, z = self.runner.object_pose()
         return np.array([com[0], com[1], yaw, z], dtype=float)
-
-    def lifted(self) -> bool:
-        """In the hand, its lowest point at least half the lift height above the table."""
-        _, lowest, touching = self.runner.hold_sample(0.0)
-        return touching and lowest >= self.scene.table.height + 0.5 * self.settings.lift_height
 
     def motion(self) -> tuple[float, float, float]:
         """Eq. 2's planar motion that took the object from its pose at reset to where it truly is now."""
@@ -439,5 +450,4 @@ class _World:
             self.depth_renderer.close()
 
 
-# gym.make("slideplan/SlideToEdge-v0") once this module is imported (or gym.make("slideplan.demos.env:slideplan/SlideToEdge-v0")).
-gym.register(id="slideplan/SlideToEdge-v0", entry_point=SlideToEdgeEnv)
+register(gym)  # gym.make("slideplan/SlideToEdge-v0") works after import slideplan as well

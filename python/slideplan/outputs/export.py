@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import jsontext
+from .._files import write_text
 from ..errors import InputError
 from ..checks.verify import require_motion
 
@@ -147,4 +148,4 @@ def export_plan(result: PlanResult, fmt: str, out: Path) -> None:
 
         result = dataclasses.replace(result, timing=parameterize(result))
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(to_ros_json(result) if fmt == "ros-json" else to_csv(result))
+    write_text(out, to_ros_json(result) if fmt == "ros-json" else to_csv(result))

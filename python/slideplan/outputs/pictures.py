@@ -14,6 +14,7 @@ import shapely
 from matplotlib.figure import Figure
 from matplotlib.patches import Polygon as PolygonPatch
 
+from .._files import replacing
 from ..world.geometry import SupportSurface
 from ..world.scenes import obstacle_footprint
 from ..transforms import move_planar, row_to_pose
@@ -56,7 +57,8 @@ def save_figure(figure: Figure, path: str | Path) -> Path:
     if path.suffix.lower() not in (".png", ".svg"):
         path = path.with_name(path.name + ".png")
     path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path, dpi=150)
+    with replacing(path) as temporary:
+        figure.savefig(temporary, dpi=150)
     return path
 
 

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._files import write_bytes, write_text
 from ..errors import InputError
 from ..perception.framing import frame_points, view_direction
 from ..plan.result import PlanResult
@@ -463,9 +464,9 @@ def record(result: PlanResult, out: Path) -> Path:
             serializer.insert_sleep(1.0 / RECORD_FPS)
         out.parent.mkdir(parents=True, exist_ok=True)
         if out.suffix == ".viser":
-            out.write_bytes(serializer.serialize())
+            write_bytes(out, serializer.serialize())
         else:
-            out.write_text(serializer.as_html())
+            write_text(out, serializer.as_html())
     finally:
         view.server.stop()
     return out

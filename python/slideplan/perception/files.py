@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .._fields import as_numbers
+from .._files import replacing, write_text
 from ..errors import InputError
 from .tabletop import Perception
 from ..world.scenes import load_scene, robot_toml
@@ -90,14 +91,16 @@ def write_perception(perception: Perception, out_dir: str | Path, *, robot_scene
         if re.fullmatch(r"object_\d+\.(ply|npy)", stale.name):
             stale.unlink()
     scene_path = out_dir / "scene.toml"
-    scene_path.write_text(scene_toml(perception, robot_scene, directory=out_dir, base_pose=base_pose))
+    write_text(scene_path, scene_toml(perception, robot_scene, directory=out_dir, base_pose=base_pose))
     cloud_paths = []
     for index, perceived in enumerate(perception.objects):
         path = out_dir / f"object_{index}{cloud_suffix}"
         if cloud_suffix == ".npy":
-            np.save(path, perceived.points)
+            with replacing(path) as temporary:
+                np.save(temporary, perceived.points)
         else:
             vertices = np.array([tuple(point) for point in perceived.points], dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
-            plyfile.PlyData([plyfile.PlyElement.describe(vertices, "vertex")]).write(str(path))
+            with replacing(path) as temporary:
+                plyfile.PlyData([plyfile.PlyElement.describe(vertices, "vertex")]).write(str(temporary))
         cloud_paths.append(path)
     return scene_path, cloud_paths

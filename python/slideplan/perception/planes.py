@@ -99,6 +99,12 @@ def find_table_plane(cloud: np.ndarray, tolerance: float, min_area: float, max_t
     return plane
 
 
+def _ransac_seed(seed: int) -> int:
+    """scikit-learn's RANSAC takes seeds below 2**32: a larger seed is folded into that range by its
+    SeedSequence (a smaller one is used as it is, as it always was)."""
+    return seed if seed < 2**32 else int(np.random.SeedSequence(seed).generate_state(1, dtype=np.uint32)[0])
+
+
 def _fit_planes(sample: np.ndarray, tolerance: float, seed: int) -> list[Plane]:
     """Large planes, one RANSAC run each on what the previous ones left."""
     from sklearn.linear_model import LinearRegression, RANSACRegressor
@@ -110,7 +116,7 @@ def _fit_planes(sample: np.ndarray, tolerance: float, seed: int) -> list[Plane]:
         if len(remaining) < min_inliers:
             break
         ransac = RANSACRegressor(
-            LinearRegression(), min_samples=3, residual_threshold=tolerance, max_trials=200, random_state=seed
+            LinearRegression(), min_samples=3, residual_threshold=tolerance, max_trials=200, random_state=_ransac_seed(seed)
         )
         try:
             ransac.fit(remaining[:, :2], remaining[:, 2])

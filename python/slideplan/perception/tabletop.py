@@ -31,7 +31,7 @@ import numpy as np
 import shapely
 from shapely.geometry import MultiPoint, Polygon
 
-from .._fields import as_number
+from .._fields import as_number, as_seed
 from ..errors import InputError
 from ..world.geometry import SupportSurface, area_centroid
 from ..world.objects import checked_cloud
@@ -202,6 +202,7 @@ def perceive(
     except ImportError as error:
         raise ImportError(f"perceive needs the perception extra (pip install 'slideplan[perception]'): {error}") from None
 
+    seed = as_seed(seed)
     _check_settings({"max_tilt_deg": max_tilt_deg, "plane_tolerance": plane_tolerance, "min_table_area": min_table_area,
                      "min_height": min_height, "max_thickness": max_thickness, "min_object_area": min_object_area},
                     cell_size)

@@ -18,12 +18,14 @@ from ..errors import InputError
 JOINT_BOUND = 1e3  # rad or rad/s: as a scene's lengths and angles, far beyond any arm, far below overflow
 MAX_TIME_LIMIT_S = 600.0  # a plan request's limit: `slideplan ros call` waits 600 s by default
 MAX_SENSOR_AGE_S = 3600.0
+JOINT_LIMIT_SLACK = 0.02  # rad or m past a URDF limit that an encoder may still read (a joint at its stop)
 POSE_BOUND = 1e3  # m or rad, as a scene's
 REPORT_EVERY_S = 1.0  # a bad publisher's repeats of one reason: one status line a second, with their count
 RANGES = ("LOCALHOST", "SUBNET", "SYSTEM_DEFAULT", "OFF")
 
 
-def joint_state(message, robot_joints: list[str]) -> tuple[np.ndarray, np.ndarray] | None:
+def joint_state(message, robot_joints: list[str], limits: tuple[np.ndarray, np.ndarray] | None = None
+                ) -> tuple[np.ndarray, np.ndarray] | None:
     """The positions and velocities (zero where the message has none) of ``robot_joints`` in a
     ``sensor_msgs/JointState``, or None for a message that does not name them all (another part of the
     robot, e.g. a gripper's own driver).
@@ -31,11 +33,13 @@ def joint_state(message, robot_joints: list[str]) -> tuple[np.ndarray, np.ndarra
     Args:
         message: the JointState.
         robot_joints: the arm's joint names, in the order of the result.
+        limits: the joints' (lower, upper) positions from the URDF: a position further outside than
+            :data:`JOINT_LIMIT_SLACK` is refused (an arm cannot be there: a wrong URDF, or a driver's units).
 
     Raises:
         InputError: (``/joint_states``) not one position per name, velocities neither absent nor one per
-            name, or a position or velocity not a finite number within ``JOINT_BOUND``, named by its index
-            and joint.
+            name, a position or velocity not a finite number within ``JOINT_BOUND``, or a position outside
+            its joint's limits, named by its index and joint.
     """
     names = list(message.name)
     if not all(name in names for name in robot_joints):
@@ -55,6 +59,13 @@ def joint_state(message, robot_joints: list[str]) -> tuple[np.ndarray, np.ndarra
             value = values[joint]
             problem = "not a finite number" if not math.isfinite(value) else f"beyond {JOINT_BOUND:g} in magnitude"
             raise InputError(f"{what}[{order[joint]}] ({robot_joints[joint]}) is {value:g}: {problem}", field="/joint_states")
+    if limits is not None:
+        lower, upper = (np.asarray(bound, dtype=float) for bound in limits)
+        outside = np.flatnonzero((positions < lower - JOINT_LIMIT_SLACK) | (positions > upper + JOINT_LIMIT_SLACK))
+        if len(outside):
+            joint = outside[0]
+            raise InputError(f"position[{order[joint]}] ({robot_joints[joint]}) is {positions[joint]:g} rad, outside its "
+                             f"limits [{lower[joint]:g}, {upper[joint]:g}] in the URDF", field="/joint_states")
     return positions, velocities
 
 

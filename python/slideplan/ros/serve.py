@@ -77,7 +77,9 @@ class PlanningNode:
         import sklearn.linear_model  # noqa: F401
 
         self.scene = scene
-        self.robot_joints = list(robot_model(scene).joint_names)
+        robot = robot_model(scene)
+        self.robot_joints = list(robot.joint_names)
+        self.joint_limits = (np.asarray(robot.lower_limits), np.asarray(robot.upper_limits))
         overrides = [Parameter(name, value=value) for name, value in (parameters or {}).items()]
         self.node = node = Node("slideplan", context=context, parameter_overrides=overrides)
         try:
@@ -119,15 +121,16 @@ class PlanningNode:
 
         with self.ignored.guarding("/camera/points"):
             points = cloud_points(message)
-            stamp = message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
             with self._cloud_arrived:
-                self._cloud = (stamp if stamp > 0 else self.now(), points)
+                # Its arrival on the node's clock, not its header stamp: a camera whose clock is off by seconds
+                # would otherwise never bring a "next" cloud, or have every look skipped (docs/ros2.md).
+                self._cloud = (self.now(), points)
                 self.arrivals.mark("/camera/points")
                 self._cloud_arrived.notify_all()
 
     def _on_joints(self, message) -> None:
         with self.ignored.guarding("/joint_states"):
-            state = joint_state(message, self.robot_joints)
+            state = joint_state(message, self.robot_joints, self.joint_limits)
             if state is not None:
                 with self._lock:
                     self._joints = state
@@ -139,7 +142,7 @@ class PlanningNode:
             return self._joints
 
     def newest_cloud(self) -> float:
-        """The latest cloud's stamp (ROS time, s), -inf before any."""
+        """When the latest cloud arrived (the node's ROS time, s), -inf before any."""
         cloud = self._cloud
         return -math.inf if cloud is None else cloud[0]
 
@@ -147,8 +150,8 @@ class PlanningNode:
         return self._cloud[1]
 
     def next_cloud(self, after: float, timeout: float = 2.0) -> tuple[float, np.ndarray] | None:
-        """The first cloud stamped after ``after`` (ROS time, s) as (stamp, points), waiting up to
-        ``timeout`` wall s; None if none came."""
+        """The first cloud that arrived after ``after`` (the node's ROS time, s) as (arrival, points), waiting up
+        to ``timeout`` wall s; None if none came."""
         with self._cloud_arrived:
             self._cloud_arrived.wait_for(lambda: self._cloud is not None and self._cloud[0] > after, timeout)
             return self._cloud if self._cloud is not None and self._cloud[0] > after else None

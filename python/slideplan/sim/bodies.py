@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
+import shapely.affinity
 from shapely.geometry import Polygon
 
 from ..world.geometry import SupportSurface
@@ -113,7 +114,36 @@ def add_world(spec, result, settings: ExecutionSettings, points: np.ndarray, com
                 group=3,
                 rgba=[0.2, 0.5, 0.8, 0],
             )
+    add_obstacles(spec, getattr(result, "obstacles", None) or [], settings, contacts)
     spec.worldbody.add_light(pos=[0.5, 0, 2.0], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
+
+
+def add_obstacles(spec, obstacles: list[dict], settings: ExecutionSettings, contacts: ContactModel) -> None:
+    """Add the scene's obstacles (their plan JSON entries): boxes and cylinders fixed to the world where they
+    stand (a can, a book on end, a wall), other thin objects as free bodies of the object's density lying
+    where they lie (pushed, they move). Each is named ``slideplan_clutter_<index>``."""
+    import mujoco
+
+    attributes = dict(contype=contacts.groups.clutter[0], conaffinity=contacts.groups.clutter[1],
+                      friction=[settings.table_friction, 0.005, 0.0001], rgba=[0.8, 0.35, 0.25, 1])
+    for index, entry in enumerate(obstacles):
+        name = f"slideplan_clutter_{index}"
+        shape = entry.get("shape", "box")
+        if shape == "box":
+            yaw = float(entry.get("yaw", 0.0))
+            spec.worldbody.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5 * s for s in entry["size"]],
+                                    pos=list(entry["center"]), quat=[np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)], **attributes)
+        elif shape == "cylinder":
+            spec.worldbody.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                                    size=[float(entry["radius"]), 0.5 * float(entry["height"]), 0.0], pos=list(entry["center"]),
+                                    **attributes)
+        else:  # a thin object: its prism, free
+            polygon = Polygon(entry["polygon"])
+            centre = polygon.centroid
+            body = spec.worldbody.add_body(name=name, pos=[centre.x, centre.y, float(entry["bottom"])])
+            body.add_freejoint(name=f"{name}_free")
+            local = shapely.affinity.translate(polygon, -centre.x, -centre.y)
+            add_prism(body, spec, name, local, 0.0, float(entry["height"]), density=settings.object_density, **attributes)
 
 
 

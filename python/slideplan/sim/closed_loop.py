@@ -53,7 +53,7 @@ from typing import Any, Callable
 import numpy as np
 import shapely
 
-from .._fields import as_number, as_numbers
+from .._fields import as_number, as_numbers, as_seed
 from ..perception.camera import Camera, back_project
 from .closed_loop_run import ClosedLoopRun, diagnose, new_report
 from .conditions import Disturbance, camera_as_mounted, execution_settings, hard_push, push_candidates, setting_draws
@@ -103,7 +103,8 @@ def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: fl
 
     placed = place_objects([(object_name, pose)])[0]
     mounted = mounted or camera
-    depth = depth_image(scene_spec(scene.table, [placed], [], mounted), mounted)
+    clutter = [obstacle.to_dict() for obstacle in scene.obstacles]
+    depth = depth_image(scene_spec(scene.table, [placed], [], mounted, obstacles=clutter), mounted)
     points = back_project(noisy_depth(depth, noise, DEPTH_DROPOUT, np.random.default_rng(seed)), camera)
     # The scene's table is known: the cloud is cut to it and a margin around it, and a plane half its size is
     # a table. Else a small arm's table (the SO-101's, 14 x 20 cm: 5% of the frame, under perceive's 0.04 m^2)
@@ -114,7 +115,9 @@ def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: fl
     if not perception.objects:
         raise InputError("the camera does not see the object", field="--pose")
     outline, thickness, _ = load_outline(object_name)
-    seen_pose, _ = register_outline(perception.objects[0].points, outline)
+    # The target is the thin object seen nearest where it lies: other thin objects of the scene are clutter.
+    target = min(perception.objects, key=lambda seen: float(np.hypot(*(np.asarray(seen.centroid_xy) - pose[:2]))))
+    seen_pose, _ = register_outline(target.points, outline)
     obj = load_object(object_name, table_height=scene.table.height, pose=_on_table(scene.table.polygon, outline, seen_pose))
     return obj, perception.plane
 
@@ -231,8 +234,10 @@ class Start:
         """Perceive and plan for an object at ``pose`` (arguments as :func:`run`'s).
 
         Raises:
-            InputError: the object is not wholly on the table, or cannot be read; an unknown setting.
+            InputError: the object is not wholly on the table, or cannot be read; an unknown setting; a seed
+                that is not a whole number in [0, 2**64) (field ``seed``).
         """
+        seed = as_seed(seed)
         draws = setting_draws(setting, seed)
         config = config or PlannerConfig.for_scene(scene, seed=seed)
         camera = camera or default_camera(scene)

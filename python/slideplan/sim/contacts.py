@@ -6,6 +6,8 @@ matches the affinity of the other):
 - the **table** touches the robot and the object's feet;
 - the **robot** touches the table and the object's shell (never itself);
 - the object's **shell** (its boxes: what the pad and the fingers touch) touches the robot only;
+- the **clutter** (the scene's obstacles: boxes and cylinders fixed to the world, other thin objects free
+  on the table) touches the table, the robot and the object's shell;
 - the object's **feet** (one sphere under the centre of each box) touch the table only. A box on the
   table made one to four contacts at its corners (three on average: benchmarks/execute_profile.py);
   its foot makes one, so table friction is still spread over the footprint on the same grid
@@ -28,7 +30,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-TABLE, ROBOT, SHELL, FEET = 1, 2, 4, 8
+TABLE, ROBOT, SHELL, FEET, CLUTTER = 1, 2, 4, 8, 16
 
 
 @dataclass(frozen=True)
@@ -39,6 +41,7 @@ class Groups:
     robot: tuple[int, int]
     shell: tuple[int, int]
     feet: tuple[int, int] | None  # None: no feet (the shell rests on the table)
+    clutter: tuple[int, int]  # the scene's obstacles: the table, the robot and the object's shell touch them
 
 
 @dataclass(frozen=True)
@@ -72,8 +75,10 @@ class ContactModel:
     @property
     def groups(self) -> Groups:
         if self.feet is None:
-            return Groups(table=(1, 3), robot=(2, 1), shell=(1, 3), feet=None)
-        return Groups(table=(TABLE, ROBOT | FEET), robot=(ROBOT, TABLE | SHELL), shell=(SHELL, ROBOT), feet=(FEET, TABLE))
+            return Groups(table=(1, 3 | CLUTTER), robot=(2, 1 | CLUTTER), shell=(1, 3 | CLUTTER), feet=None,
+                          clutter=(CLUTTER, 1 | 2))
+        return Groups(table=(TABLE, ROBOT | FEET | CLUTTER), robot=(ROBOT, TABLE | SHELL | CLUTTER),
+                      shell=(SHELL, ROBOT | CLUTTER), feet=(FEET, TABLE), clutter=(CLUTTER, TABLE | ROBOT | SHELL))
 
     def apply(self, spec) -> None:
         """Set the solver options on an ``mujoco.MjSpec``."""

@@ -71,7 +71,7 @@ def _urdf_for_mujoco(robot: dict[str, Any]) -> str:
 class Rig:
     """What :func:`build_model` reads of a plan, for a robot that has no plan yet (the simulated robot
     of ``slideplan ros sim``): the robot, table and object, the hand's ``beta0`` and depth band, and the
-    configuration the servo gains are set at. The attribute names are a plan's."""
+    configuration the servo gains are set at, and the scene's obstacles. The attribute names are a plan's."""
 
     robot: dict[str, Any]
     joint_names: list[str]
@@ -79,6 +79,7 @@ class Rig:
     table: dict[str, Any]
     object: dict[str, Any]
     start_config: np.ndarray
+    obstacles: list[dict[str, Any]]
 
     @classmethod
     def for_scene(cls, scene, obj, config, joint_names: list[str], start_config) -> Rig:
@@ -88,7 +89,8 @@ class Rig:
                    params={"beta0": config.beta0, "dz_min": config.dz_min, "dz_max": config.dz_max},
                    table={"polygon": np.array(scene.table.vertices, dtype=float), "height": float(scene.table.height)},
                    object={"thickness": float(obj.thickness), "points": obj.points, "com_xy": obj.centroid_xy},
-                   start_config=np.asarray(start_config, dtype=float))
+                   start_config=np.asarray(start_config, dtype=float),
+                   obstacles=[obstacle.to_dict() for obstacle in scene.obstacles])
 
 
 @dataclass(frozen=True)

@@ -100,7 +100,8 @@ def place_objects(specs) -> list[PlacedObject]:
     return placed
 
 
-def scene_spec(table: SupportSurface, objects: list[PlacedObject], clutter: list[Box], camera: Camera):
+def scene_spec(table: SupportSurface, objects: list[PlacedObject], clutter: list[Box], camera: Camera,
+               obstacles: list[dict] = ()):
     """The MuJoCo model (an ``mujoco.MjSpec``, :mod:`slideplan.sim.mjscene`'s parts, as the execution model
     builds them) of a table scene.
 
@@ -109,6 +110,7 @@ def scene_spec(table: SupportSurface, objects: list[PlacedObject], clutter: list
         objects: the thin objects lying on it (prisms of their outlines).
         clutter: boxes.
         camera: the depth camera (named ``depth``).
+        obstacles: a scene's obstacles (plan JSON entries), as the execution model builds them.
 
     Returns:
         The spec, to compile.
@@ -126,6 +128,12 @@ def scene_spec(table: SupportSurface, objects: list[PlacedObject], clutter: list
     for box in clutter:
         world.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5 * size for size in box.size], pos=list(box.center),
                        quat=[math.cos(0.5 * box.yaw), 0.0, 0.0, math.sin(0.5 * box.yaw)], rgba=[0.8, 0.3, 0.2, 1])
+    if obstacles:
+        from .bodies import add_obstacles
+        from .contacts import CURRENT
+        from .settings import ExecutionSettings
+
+        add_obstacles(spec, list(obstacles), ExecutionSettings(), CURRENT)
     add_camera(spec, "depth", camera)
     return spec
 

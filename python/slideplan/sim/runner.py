@@ -18,7 +18,7 @@ CLOSE_S = 0.8  # the hand held closed this long before the lift
 _LIFTED_FRACTION = 0.5  # lifted: the object rose at least half the lift height and stays there
 _FELL_DROP_M = 0.01  # fell: the object's centre is this far below its resting height
 _SAMPLE_EVERY = 5  # steps between normal-force samples
-_HOLD_SAMPLE_EVERY = 10  # steps between samples of the object over the hold (the verdict: slideplan.checks.verdict.SAMPLE_GAP_S)
+HOLD_SAMPLE_EVERY = 10  # steps between samples of the object over the hold (the verdict: slideplan.checks.verdict.SAMPLE_GAP_S)
 UNSTABLE_WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")  # MuJoCo resets the state on each
 
 
@@ -193,11 +193,13 @@ class Runner:
 
         Returns:
             None if the object was lifted and held, else ``(stage, message)`` of the first failure
-            (``"release"``: it fell off the table when the finger let go; ``"grasp"``: not lifted).
+            (``"slide"``: the object was off the table before the finger let go; ``"release"``: it fell off
+            the table when the finger let go; ``"grasp"``: not lifted).
         """
         data, built, settings = self.built.data, self.built, self.settings
+        gone = self.object_pose()[2] < rest_z - _FELL_DROP_M  # pushed or slid off before the finger let go
         self.let_go()
-        failure = None
+        failure = ("slide", "the object left the table before the finger let go (pushed or slid off it)") if gone else None
 
         def during_approach(elapsed: float, step: int) -> None:
             # The pad (at the contact frame), not the tip link's origin: the Panda's is 5 cm up its finger,
@@ -209,7 +211,7 @@ class Runner:
         if len(approach):
             self.follow(approach, approach_times, SETTLE_S, during_approach)
         enable_hand_collisions(built, True)
-        if self.object_pose()[2] < rest_z - _FELL_DROP_M:
+        if failure is None and self.object_pose()[2] < rest_z - _FELL_DROP_M:
             failure = ("release", "the object fell off the table when the finger let go")
         gripper = built.gripper
         if not len(gripper):
@@ -240,7 +242,7 @@ class Runner:
         def holding(elapsed: float, step: int) -> None:
             if elapsed >= lift_s - 1e-9:
                 self.phase = "hold"
-                if step % _HOLD_SAMPLE_EVERY == 0:
+                if step % HOLD_SAMPLE_EVERY == 0:
                     self.hold.append(self.hold_sample(elapsed - lift_s))
 
         self.phase = "lift"

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from .._files import temporary_path
 from ..perception.framing import frame_points, view_direction
 from ..transforms import move_planar
 from .video_frames import RenderProcess
@@ -87,10 +90,12 @@ class Recorder:
         self.reported = 0.0
         self.camera, self._frames = None, None
         self._mark: tuple[str, float] | None = None  # (text, until simulated time)
+        self._path = self._partial = None  # the video's file, and where it is written until finished
         if path is not None:
             self.camera = framed_camera(keep_in_view, math.radians(model.vis.global_.fovy), size[1] / size[0])
             view = (np.array(self.camera.lookat), self.camera.distance, self.camera.azimuth, self.camera.elevation)
-            self._frames = frames(model, view, path, fps, size)
+            self._path, self._partial = Path(path), temporary_path(path)
+            self._frames = frames(model, view, self._partial, fps, size)
 
     @property
     def active(self) -> bool:
@@ -124,4 +129,11 @@ class Recorder:
         """
         if self._frames is not None:
             frames, self._frames = self._frames, None
-            frames.finish()
+            try:
+                frames.finish()
+                os.replace(self._partial, self._path)  # whole or not at all: a failed run keeps the file that was there
+            except OSError as error:  # named by the file asked for, not the temporary one
+                raise OSError(str(error).replace(str(self._partial), str(self._path))) from None
+            finally:
+                with contextlib.suppress(OSError):
+                    os.unlink(self._partial)

@@ -55,10 +55,12 @@ def simple_polygon_vertices(vertices, *, source: str = "", field: str = "vertice
         raise fail(f"expected an (n, 2) array of vertices, got shape {points.shape}")
     if not np.all(np.isfinite(points)):
         raise fail("vertices must be finite (found NaN or inf)")
+    given = len(points)
     if len(points) > 1 and np.array_equal(points[0], points[-1]):
-        points = points[:-1]
+        points = points[:-1]  # a closing vertex repeating the first
     if len(points) < 3:
-        raise fail(f"polygon needs at least 3 vertices, got {len(points)}")
+        closing = f" (the last repeats the first, closing the ring: {len(points)} distinct)" if given > len(points) else ""
+        raise fail(f"polygon needs at least 3 vertices, got {given}{closing}")
     _check_vertex_count(len(points), fail)
     polygon = Polygon(points)
     # Check collinear/coincident vertices before validity: GEOS would call them
