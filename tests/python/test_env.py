@@ -153,7 +153,7 @@ def test_holding_still_is_no_success():
     env.close()
 
 
-@pytest.mark.physics
+@pytest.mark.lerobot  # slideplan demos writes the dataset through lerobot
 def test_demonstrations_replayed_by_their_joint_actions_end_as_recorded(tmp_path):
     import pandas as pd
 

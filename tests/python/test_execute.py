@@ -50,6 +50,7 @@ def test_a_box_in_the_slide_s_way_stops_an_open_loop_slide_that_ignores_it(slide
            "yaw": 0.0}
     blocked = execute(dataclasses.replace(slide_plan, obstacles=[box]), ExecutionSettings())
     assert not blocked.success and blocked.failed_stage == "slide", blocked.failure
+    assert blocked.failure.startswith("the object touched obstacle 0 during the slide"), blocked.failure
     assert blocked.position_error_m > 0.005
     free = execute(slide_plan, ExecutionSettings())
     assert free.position_error_m <= 0.002  # the same slide, the box away

@@ -79,6 +79,16 @@ def test_a_hold_that_is_not_wholly_recorded_is_no_success():
 # --- the hard setting --------------------------------------------------------------------------------------
 
 
+def test_a_held_object_whose_run_touched_an_obstacle_is_no_success_and_says_so():
+    table = 0.7
+    samples = [(t, table + 0.05, True) for t in np.arange(0.0, 1.001, 0.01)]
+    hold = Hold.from_samples(samples, 1.0)
+    touched = ("slide", "the robot (link3) touched obstacle 0 during the slide at t = 2.10 s")
+    assert judge(hold, table) == (True, None, "")
+    assert judge(hold, table, clutter=touched) == (False, "slide", touched[1])
+    assert judge(None, table, ("grasp", "not lifted"), touched) == (False, "grasp", "not lifted")  # the run's own failure first
+
+
 def test_the_environment_s_watch_is_the_run_s_rule_over_any_stretch_of_the_episode():
     table = 0.7
     watch = HoldWatch(table, duration_s=1.0)
@@ -223,6 +233,19 @@ def test_dev_and_eval_are_disjoint_and_eval_is_the_80_held_out_tasks():
         with pytest.raises(InputError) as caught:
             build_spec(**bad)
         assert caught.value.field == field
+
+
+def test_the_clutter_set_lies_clear_of_the_obstacles_and_runs_nominal_physics_only():
+    from slideplan.experiments import build_spec
+    from slideplan.experiments.tasks import CLUTTER_SCENES, SET_SETTINGS, task_set
+
+    tasks = build_spec("closed-loop", task_set="clutter").tasks
+    assert len(tasks) == 30 and {task.scene for task in tasks} == set(CLUTTER_SCENES)
+    assert {task_set(task) for task in tasks} == {"clutter"} and SET_SETTINGS["clutter"] == ("nominal",)
+    for task in tasks:
+        scene, placed = load_scene(task.scene), task.placed_object()
+        footprints = scene.footprints(scene.table.height + placed.thickness)
+        assert scene.table.polygon.contains(placed.outline) and not placed.outline.intersects(footprints)
 
 
 # --- the report --------------------------------------------------------------------------------------------

@@ -67,13 +67,19 @@ def held(hold: Hold | None, table_top: float, height: float = HOLD_HEIGHT_M) -> 
                    f"(< {100 * height:.0f} cm)")
 
 
-def judge(hold: Hold | None, table_top: float, failure: tuple[str, str] | None = None) -> tuple[bool, str | None, str]:
-    """A run's outcome: ``(success, failed stage or None, why)``. Success is :func:`held` alone; a failure's
-    stage is the one the run reported on the way (``failure``: e.g. ``("grasp", "not lifted")``), else
-    ``"hold"`` (lifted, then lost or sagging in the hold)."""
+def judge(hold: Hold | None, table_top: float, failure: tuple[str, str] | None = None,
+          clutter: tuple[str, str] | None = None) -> tuple[bool, str | None, str]:
+    """A run's outcome: ``(success, failed stage or None, why)``. Success is :func:`held`, with no obstacle
+    touched on the way (``clutter``: the stage and what touched what; a plan promises to pass clutter by); a
+    failure's stage is the one the run reported on the way (``failure``: e.g. ``("grasp", "not lifted")``),
+    else an obstacle's touch, else ``"hold"`` (lifted, then lost or sagging in the hold)."""
     ok, why = held(hold, table_top)
+    if ok and clutter is not None:
+        return False, clutter[0], clutter[1]
     if ok:
         return True, None, ""
+    if failure is None and clutter is not None:
+        return False, clutter[0], clutter[1]
     stage, message = failure or ("hold", why)
     return False, stage, message
 

@@ -34,8 +34,8 @@ def experiment_command(
     ),
     task_set: str = typer.Option(
         "dev", "--set", help="closed-loop's task set: dev (Fig. 10's objects, to fix failures on), eval (the letters Y, "
-        "A, L, E: once held out, now worked on as dev) or eval2 (held out: 8 objects on 5 tables, 5 poses each, its own "
-        "seed; run once, on one build)."
+        "A, L, E: once held out, now worked on as dev), eval2 (held out: 8 objects on 5 tables, 5 poses each, its own "
+        "seed; run once, on one build) or clutter (the paper's objects among the bundled scenes' clutter, nominal physics)."
     ),
     out: Path = typer.Option(..., "--out", help="Output directory; results go to OUT/results/ (one Parquet file per task)."),
     quick: bool = typer.Option(False, "--quick", help="A small subset: 2 objects x 2 poses per cell, 5 s limit."),

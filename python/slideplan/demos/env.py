@@ -57,25 +57,70 @@ _OFF_PLAN = (0.01, math.radians(10.0))
 
 
 class SlideToEdgeEnv(gym.Env):
-    """The slide to the edge, the grasp and the lift, in MuJoCo.
+    """Slide a thin object to a table edge with one fingertip, then grasp it from the side and lift it.
 
-    Args:
-        scene: a built-in scene name or a scene TOML.
-        objects: the objects reset draws from (as ``slideplan demos --objects``).
-        setting: nominal, stress, random or hard (its physics and, when drawn, its push mid-slide, as a run's:
-            ``info["pushed"]`` on the step it happens).
-        obs_type: ``state`` (``agent_pos`` and ``environment_state``: the object's true x, y, yaw, z),
-            ``pixels`` (``pixels``: the front camera's RGB, and ``agent_pos``: LeRobot's keys) or ``depth``
-            (``depth``: the scene camera's depth in m, 0 where nothing is seen, and ``agent_pos``).
-        action_type: ``joint`` (each joint's servo target and the gripper's closing, 0 open .. 1 closed) or
-            ``ee_delta`` (the fingertip's step in the world, dx dy dz m and a rotation vector rad, and the gripper;
-            a redundant arm's null space is pulled toward its posture at reset).
-        reward_type: ``sparse`` (1 on success) or ``dense`` (the overhang's progress to u*, the centre of mass's
-            margin, the lift's progress, and 1 on success).
-        render_mode: None or ``rgb_array`` (the front camera).
-        fps: steps per simulated second.
-        image_size: (width, height) of the pixels and depth images.
-        max_episode_steps: steps before the episode is truncated (default: :data:`EPISODE_S` at ``fps``).
+    ## Description
+
+    A thin object lies flat on a table, too flat to grasp from above. The arm (by default the WAM with the
+    Yale T42 hand of the square table's scene) presses one fingertip on the object and slides it until part
+    of it overhangs an edge, then closes its hand on the overhang and lifts. The physics is `slideplan
+    execute`'s MuJoCo model: a compliant finger, the object on small feet, the table as its prism, the
+    scene's clutter. The environment evaluates policies trained on `slideplan demos` datasets, which record
+    the same episodes.
+
+    ## Action Space
+
+    ``action_type="joint"``: ``Box(dof + 1)``, each arm joint's servo target (rad or m, within the URDF's
+    limits) and the gripper's closing (0 open .. 1 closed; above 0.5 the hand closes). ``"ee_delta"``:
+    ``Box(7)``, the fingertip's step in the world (dx, dy, dz m, a rotation vector rad, at most 1.2 m/s and
+    3.5 rad/s over a step) and the gripper. A step holds the action for ``1 / fps`` simulated seconds.
+
+    ## Observation Space
+
+    ``obs_type="state"``: ``agent_pos`` (the joints, the fingertip's pose, the gripper: the datasets'
+    ``observation.state``) and ``environment_state`` (the object's true x, y, yaw, z). ``"pixels"``:
+    ``pixels`` (the front camera's RGB, ``image_size``) and ``agent_pos``. ``"depth"``: ``depth`` (the scene
+    camera's depth in m, 0 where nothing is seen) and ``agent_pos``.
+
+    ## Rewards
+
+    ``reward_type="sparse"``: 1 on the step that succeeds, else 0. ``"dense"``: the overhang's progress to
+    u* (0..1), less ten times the centre of mass's shortfall inside the edge (m), plus the lift's progress
+    (0..1), and 1 more on success.
+
+    ## Starting State
+
+    ``reset(seed=s)`` draws an object (of ``objects``), a pose wholly on the table and clear of clutter, and
+    the setting's physics from ``s`` alone, perceives the object with the depth camera, plans, and presses
+    the finger at the plan's first contact: the episode a dataset calls seed ``s``. A draw that cannot be
+    planned is drawn again from the next seed (``info["redrawn"]``).
+
+    ## Episode End
+
+    Terminated on success (the world's verdict of every run, :class:`slideplan.checks.verdict.HoldWatch`:
+    the object in the hand, its lowest point 3 cm above the table top, through a whole 1 s hold, sampled
+    every 10 ms), when the object falls off the table, or when the simulation goes unstable; truncated after
+    ``max_episode_steps``. The last step's ``info["end"]`` says which (``success``, ``fell``,
+    ``simulation``, ``time_limit``); a step after the end is refused.
+
+    ## Arguments
+
+    - ``scene``: a built-in scene name or a scene TOML.
+    - ``objects``: the objects reset draws from (as ``slideplan demos --objects``).
+    - ``setting``: ``nominal``, ``stress``, ``random`` or ``hard`` (its physics and, when drawn, its push
+      mid-slide, as a run's: ``info["pushed"]`` on the step it happens).
+    - ``obs_type``, ``action_type``, ``reward_type``: as above.
+    - ``render_mode``: None or ``rgb_array`` (the front camera).
+    - ``fps``: steps per simulated second (a whole number >= 1).
+    - ``image_size``: (width, height) of the pixels and depth images.
+    - ``max_episode_steps``: steps before the episode is truncated (default: :data:`EPISODE_S` at ``fps``;
+      ``gym.make`` registers 800, the default at 10 steps a second).
+
+    ## Version History
+
+    - v0: success is the runs' verdict (3 cm, a whole hold sampled every 10 ms); releases before 0.2 judged
+      2.5 cm at each step. The id's suffix changes once the benchmark's protocol is frozen and anything that
+      changes scores changes.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}

@@ -32,7 +32,7 @@ from ..provenance import PROVENANCE_COLUMNS, run_provenance
 from .execution import TASK_COLUMNS
 from .results import PROVENANCE_FIELDS, load_results
 from .stats import wilson_interval
-from .tasks import Task, cached_scene, task_set
+from .tasks import SET_SETTINGS, Task, cached_scene, task_set
 
 MODES = ("open", "closed")
 _RUN_COLUMNS = [
@@ -70,7 +70,8 @@ def run_columns(report) -> dict[str, Any]:
 
 
 def run_closed_loop_task(task: Task) -> dict:
-    """Run one task's six runs and return its row (runs in the worker).
+    """Run one task in every setting of its set (all four but where SET_SETTINGS says), open and closed loop, and
+    return its row (runs in the worker).
 
     Args:
         task: a task of :func:`slideplan.experiments.tasks.closed_loop_spec`.
@@ -82,7 +83,8 @@ def run_closed_loop_task(task: Task) -> dict:
     row.update(task.fields(), task_set=task_set(task), solved=False, **run_provenance())
     try:
         scene, config = cached_scene(task.scene), task.planner_config()
-        for setting, mode in itertools.product(SETTINGS, MODES):
+        settings = SET_SETTINGS.get(task_set(task), SETTINGS)
+        for setting, mode in itertools.product(settings, MODES):
             report = run(scene, task.object, (task.x, task.y, task.yaw), seed=task.seed, closed=mode == "closed",
                          setting=setting, config=config)
             row.update({f"{setting}_{mode}_{name}": value for name, value in run_columns(report).items()})

@@ -13,7 +13,8 @@ import pandas as pd
 from ..sim.conditions import SETTINGS
 from .stats import wilson_interval
 
-SETS = ("dev", "eval", "eval2")  # eval: the former held-out set, spent, worked on as dev; eval2: held out
+# eval: the former held-out set, spent, worked on as dev; eval2: held out; clutter: among obstacles, nominal only.
+SETS = ("dev", "eval", "eval2", "clutter")
 STAGES = ("plan", "slide", "release", "grasp", "hold", "simulation")  # ClosedLoopRun.failed_stage
 STOPS = ("no_progress", "replan_cap", "time_cap")  # ClosedLoopRun.slide_stop, "+"-joined
 

@@ -40,7 +40,13 @@ QUICK_OBJECTS = ("square", "crescent")  # an easy and a hard (non-convex) shape
 # ``eval``, the letters, once held out and run once, now spent and worked on like ``dev``; ``eval2``, held out,
 # defined before the work it judges and run once, on one build: objects, a table, poses and a seed that no
 # test, benchmark or tuning uses (its files lie in data/objects/eval2 and data/scenes/eval2).
-CLOSED_LOOP_SETS = {"dev": "closed-loop", "eval": "closed-loop-eval", "eval2": "closed-loop-eval2"}  # set -> experiment
+CLOSED_LOOP_SETS = {"dev": "closed-loop", "eval": "closed-loop-eval", "eval2": "closed-loop-eval2",
+                    "clutter": "closed-loop-clutter"}  # set -> the tasks' ``experiment``
+# ``clutter``: the paper's objects among the bundled scenes' clutter (a can, books, a box open on one side),
+# in nominal physics only: what the clutter itself does to a run.
+CLUTTER_SCENES = ("clutter_can", "clutter_books", "clutter_boxed")
+CLUTTER_POSES = 2
+SET_SETTINGS = {"clutter": ("nominal",)}  # a set's settings, where not all of them
 EVAL_OBJECTS = ("Y", "A", "L", "E")
 EVAL_POSES = 5
 EVAL_SEED = 53  # the eval set's experiment seed (the dev set's is the run's --seed, 0 for every committed row)
@@ -216,8 +222,10 @@ def initial_pose_and_seed(
     """
     entropy = [experiment_seed, _name_key(scene), _name_key(object_name), _name_key(repr(float(scale))), pose_index]
     pose_sequence, planner_sequence = np.random.SeedSequence(entropy).spawn(2)
-    outline, _ = scaled_outline(object_name, scale)
-    pose = sample_pose_on_table(outline, cached_scene(scene).table, np.random.default_rng(pose_sequence))
+    outline, thickness = scaled_outline(object_name, scale)
+    table = cached_scene(scene).table
+    pose = sample_pose_on_table(outline, table, np.random.default_rng(pose_sequence),
+                                avoid=cached_scene(scene).footprints(table.height + thickness))  # clear of clutter
     return pose, int(planner_sequence.generate_state(1, dtype=np.uint32)[0])
 
 
@@ -376,6 +384,21 @@ def closed_loop_eval2_spec(base: PlannerConfig, quick: bool, poses: int | None) 
     )
 
 
+def closed_loop_clutter_spec(base: PlannerConfig, quick: bool, poses: int | None) -> tuple[Task, ...]:
+    """The closed loop among clutter: the paper's 5 objects on each of :data:`CLUTTER_SCENES`, 2 poses each clear
+    of the obstacles (30 tasks), the hand's band, run in nominal physics only (:data:`SET_SETTINGS`).
+
+    Args:
+        base: supplies the seed, the time limit and ``dz_min``.
+        quick: 2 objects x 2 poses per scene instead (12 tasks).
+        poses: poses per cell instead of 2 (None: 2, or the quick count).
+    """
+    return _tasks(
+        CLOSED_LOOP_SETS["clutter"], scenes=CLUTTER_SCENES, objects=QUICK_OBJECTS if quick else OBJECTS, scales=(1.0,),
+        poses=_pose_count(poses, quick, CLUTTER_POSES), settings=(_Setting(),), base=base, hand_band=True,
+    )
+
+
 def task_set(task: Task) -> str:
     """The closed-loop set (``"dev"``, ``"eval"`` or ``"eval2"``) a task belongs to, from its ``experiment``; "" for
     a task of another experiment."""
@@ -450,7 +473,8 @@ def build_spec(
     base = PlannerConfig(seed=seed, time_limit_s=time_limit_s, preset=preset).resolved()  # validates them, naming the field
     if poses is not None and (isinstance(poses, bool) or not isinstance(poses, int) or not 1 <= poses <= MAX_POSES):
         raise InputError(f"must be a whole number from 1 to {MAX_POSES}, got {poses!r}", field="poses")
-    builder = {"eval": closed_loop_eval_spec, "eval2": closed_loop_eval2_spec}.get(task_set, _SPEC_BUILDERS[figure])
+    builder = {"eval": closed_loop_eval_spec, "eval2": closed_loop_eval2_spec,
+               "clutter": closed_loop_clutter_spec}.get(task_set, _SPEC_BUILDERS[figure])
     tasks = builder(base, quick, poses)
     tasks = _only(figure, tasks, "planner", planners, PLANNERS)
     tasks = _only(figure, tasks, "scene", scenes, sorted({task.scene for task in tasks}))

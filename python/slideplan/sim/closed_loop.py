@@ -445,7 +445,7 @@ def _episode(report: dict[str, Any], first: PlanResult, loop: SlideLoop, watch: 
                                    table.height + truth.thickness / 2)
         report["lifted"] = runner.lifted
         hold = Hold.from_samples(runner.hold, settings.hold_s) if runner.hold else None
-        _, report["failed_stage"], report["failure"] = judge(hold, table.height, failure)
+        _, report["failed_stage"], report["failure"] = judge(hold, table.height, failure, runner.clutter_contact)
     except Unstable as error:
         report.update(failed_stage="simulation", failure=str(error), lifted=False)
     finally:

@@ -86,12 +86,16 @@ def execute(
     runner.press(planned.trajectory[0], planned.depths[0])
     try:
         runner.slide(planned.trajectory, slide_times, planned.depths, SETTLE_S)
+        if runner.clutter_contact is not None:
+            _fail(report, *runner.clutter_contact)
         _judge_slide(report, runner, result, planned, settings)
         failure = runner.grasp(np.asarray(result.grasp["approach"], dtype=float), approach_times,
                                np.asarray(result.grasp["config"], dtype=float), core_robot,
                                resolve_limits(result, options), planned.top,
                                float(result.table["height"]) + float(result.object["thickness"]) / 2)
         report["lifted"] = runner.lifted
+        if runner.clutter_contact is not None:
+            _fail(report, *runner.clutter_contact)
         if failure is not None:
             stage, message = failure
             _fail(report, stage,

@@ -77,6 +77,9 @@ class Runner:
         self.phase = "slide"  # what the arm is doing: slide, a move's phase (reach, ...), approach, grasp, lift, hold
         self._is_object = None  # per geom: part of the object (built on the first force sample)
         self._object_ids = None  # the object's geoms, sorted (built on the first hold sample)
+        # The first touch of the scene's clutter by the arm or the object: (stage, what touched what), or None.
+        self.clutter_contact: tuple[str, str] | None = None
+        self._clutter = None  # {geom id: obstacle name}, built at the first check
 
     def follow(self, path: np.ndarray, times: np.ndarray, extra_s: float = 0.0, on_step=None) -> float:
         """Servo the arm along ``path`` at ``times`` (s from now), then hold its end for ``extra_s``.
@@ -141,6 +144,30 @@ class Runner:
             raise Unstable(f"simulation unstable ({instability(data)}) at t = {data.time:.3f} s")
         if counts.any():
             raise Unstable(f"simulation out of contact memory at t = {data.time:.3f} s (contacts were dropped)")
+        if self.clutter_contact is None:
+            self._watch_clutter()
+
+    def _watch_clutter(self) -> None:
+        """Record the first contact of the arm or the object with an obstacle (a plan's promise broken)."""
+        model, data, built = self.built.model, self.built.data, self.built
+        if self._clutter is None:
+            self._clutter = {index: model.geom(index).name.split("_")[2] for index in range(model.ngeom)
+                             if model.geom(index).name.startswith("slideplan_clutter_")}
+            self._clutter_bodies = {int(model.geom_bodyid[index]) for index in self._clutter}
+        if not self._clutter or not data.ncon:
+            return
+        pairs = data.contact.geom[:data.ncon]
+        for first, second in pairs:
+            for mine, other in ((first, second), (second, first)):
+                if mine in self._clutter:
+                    body = int(model.geom_bodyid[other])
+                    if body == 0 or body in self._clutter_bodies:
+                        continue  # the table, or clutter on clutter
+                    who = "the object" if body == built.object_body else f"the robot ({model.body(body).name})"
+                    stage = "grasp" if self.phase in ("approach", "grasp", "lift", "hold") else "slide"
+                    self.clutter_contact = (stage, f"{who} touched obstacle {self._clutter[mine]} during the {self.phase} "
+                                                   f"at t = {data.time:.2f} s")
+                    return
 
     def commanded(self, path: np.ndarray, times: np.ndarray, elapsed: float) -> np.ndarray:
         """The joint reference the servos hold ``elapsed`` s into ``path``: where a new path must start
