@@ -63,15 +63,35 @@ def test_gymnasiums_checker_passes(obs_type):
     env = gym.make("slideplan/SlideToEdge-v0", obs_type=obs_type, image_size=(48, 32), render_mode="rgb_array")
     check_env(env.unwrapped, skip_render_check=False)
     observation, info = env.reset(seed=4)
-    assert info["is_success"] is False and info["task_description"].startswith("slide the object")
+    assert info["is_success"] is False and info["task_description"].startswith(f"slide the {info['object']}")
     key = {"state": "environment_state", "pixels": "pixels", "depth": "depth"}[obs_type]
     assert key in observation and "agent_pos" in observation
     if obs_type == "pixels":
-        assert observation["pixels"].shape == (32, 48, 3) and observation["pixels"].std() > 5  # a picture, not a blank
+        front = observation["pixels"]["front"]
+        assert front.shape == (32, 48, 3) and front.std() > 5  # a picture, not a blank
     if obs_type == "depth":
         assert 0.3 < np.median(observation["depth"][observation["depth"] > 0]) < 1.5  # the table, about a metre off
     assert env.render().shape == (240, 320, 3)
     env.close()
+
+
+def test_a_policy_trained_on_a_dataset_sees_in_the_environment_what_it_was_trained_on():
+    # LeRobot's evaluation maps an environment's keys as lerobot.envs.utils.preprocess_observation does:
+    # pixels' cameras to observation.images.NAME, agent_pos to observation.state.
+    from slideplan.demos.dataset import features
+    from slideplan.demos.draw import draw
+    from slideplan.demos.frames import CameraSpec
+    from slideplan.plan.robot import robot_model
+
+    env = SlideToEdgeEnv(obs_type="pixels")
+    space = env.observation_space
+    seen = {f"observation.images.{name}": box.shape for name, box in space["pixels"].spaces.items()}
+    seen["observation.state"] = space["agent_pos"].shape
+    trained = features(list(robot_model(env.scene).joint_names), (CameraSpec("front", 256, 256),))
+    assert seen == {key: tuple(value["shape"]) for key, value in trained.items() if key.startswith("observation.")}
+    assert env.action_space.shape == tuple(trained["action"]["shape"])
+    drawn = draw(env.scene, env.objects, env.setting, 7)
+    assert drawn.task(env.scene.name).startswith(f"slide the {drawn.object}")  # and reset makes it the task text
 
 
 def _make():

@@ -87,3 +87,21 @@ def test_docs_parameter_table_is_the_registry():
     block = re.search(r"<!-- generated: parameters -->\n(.*?)\n<!-- /generated -->", text, re.S)
     assert block, "docs/parameters.md has no generated parameter table"
     assert block.group(1) == parameters.markdown_table(), "docs/parameters.md's table is stale: run docs/make_parameters.py"
+
+
+def test_docs_simulation_table_is_the_registry_and_lists_every_setting():
+    import dataclasses
+
+    from slideplan.sim import conditions, registry
+    from slideplan.sim.settings import ExecutionSettings
+
+    text = (ROOT / "docs" / "simulation.md").read_text()
+    block = re.search(r"<!-- generated: simulation -->\n(.*?)\n<!-- /generated -->", text, re.S)
+    assert block and block.group(1) == registry.markdown_table(), "docs/simulation.md is stale: run docs/make_parameters.py"
+    names = [row.name for row in registry.rows()]
+    assert [field.name for field in dataclasses.fields(ExecutionSettings)] == names[:len(dataclasses.fields(ExecutionSettings))]
+    drawn = set(conditions.RANDOM_RANGES) | set(conditions.HARD_RANGES)
+    listed = " ".join(f"{row.name} {row.what} {' '.join(row.values.values())}" for row in registry.rows())
+    assert all(name in listed for name in drawn), sorted(name for name in drawn if name not in listed)
+    hard = {row.name: row.values["hard"] for row in registry.rows()}
+    assert hard["table_friction"] == "U(0.15, 0.8)" and hard["reference_lag_s"] == "0.03"

@@ -79,7 +79,8 @@ class SlideToEdgeEnv(gym.Env):
 
     ``obs_type="state"``: ``agent_pos`` (the joints, the fingertip's pose, the gripper: the datasets'
     ``observation.state``) and ``environment_state`` (the object's true x, y, yaw, z). ``"pixels"``:
-    ``pixels`` (the front camera's RGB, ``image_size``) and ``agent_pos``. ``"depth"``: ``depth`` (the scene
+    ``pixels`` (``{"front": RGB}``, ``image_size``: the datasets' ``observation.images.front`` once LeRobot
+    maps its keys) and ``agent_pos``. ``"depth"``: ``depth`` (the scene
     camera's depth in m, 0 where nothing is seen) and ``agent_pos``.
 
     ## Rewards
@@ -118,7 +119,8 @@ class SlideToEdgeEnv(gym.Env):
 
     ## Version History
 
-    - v0: success is the runs' verdict (3 cm, a whole hold sampled every 10 ms); releases before 0.2 judged
+    - v0: ``pixels`` is ``{"front": RGB}`` at 256 x 256 and ``task_description`` the episode's own, as the
+      datasets have them; success is the runs' verdict (3 cm, a whole hold sampled every 10 ms); releases before 0.2 judged
       2.5 cm at each step. The id's suffix changes once the benchmark's protocol is frozen and anything that
       changes scores changes.
     """
@@ -127,7 +129,7 @@ class SlideToEdgeEnv(gym.Env):
 
     def __init__(self, scene: str | Scene = "square", objects: tuple[str, ...] = Request.objects, setting: str = "nominal",
                  obs_type: str = "state", action_type: str = "joint", reward_type: str = "sparse",
-                 render_mode: str | None = None, fps: int = 10, image_size: tuple[int, int] = (128, 128),
+                 render_mode: str | None = None, fps: int = 10, image_size: tuple[int, int] = (256, 256),
                  max_episode_steps: int | None = None) -> None:
         for name, value, allowed in (("obs_type", obs_type, OBS_TYPES), ("action_type", action_type, ACTION_TYPES),
                                      ("reward_type", reward_type, REWARD_TYPES),
@@ -163,7 +165,8 @@ class SlideToEdgeEnv(gym.Env):
         if self.obs_type == "state":
             return spaces.Dict({"agent_pos": agent, "environment_state": spaces.Box(-np.inf, np.inf, (4,), dtype=np.float64)})
         if self.obs_type == "pixels":
-            return spaces.Dict({"pixels": spaces.Box(0, 255, (height, width, 3), dtype=np.uint8), "agent_pos": agent})
+            front = spaces.Box(0, 255, (height, width, 3), dtype=np.uint8)
+            return spaces.Dict({"pixels": spaces.Dict({"front": front}), "agent_pos": agent})
         return spaces.Dict({"depth": spaces.Box(0.0, np.inf, (height, width, 1), dtype=np.float32), "agent_pos": agent})
 
     # ---- an episode ----
@@ -184,6 +187,7 @@ class SlideToEdgeEnv(gym.Env):
             raise RuntimeError(f"no plan for 20 draws from seed {episode_seed}")
         self._world = _World(self.scene, start, self.setting, self.fps, self.image_size, self.obs_type)
         self._steps, self._done = 0, False
+        self.task_description = drawn.task(self.scene.name)  # the dataset's task text for the same episode
         return self._observation(), {**self._info(), "redrawn": attempt, "object": drawn.object, "pose": drawn.pose,
                                      "seed": drawn.seed}
 
@@ -247,7 +251,7 @@ class SlideToEdgeEnv(gym.Env):
         if self.obs_type == "state":
             return {"agent_pos": snap["state"], "environment_state": world.object_state()}
         if self.obs_type == "pixels":
-            return {"pixels": snap["front"], "agent_pos": snap["state"]}
+            return {"pixels": {"front": snap["front"]}, "agent_pos": snap["state"]}
         return {"depth": world.depth(), "agent_pos": snap["state"]}
 
     def _info(self) -> dict:

@@ -281,6 +281,9 @@ class _OverTable:
         self.edge_at_point = ndimage.map_coordinates(self.edge_field, ((self.xy - grid.origin) / grid.cell - 0.5).T, order=1)
 
 
+_RIM_CELLS = 2  # cells around clutter whose smoothed heights slope down to the table: neither clutter nor object
+
+
 def _clusters(grid: _Grid, over: _OverTable, table_mask: np.ndarray, coefficients: np.ndarray, min_height: float,
               max_thickness: float, min_object_area: float) -> tuple[list[tuple], list[BoxObstacle], np.ndarray]:
     """The clusters over the table large enough to count.
@@ -310,6 +313,26 @@ def _clusters(grid: _Grid, over: _OverTable, table_mask: np.ndarray, coefficient
         inner_members = members & inner[tuple(over.cells.T)]
         top = float(np.median(over.heights[inner_members if inner_members.any() else members]))
         if top > max_thickness:
+            # A thin object lying against the clutter joins its cluster: split off each flat part that stands
+            # clear of the clutter's rim (the smoothing's slope), large enough to count once eroded.
+            thick = mask & (over.smoothed > max_thickness)
+            parts, found = ndimage.label(mask & ~ndimage.binary_dilation(thick, iterations=_RIM_CELLS),
+                                         structure=np.ones((3, 3)))
+            for part in range(1, found + 1):
+                cells = parts == part
+                core = ndimage.binary_erosion(cells)
+                if core.sum() * grid.cell**2 < min_object_area:
+                    continue
+                near = ndimage.binary_dilation(cells, iterations=2)
+                part_members = members & near[tuple(over.cells.T)]
+                on_core = part_members & core[tuple(over.cells.T)]
+                if not on_core.any():
+                    continue
+                part_top = float(np.median(over.heights[on_core]))
+                if min_height < part_top <= max_thickness:
+                    thin.append((int(cells.sum()), part_top, part_members, near & (near_cluster == label),
+                                 over.smoothed[core]))
+                    members = members & ~part_members
             obstacles.append(_box_obstacle(over.xy[members], over.heights[members], coefficients, grid.cell))
         else:
             thin.append((int(mask.sum()), top, members, near_cluster == label, over.smoothed[inner]))

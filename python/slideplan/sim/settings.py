@@ -15,40 +15,9 @@ class ExecutionSettings:
     """Physical parameters of an execution (defaults: docs/execution.md).
 
     The three limits time, with :func:`slideplan.plan.timing.parameterize` (TOPP-RA), the slide and the
-    approach of a plan without a ``timing`` block, and the lift of every plan.
-
-    Attributes:
-        tip_speed: fingertip speed cap (m/s) while sliding, on the approach within
-            :data:`slideplan.plan.timing.NEAR_TABLE_M` of the object's top, and while lifting.
-        joint_velocity: joint speed cap (rad/s); the URDF's lower limits win.
-        joint_acceleration: joint acceleration cap (rad/s^2), every joint.
-        finger_stiffness: stiffness of the finger's vertical compliance (N/m); None: ``press_force``
-            at the middle of the plan's contact-depth band (200 N/m for the T42's 1-3 cm, 571 N/m for
-            the 2-12 mm of a rigid finger's force control).
-        press_force: the normal force at the middle of the band when ``finger_stiffness`` is None (N).
-        finger_damping: damping of that compliance (N s/m).
-        contact_depth: None follows the plan's depths; a number presses this deep (m) at every
-            waypoint instead (the stress setting uses ``dz_min``; 0 does not press at all).
-        torsional_friction: torsional friction coefficient of the fingertip pad (m).
-        pad_friction: sliding friction coefficient between the pad (and the fingers) and the object.
-        table_friction: sliding friction coefficient between object and table.
-        object_density: density of the object (kg/m^3).
-        cell_size: side of the object's boxes (m).
-        servo_bandwidth_hz: closed-loop bandwidth of the arm's joint servos (Hz).
-        joint_armature: reflected inertia of each arm joint's geared motor (kg m^2), added to the link
-            inertia the servo gains follow: without it a light wrist link alone set the Z1's last joint's
-            stiffness to 7 N m/rad, and the pad's friction turned the fingertip 5 deg off its reference.
-        grip_torque: closing torque of each revolute gripper joint (N m).
-        grip_force: closing force of each prismatic gripper joint (N).
-        close_speed: speed of a revolute gripper joint's closing target (rad/s).
-        close_speed_linear: speed of a prismatic gripper joint's closing target (m/s).
-        lift_height: lift of the hand after closing (m).
-        hold_s: hold time after the lift (s).
-        timestep: simulation step (s).
-        spring_scale: factor on the finger compliance's stiffness (the hard setting's draw).
-        reference_lag_s: the arm follows its joint references this late (s; the hard setting's 30 ms).
-        position_tolerance: a slide succeeds within this position error (m)...
-        yaw_tolerance: ... and this yaw error (rad) of Eq. 2.
+    approach of a plan without a ``timing`` block, and the lift of every plan. Each field's unit and meaning,
+    and its value in each of the closed loop's settings, are :mod:`slideplan.sim.registry`'s table
+    (docs/simulation.md).
     """
 
     tip_speed: float = 0.05
