@@ -46,6 +46,7 @@ FILES = {
     # would serve only a row that recorded none.
     "closed_loop_dev.parquet": ("a380440", "Intel(R) Xeon(R) Processor", "2026-12-06"),
     "closed_loop_eval.parquet": ("a380440", "Intel(R) Xeon(R) Processor", "2026-12-06"),
+    "closed_loop_clutter.parquet": ("df67b8c", AMD, "2026-12-07"),
     # benchmarks/hands_sweep.py's rows, recorded at run time from their first run (hands.md names them).
     "hands.parquet": ("c07a69c", AMD, "2026-12-07"),
 }

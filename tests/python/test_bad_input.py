@@ -225,3 +225,9 @@ def test_a_scene_nested_thousands_deep_is_one_line_not_a_recursion_error(tmp_pat
     scene.write_text("[table]\npolygon = " + "[" * 5000 + "]" * 5000 + "\n")
     result = cli("plan", "--scene", scene, "--object", "square", "--pose", "0.6", "0.0", "0.0")
     assert_one_line(result.exit_code, result.stderr, str(scene), "nested too deeply")
+
+
+@pytest.mark.parametrize("seed", ["-1", str(2**64)])
+def test_a_run_s_bad_seed_is_named_by_its_option(seed):
+    result = cli("run", "--scene", "square", "--object", "crescent", "--pose", "0.55", "-0.08", "0.4", "--seed", seed)
+    assert_one_line(result.exit_code, result.stderr, "--seed", "[0, 2**64)")
