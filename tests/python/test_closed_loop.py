@@ -532,3 +532,24 @@ def test_the_camera_finds_the_object_on_a_small_arms_table():
     distances = cKDTree(truth.points[:, :2]).query(seen.points[:, :2])[0]
     assert np.percentile(distances, 95) < 0.003, np.percentile(distances, 95)
     assert abs(plane[2] - scene.table.height) < 0.005  # the table top's plane, not the floor's
+
+
+def test_the_ros_node_perceives_the_object_as_the_simulated_loop_does():
+    # The same frame (rendered, back-projected to the world) through the node's path and through the loop's.
+    from slideplan.perception.camera import back_project
+    from slideplan.ros.task import perceived_task
+    from slideplan.sim.closed_loop import DEPTH_DROPOUT, _perceived_object
+
+    scene, pose = load_scene("square"), (0.55, -0.08, 0.4)
+    camera = default_camera(scene)
+    loop_object, _ = _perceived_object(scene, "crescent", camera, pose, 0.002, 1)
+    depth = depth_image(scene_spec(scene.table, place_objects([("crescent", pose)]), [], camera), camera)
+    cloud = back_project(noisy_depth(depth, 0.002, DEPTH_DROPOUT, np.random.default_rng(1)), camera)
+    _, node_object, seen, _, _ = perceived_task(scene, cloud, 0, 1, object_name="crescent")
+    def hull(thin_object):
+        return shapely.MultiPoint(np.asarray(thin_object.points)[:, :2]).convex_hull
+
+    assert seen == 1 and node_object.name == loop_object.name == "crescent"
+    assert hull(node_object).hausdorff_distance(hull(loop_object)) < 0.002  # one registration, one object
+    _, raw_object, _, _, _ = perceived_task(scene, cloud, 0, 1)  # no outline named: the points themselves
+    assert raw_object.name == "object 0" and hull(raw_object).hausdorff_distance(hull(loop_object)) < 0.015  # its blur

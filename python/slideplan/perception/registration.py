@@ -52,3 +52,25 @@ def register_outline(points_xy, outline: Polygon, *, resolution: float = 0.002) 
     best = minimize(cost, start, method="Nelder-Mead", options={"initial_simplex": simplex, "xatol": 1e-5, "fatol": 1e-12})
     x, y, yaw = best.x
     return (float(x), float(y), math.atan2(math.sin(yaw), math.cos(yaw))), math.sqrt(0.5 * best.fun)
+
+
+def seen_target(objects: list, *, near=None, index: int = 0, outline: Polygon | None = None):
+    """The object a plan is made for among those perceived, and where its known outline lies: one path for the
+    simulated loop and the ROS node.
+
+    Args:
+        objects: the perceived thin objects (``Perception.objects``, largest first).
+        near: (x, y) where the object is expected: the nearest one is the target (the others are clutter);
+            None: ``objects[index]``.
+        index: the target, largest first, when ``near`` is None.
+        outline: the object's known outline (object frame): registered to the target's points; None: the
+            plan is made for the points themselves (an object the catalogue does not hold).
+
+    Returns:
+        (the perceived object, its outline's pose (x, y, yaw) or None without ``outline``).
+    """
+    if near is not None:
+        target = min(objects, key=lambda seen: float(np.hypot(*(np.asarray(seen.centroid_xy) - np.asarray(near)[:2]))))
+    else:
+        target = objects[index]
+    return target, None if outline is None else register_outline(target.points, outline)[0]

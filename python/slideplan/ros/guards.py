@@ -89,6 +89,13 @@ def parameter_problem(name: str, value, running: bool) -> str | None:
         return f"must be a number of seconds in (0, {MAX_SENSOR_AGE_S:g}], got {value}"
     elif name in ("seed", "target") and value < 0:
         return f"must be an integer >= 0, got {value}"
+    elif name == "object" and value:
+        from ..world.objects import load_outline
+
+        try:
+            load_outline(value)
+        except InputError as error:
+            return f"must be a built-in object or an outline TOML ({error})"
     elif name == "controller":
         if running:
             return "is read at start: restart the node to follow another controller"

@@ -44,7 +44,7 @@ CLOCK_STALL_S = 15.0
 # max_plan_age: a plan served by /slideplan/plan longer ago than this is made again before it is executed
 # (the object, the arm or the camera may have moved since); 10 s is a call to plan and one to execute.
 DEFAULTS = {"camera_pose": [0.0] * 6, "target": 0, "controller": "joint_trajectory_controller", "closed_loop": True,
-            "time_limit": 5.0, "seed": 0, "max_sensor_age": 2.0, "max_plan_age": 10.0}
+            "time_limit": 5.0, "seed": 0, "max_sensor_age": 2.0, "max_plan_age": 10.0, "object": ""}
 SENSORS = {"/camera/points": "cloud", "/joint_states": "message"}  # what max_sensor_age applies to
 
 
@@ -178,7 +178,8 @@ class PlanningNode:
         known = self._plane[1] if self._plane is not None and self._plane[0] == camera_pose else None
         task = plan_task(self.scene, cloud[1], None if joints is None else joints[0], camera_pose=camera_pose,
                          target=int(self.parameter("target")), seed=int(self.parameter("seed")),
-                         time_limit=float(self.parameter("time_limit")), table_plane=known)
+                         time_limit=float(self.parameter("time_limit")), table_plane=known,
+                         object_name=str(self.parameter("object")))
         self._plane = (camera_pose, task.table_plane)
         task.planned_at = self.now()
         self._publish_markers(task.result)

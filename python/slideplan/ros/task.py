@@ -11,7 +11,8 @@ import numpy as np
 from .. import jsontext
 from ..errors import InputError
 from ..plan.motions import Unreachable, reach_path, straight_up
-from ..world.objects import ThinObject
+from ..perception.registration import seen_target
+from ..world.objects import ThinObject, load_outline
 from ..plan.config import PlannerConfig
 from ..plan.robot import base_pose_matrix
 from ..plan.result import PlanResult
@@ -39,10 +40,13 @@ def cloud_in_world(points: np.ndarray, camera_pose) -> np.ndarray:
 
 
 def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: int,
-                   table_plane=None) -> tuple[Scene, ThinObject, int, tuple, float]:
+                   table_plane=None, object_name: str = "") -> tuple[Scene, ThinObject, int, tuple, float]:
     """The perceived scene (its table and clutter, the robot from ``scene``), the object ``target``, how
     many objects were seen, the table plane (``table_plane``: the plane of an earlier cloud of the
     same camera, :func:`slideplan.perception.tabletop.perceive`'s) and how far the perceived edges may be off (m).
+    With ``object_name`` (a catalogue name or an outline TOML) the object is its known outline registered to
+    the target's points, as the simulated loop has it (:func:`slideplan.perception.registration.seen_target`);
+    without, the target's points themselves.
 
     Raises:
         Refused: an empty cloud (``no_cloud``), nothing perceived (``perception``), or a target that is
@@ -61,8 +65,13 @@ def perceived_task(scene: Scene, world_points: np.ndarray, target: int, seed: in
     if not 0 <= target < len(perception.objects):
         raise Refused("target", f"target {target} is not one of the {len(perception.objects)} objects seen (0 to "
                                 f"{len(perception.objects) - 1}, largest first)")
-    seen = perception.objects[target]
-    obj = ThinObject.from_points(seen.points, table_height=perception.table.height, name=f"object {target}")
+    outline = load_outline(object_name) if object_name else None
+    seen, pose = seen_target(perception.objects, index=target, outline=None if outline is None else outline[0])
+    if outline is None:
+        obj = ThinObject.from_points(seen.points, table_height=perception.table.height, name=f"object {target}")
+    else:
+        obj = ThinObject.from_outline(outline[0], thickness=outline[1], table_height=perception.table.height, pose=pose,
+                                      name=outline[2])
     return perception.scene(scene), obj, len(perception.objects), perception.plane, perception.edge_uncertainty
 
 
@@ -93,7 +102,7 @@ class Task:
 
 
 def plan_task(scene: Scene, points: np.ndarray, joints: np.ndarray | None, *, camera_pose, target: int, seed: int,
-              time_limit: float, table_plane=None) -> Task:
+              time_limit: float, table_plane=None, object_name: str = "") -> Task:
     """Perceive a cloud (camera frame; ``table_plane`` as :func:`perceived_task`), plan for object
     ``target`` and the reach from ``joints``.
 
@@ -105,7 +114,7 @@ def plan_task(scene: Scene, points: np.ndarray, joints: np.ndarray | None, *, ca
 
     started = time.perf_counter()
     perceived_scene, obj, seen, plane, margin = perceived_task(scene, cloud_in_world(points, camera_pose), target, seed,
-                                                               table_plane)
+                                                               table_plane, object_name)
     perceived = time.perf_counter()
     if joints is None:
         raise Refused("no_joint_state", "no message on /joint_states yet: the arm's configuration is unknown")

@@ -99,7 +99,7 @@ def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: fl
     table plane perceive fitted (what the tracker measures heights from). The frame is taken from where
     the camera is ``mounted`` (default: ``camera``) and read as if from ``camera``."""
     from ..perception.tabletop import perceive
-    from ..perception.registration import register_outline
+    from ..perception.registration import seen_target
 
     placed = place_objects([(object_name, pose)])[0]
     mounted = mounted or camera
@@ -116,8 +116,7 @@ def _perceived_object(scene: Scene, object_name, camera: Camera, pose, noise: fl
         raise InputError("the camera does not see the object", field="--pose")
     outline, thickness, _ = load_outline(object_name)
     # The target is the thin object seen nearest where it lies: other thin objects of the scene are clutter.
-    target = min(perception.objects, key=lambda seen: float(np.hypot(*(np.asarray(seen.centroid_xy) - pose[:2]))))
-    seen_pose, _ = register_outline(target.points, outline)
+    _, seen_pose = seen_target(perception.objects, near=pose[:2], outline=outline)
     obj = load_object(object_name, table_height=scene.table.height, pose=_on_table(scene.table.polygon, outline, seen_pose))
     return obj, perception.plane
 
