@@ -50,7 +50,7 @@ def generate(episodes: int, setting: str, cameras: list[str], seed: int, workers
                 "frames": sum(episode["frames"] for episode in meta["episodes"])}
 
 
-TARGETS = (  # issue 55's: (what, setting, cameras, the least successes per hour or share kept)
+TARGETS = (  # (what, setting, cameras, the least successes per hour or share kept)
     ("successes per hour, state only", "nominal", "none", 1000),
     ("successes per hour, one 256x256 camera", "nominal", "front:256x256", 400),
 )

@@ -1,5 +1,5 @@
-"""Execution benchmark (issue 52's figure of merit): simulated seconds per wall second of MuJoCo episodes,
-the model before issue 52 and today's, from one run in one process (one core).
+"""Execution benchmark (the execution model's figure of merit): simulated seconds per wall second of MuJoCo episodes,
+the model before the feet and today's, from one run in one process (one core).
 
 1. Open loop: the plans of a fixed subset of the Fig. 10 set (the execution experiment's tasks,
    ``tasks[start::stride][:count]``, nominal setting), each executed with ``contacts.LEGACY`` and
@@ -66,7 +66,7 @@ def main() -> None:
         "# Execution benchmark: simulated seconds per wall second",
         "",
         f"`benchmarks/execute_bench.py --start {args.start} --stride {args.stride} --count {args.count}`, one process "
-        f"(one core; {args.conditions}), {time.perf_counter() - started:.0f} s for the open-loop part. The model before issue 52 "
+        f"(one core; {args.conditions}), {time.perf_counter() - started:.0f} s for the open-loop part. The model before the feet "
         f"(`contacts.LEGACY`: the object's boxes on the table, noslip throughout, no sleeping) and today's "
         f"(`contacts.CURRENT`: {contacts.CURRENT}) in the same run. The Python code is the tree at "
         f"{execute_fidelity.tree_commit()} (the rows' `tree_commit`); `build` above names the installed extension it ran over.",

@@ -1,6 +1,6 @@
-"""Fidelity of the faster execution model (issue 52): open-loop executions of the Fig. 10 set's plans
+"""Fidelity of the faster execution model: open-loop executions of the Fig. 10 set's plans
 (the execution experiment's tasks, nominal setting), each plan executed in one process with the model
-before issue 52 (``contacts.LEGACY``) and with today's (``contacts.CURRENT``).
+before the feet (``contacts.LEGACY``) and with today's (``contacts.CURRENT``).
 
     python benchmarks/execute_fidelity.py run [--start 0] [--stride 5] [--count 40] [--out docs/benchmarks/execution_fidelity.parquet]
     python benchmarks/execute_fidelity.py compare [--model current] [docs/benchmarks/execution_fidelity*.parquet]

@@ -1,4 +1,4 @@
-"""Profile of one MuJoCo episode with MuJoCo's own timers (issue 52): where an execution's time goes.
+"""Profile of one MuJoCo episode with MuJoCo's own timers: where an execution's time goes.
 
 Runs, in this process (one core), the demo plan's ``execute`` and one closed-loop ``run`` of the same
 task (crescent on the square table, seed 0 pose), and reports per phase (slide, approach, close,

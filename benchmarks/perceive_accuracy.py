@@ -1,4 +1,4 @@
-"""Perception accuracy of issue 13 against depth noise, and the picture of docs/perception.md.
+"""Perception accuracy against depth noise, and the picture of docs/perception.md.
 
 For each noise level, renders random scenes with MuJoCo (one of the four bundled tables,
 three objects without rotational symmetry at random non-touching poses, a box of clutter;

@@ -1,4 +1,4 @@
-"""Perception benchmark of issue 13: time of ``slideplan.perceive`` on ~300k-point rendered scene clouds.
+"""Perception benchmark: time of ``slideplan.perceive`` on ~300k-point rendered scene clouds.
 
 Renders scenes with MuJoCo (640 x 512 depth images, 5 % dropouts: about 311k points each;
 the four bundled tables, three objects each, a box of clutter), perceives each several times

@@ -141,7 +141,7 @@ def run_dense(job: tuple[int, int, float]) -> tuple[float, float]:
 
 def dense_table(poses: int, time_limit: float, workers: int, issue_poses: int = 10) -> list[str]:
     """Markdown lines: the crescent at 1,000 and 100,000 points, same poses; medians over the first
-    `issue_poses` poses (issue 10's protocol) and over all `poses`."""
+    `issue_poses` poses (the first protocol of this benchmark) and over all `poses`."""
     rows = ["", f"## Cloud density (crescent, square table, {poses} seeded poses)", "",
             "A uniform random cloud of the crescent's top surface at two resolutions. Planning time is what the "
             "planner reports; plan() wall time adds building the task from the cloud and the time parameterization. "

@@ -1,4 +1,4 @@
-"""Re-planning latency (issue 24): track the object in a depth frame, then plan from the arm's state.
+"""Re-planning latency: track the object in a depth frame, then plan from the arm's state.
 
 For each object at seeded poses on the square table: plan; a third of the way along the slide the
 object is where Eq. 2 puts it, moved further by a drift (turned up to 2 degrees about the fingertip,

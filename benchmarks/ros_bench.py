@@ -1,4 +1,4 @@
-"""Latency of the planning node (issue 25): ``/slideplan/plan`` from the request to the response over DDS.
+"""Latency of the planning node: ``/slideplan/plan`` from the request to the response over DDS.
 
 The node ``slideplan ros serve --scene square`` runs in its own process pinned to one core; this
 process publishes, on the other, a depth cloud of the demo scene (the crescent on the square table,

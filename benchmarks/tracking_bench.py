@@ -1,4 +1,4 @@
-"""Tracking benchmark (issue 24 item 1): pose error and time per frame of ``slideplan.perception.tracking``.
+"""Tracking benchmark: pose error and time per frame of ``slideplan.perception.tracking``.
 
 Rendered 320 x 240 depth frames of the square table (MuJoCo, 2 mm depth noise at 1 m, 5 % dropouts,
 the camera 0.75 m above the table) with a box 6 cm above the object standing in for the hand and

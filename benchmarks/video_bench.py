@@ -1,4 +1,4 @@
-"""Video benchmark (issue 52: a run with its video costs at most 1.5x the run without): the wall time of
+"""Video benchmark (a run with its video should cost at most 1.5x the run without): the wall time of
 the demo plan's ``execute`` and of the README's pushed closed-loop ``run``, each without a video, with its
 frames rendered and encoded in the stepping process (:class:`slideplan.sim.video_frames.FrameWriter`, as
 before the render process) and with today's render process (:class:`~slideplan.sim.video_frames.RenderProcess`),

@@ -1,4 +1,4 @@
-// The hot path (FK, Jacobian, projection onto the constraint, seeded IK) must not touch the heap (issue 10):
+// The hot path (FK, Jacobian, projection onto the constraint, seeded IK) must not touch the heap:
 // this test binary's malloc counts calls (Eigen and operator new both allocate through it). Not built
 // with the sanitizers, whose runtime owns malloc.
 #include "slideplan/constraint.hpp"

@@ -141,7 +141,7 @@ def test_stats_report_the_fingertip_path_length_and_yaw_travel():
 
 def test_the_planned_grasp_can_lift_the_object():
     # At the triangle table's far corner this task's grasp once had the shoulder at its joint limit, so
-    # the hand could not rise (issue 9's replay): IsPairValid now requires the lift.
+    # the hand could not rise (the execution replay's finding): IsPairValid now requires the lift.
     from slideplan.experiments.tasks import build_spec
 
     task = next(t for t in build_spec("execution", poses=1).tasks if (t.scene, t.object) == ("triangle", "crescent"))

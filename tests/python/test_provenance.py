@@ -1,4 +1,4 @@
-"""Provenance (issue 51): the installed package knows its build, and every results row records it."""
+"""Provenance: the installed package knows its build, and every results row records it."""
 
 import dataclasses
 import datetime

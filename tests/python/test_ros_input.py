@@ -1,6 +1,6 @@
 """What the planning node and the simulator take from outside: every bad message is ignored with a reason
 on /slideplan/status and the node goes on, bad parameters and options are refused where they arrive,
-old clouds and joint states are not planned on, and the discovery range is said at start (issue 56's
+old clouds and joint states are not planned on, and the discovery range is said at start (an
 adversarial battery). The node's callbacks are called in this process, without DDS round trips."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 53's closed loop judged by what happened, on constructed data: the world's verdict
+"""The closed loop judged by what happened, on constructed data: the world's verdict
 (slideplan.checks.verdict) against what the camera saw, the hard setting's draws, the bounds' no-progress test,
 the dev and eval task sets, and the report's statistics."""
 
