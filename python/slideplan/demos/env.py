@@ -21,14 +21,15 @@ from .._environments import register
 from ..checks.verdict import HoldWatch
 from ..loop.bounds import MAX_REPLANS, MAX_SLIDE_S
 from ..sim.closed_loop import Start
+from ..sim.episode import Episode
 from ..sim.conditions import execution_settings, hard_push, push_candidates
 from ..errors import InputError
-from ..sim.model import DEPTH_CAMERA, build_model, enable_hand_collisions
-from ..sim.runner import CLOSE_S, HOLD_SAMPLE_EVERY, SETTLE_S, Runner, instability, timing_options
+from ..sim.model import DEPTH_CAMERA, enable_hand_collisions
+from ..sim.runner import CLOSE_S, HOLD_SAMPLE_EVERY, SETTLE_S, instability, timing_options
 from ..world.geometry import Ending
 from ..plan.motions import Unreachable, plan_times, reach_path, reference, rest_to_rest, straight_up
 from ..loop.decisions import plan_anew
-from ..plan.robot import build_robot, robot_model
+from ..plan.robot import robot_model
 from ..sim.rendering import camera_depth
 from ..world.scenes import Scene, load_scene
 from ..plan.timing import resolve_limits
@@ -289,19 +290,17 @@ def _fingertip_step(jacobian: np.ndarray, step: np.ndarray, q: np.ndarray, postu
     return np.clip(q + dq, lower, upper) - q
 
 
-class _World:
-    """An episode's MuJoCo world: the first plan's model with the object as it is, the servos, the expert's
-    timed reference, and the cameras."""
+class _World(Episode):
+    """An episode (:class:`~slideplan.sim.episode.Episode`: the first plan's model with the object as it is, the
+    servos) stepped by a policy's actions, with the expert's timed reference and the observation's cameras."""
 
     def __init__(self, scene: Scene, start: Start, setting: str, fps: int, image_size: tuple[int, int], obs_type: str) -> None:
         import mujoco
 
         first = start.first
         self.scene, self.start = scene, start
-        self.settings = execution_settings(setting, start.draws, float(first.params["dz_min"]))
-        self.built = build_model(first, self.settings, world_object=start.truth, camera=start.mounted)
-        self.robot = build_robot(first.robot)
-        self.runner = Runner(self.built, self.settings, None)
+        super().__init__(first, execution_settings(setting, start.draws, float(first.params["dz_min"])), start.truth,
+                         start.mounted)
         self.top = scene.table.height + start.perceived.thickness
         depths = self.top - np.asarray(first.fingertip_poses)[:, 2]
         self.posture = np.asarray(first.trajectory[0], dtype=float)  # pressed at the first contact
@@ -495,8 +494,7 @@ class _World:
         self.frames.close()
         if self.viewer is not None:
             self.viewer.close()
-        if self.depth_renderer is not None:
-            self.depth_renderer.close()
+        super().close()  # the depth observation's renderer too
 
 
 register(gym)  # gym.make("slideplan/SlideToEdge-v0") works after import slideplan as well

@@ -31,9 +31,10 @@ import numpy as np
 
 from ..perception.camera import Camera
 from ..sim.closed_loop import DEPTH_DROPOUT, default_camera
+from ..sim.episode import Episode
 from ..sim.conditions import Disturbance, execution_settings, setting_draws
 from ..errors import InputError
-from ..sim.model import DEPTH_CAMERA, Rig, build_model, enable_hand_collisions, set_servo_gains
+from ..sim.model import DEPTH_CAMERA, Rig, enable_hand_collisions, set_servo_gains
 from ..sim.runner import instability
 from ..plan.motions import reference
 from ..world.objects import load_object
@@ -49,9 +50,10 @@ _CLOSE_HOLD_S = 0.8
 LARGE_SAMPLES_PROFILE = Path(__file__).with_name("fastdds_large_samples.xml")
 
 
-class Sim:
-    """The simulated robot without ROS: MuJoCo stepped to a time, the arm following timed joint paths,
-    the gripper opened or closed, the camera rendered.
+class Sim(Episode):
+    """The simulated robot without ROS: an :class:`~slideplan.sim.episode.Episode` built before any plan (the
+    robot at ``home``), stepped to a time, the arm following timed joint paths, the gripper opened or closed,
+    the camera rendered.
 
     Args:
         scene: the scene (robot, hand, table).
@@ -94,8 +96,8 @@ class Sim:
         # The stress setting's spring override follows a plan's depths, which a robot does not know.
         self.settings = dataclasses.replace(execution_settings(setting, self.draws, config.dz_min), contact_depth=None)
         self.camera = camera or default_camera(scene)
-        self.built = build_model(Rig.for_scene(scene, self.truth, config, self.joint_names, home), self.settings,
-                                 world_object=self.truth, camera=self.camera)
+        super().__init__(Rig.for_scene(scene, self.truth, config, self.joint_names, home), self.settings, self.truth,
+                         self.camera)
         self.model, self.data = self.built.model, self.built.data
         self.data.qpos[self.built.arm_qpos] = home
         set_servo_gains(self.built, home, self.settings)
@@ -182,6 +184,7 @@ class Sim:
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+        super().close()
 
     # --------------------------------------------------------------- internals
 

@@ -58,24 +58,22 @@ from ..perception.camera import Camera, back_project
 from .closed_loop_run import ClosedLoopRun, diagnose, new_report
 from .conditions import Disturbance, camera_as_mounted, execution_settings, hard_push, push_candidates, setting_draws
 from ..errors import InputError
-from .model import DEPTH_CAMERA, build_model
+from .episode import DEPTH_DROPOUT, Episode
 from .runner import SETTLE_S, Runner, Unstable, timing_options
 from .settings import ExecutionSettings
-from .video import VIDEO_FPS, Recorder, plan_points
+from .video import VIDEO_FPS
 from ..loop.decisions import SlideLoop, Stop
 from ..plan.motions import plan_times, rest_to_rest
 from ..world.objects import ThinObject, load_object, load_outline, place_outline
 from ..plan.config import PlannerConfig
 from ..plan.planner import plan
 from ..plan.result import PlanResult
-from ..plan.robot import build_robot
-from .rendering import camera_depth, depth_image, noisy_depth, place_objects, scene_spec
+from .rendering import depth_image, noisy_depth, place_objects, scene_spec
 from ..world.scenes import Scene, load_scene
 from ..plan.timing import resolve_limits
 from ..checks.verdict import Hold, judge
 from ..loop.watch import Replan, Segment, Watch, slide_segment
 
-DEPTH_DROPOUT = 0.05
 ON_TABLE_SLACK_M = 0.003  # the perceived object may cross a table edge by this much (about a pixel)
 
 
@@ -329,8 +327,8 @@ def run(
     if disturbance is not None and disturbance.after_s > slide_s:
         raise InputError(f"{disturbance.after_s} s is after the planned slide ends ({slide_s:.2f} s)", field="--disturb")
     settings = execution_settings(setting, draws, float(first.params["dz_min"]))
-    world = _World(first, settings, truth, camera, mounted, draws["depth_noise_at_1m"], seed, (video, video_fps, progress),
-                   observe)
+    world = Episode(first, settings, truth, mounted, depth=(camera.height, camera.width, draws["depth_noise_at_1m"]),
+                    seed=seed, video=(video, video_fps, progress), observe=observe)
     watch = Watch(scene, perceived, config, camera, threshold, replan_time_limit, table_plane=table_plane)
     push = _Push(disturbance, draws, slide_s, scene.table, world, report)
 
@@ -357,48 +355,12 @@ def _checked_arguments(pose, replan_period: float, replan_time_limit: float, thr
     return pose, threshold
 
 
-class _World:
-    """The simulated world of a run: the first plan's model with the object as it really is and the camera
-    where it is mounted, the servos (:class:`~slideplan.sim.runner.Runner`), the depth renderer and the
-    video recorder (``video`` is run's video, video_fps and progress), and ``observe``'s listener (see :func:`run`)."""
-
-    def __init__(self, first: PlanResult, settings: ExecutionSettings, truth: ThinObject, camera: Camera,
-                 mounted: Camera, depth_noise: float, seed: int, video: tuple, observe=None) -> None:
-        import mujoco
-
-        self.built = build_model(first, settings, world_object=truth, camera=mounted)
-        self.depth_renderer = mujoco.Renderer(self.built.model, camera.height, camera.width)
-        self.depth_renderer.enable_depth_rendering()
-        self.depth_noise, self.noise_rng = depth_noise, np.random.default_rng([seed, 1])
-        self.robot = build_robot(first.robot)
-        path, fps, progress = video
-        self.recorder = Recorder(self.built.model, self.built.data, path, fps, (480, 640), plan_points(first, self.robot),
-                                 progress=progress)
-        self.runner = Runner(self.built, settings, None)
-        listeners = [self.recorder.after_step] if self.recorder.active else []
-        if observe is not None:
-            listeners.append(observe(first, self.built, self.runner, self.robot))
-        if listeners:
-            self.runner.on_frame = listeners[0] if len(listeners) == 1 else lambda: [listener() for listener in listeners]
-
-    def frames(self) -> tuple[np.ndarray, np.ndarray]:
-        """A new depth frame and the fingertip's measured pose."""
-        model, data = self.built.model, self.built.data
-        frame = noisy_depth(camera_depth(self.depth_renderer, model, data, DEPTH_CAMERA), self.depth_noise,
-                            DEPTH_DROPOUT, self.noise_rng)
-        return frame, np.asarray(self.robot.fk(data.qpos[self.built.arm_qpos]))
-
-    def close(self) -> None:
-        self.recorder.close()
-        self.depth_renderer.close()
-
-
 class _Push:
     """The run's push, applied at its time (the ``on_step`` of :class:`_Simulated`): ``--disturb``'s, or the
     hard setting's, drawn when it is due and written into the report."""
 
     def __init__(self, disturbance: Disturbance | None, draws: dict[str, float], slide_s: float, table,
-                 world: _World, report: dict[str, Any]) -> None:
+                 world: Episode, report: dict[str, Any]) -> None:
         self.pending: Disturbance | list[Disturbance] | None = disturbance
         if disturbance is None and draws.get("push"):
             self.pending = push_candidates(int(draws["push_seed"]), draws["push_fraction"] * slide_s)
@@ -420,7 +382,7 @@ class _Push:
             self.pending = None
 
 
-def _episode(report: dict[str, Any], first: PlanResult, loop: SlideLoop, watch: Watch, world: _World, table,
+def _episode(report: dict[str, Any], first: PlanResult, loop: SlideLoop, watch: Watch, world: Episode, table,
              perceived: ThinObject, truth: ThinObject, settings: ExecutionSettings, top: float) -> None:
     """The slides from ``first``, the look after them, the grasp and the verdict, into the report; the world
     closed after it."""
