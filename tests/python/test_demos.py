@@ -155,6 +155,7 @@ def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path, mo
     kept = records["episodes"]
     assert records["attempts"] == 3 and kept and all(episode["success"] for episode in kept)
     assert f"{len(kept)} kept" in first.stdout
+    assert f"3/3 kept {len(kept)}, lost 0" in " ".join(first.stderr.split())  # the progress bar's last state
     dataset = load(tmp_path / "a")
     assert dataset.num_episodes == len(kept) and dataset.meta.stats["observation.state"]["mean"].shape == (14,)
     item = dataset[0]

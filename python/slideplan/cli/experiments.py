@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 from typing import Optional
 
@@ -9,6 +10,24 @@ import typer
 
 from ..errors import InputError
 from .common import EXIT_NOT_SOLVED, _OPTION_OF_FIELD, _fail, _parse_params, app
+
+
+@contextlib.contextmanager
+def _tally_bar(description: str, fields: str):
+    """A progress bar (:func:`slideplan.experiments.runner.progress_bar`) and the callback that moves it from a
+    tally ``{"total", "done", ...}`` (the other keys feed ``fields``)."""
+    from ..experiments.runner import progress_bar
+
+    with progress_bar(fields) as bar:
+        shown = []
+
+        def show(tally: dict) -> None:
+            extra = {name: value for name, value in tally.items() if name not in ("total", "done")}
+            if not shown:
+                shown.append(bar.add_task(description, total=tally["total"], **extra))
+            bar.update(shown[0], completed=tally["done"], **extra)
+
+        yield bar, show
 
 
 def _experiment_executor(workers: int | None, scheduler: str | None, threads: bool = False):
@@ -171,7 +190,8 @@ def demos_command(
                           keep=keep, seed=seed, **({"objects": tuple(objects)} if objects else {})).checked()
         executor = _experiment_executor(workers, scheduler)
         typer.echo(f"demos: {episodes} episodes on {executor.description}, dataset in {out}")
-        summary = generate(request, out, executor)
+        with _tally_bar("demos", "kept {task.fields[kept]}, lost {task.fields[lost]}") as (bar, show):
+            summary = generate(request, out, executor, progress=show)
     except InputError as error:
         raise _fail(InputError(error.problem, source=error.source, field=_OPTION_OF_FIELD.get(error.field, error.field))) from None
     except (ImportError, OSError) as error:

@@ -191,7 +191,8 @@ def generate(request: Request, out: str | Path, executor, progress: Callable[[di
         request: what to generate (checked here).
         out: the output folder.
         executor: where episodes run (:mod:`slideplan.experiments.executors`).
-        progress: called with each finished episode's record, or None.
+        progress: called with the tally so far (``{"total", "done", "kept", "lost"}``: episodes asked for, done
+            (earlier runs' included), kept, lost), once before the first episode and after each; or None.
 
     Returns:
         ``{"episodes": N, "kept": K, "successes": S, "lost": L}``: L episodes lost (their worker died: run
@@ -213,13 +214,19 @@ def generate(request: Request, out: str | Path, executor, progress: Callable[[di
     done = records(out)
     todo = [Episode(request, index, str(out)) for index in range(request.episodes) if index not in done]
     lost = 0
+
+    def tally() -> None:
+        if progress is not None:
+            progress({"total": request.episodes, "done": len(done), "kept": sum(r["kept"] for r in done.values()),
+                      "lost": lost})
+
+    tally()
     for _, outcome in executor.imap_unordered(run_episode, todo):
         if isinstance(outcome, BaseException):
             lost += 1
-            continue
-        done[outcome["index"]] = outcome
-        if progress is not None:
-            progress(outcome)
+        else:
+            done[outcome["index"]] = outcome
+        tally()
     lerobot_loaded()  # a broken install is named, not only its lost episodes
     kept = [index for index in sorted(done) if done[index]["kept"]]
     if lost == 0 and kept:

@@ -72,14 +72,14 @@ def run_task(task: Task) -> dict:
     return row
 
 
-def _progress_bar(enabled: bool):
-    """A rich progress bar on stderr: done/total, solved so far, elapsed time and ETA."""
+def progress_bar(fields: str, enabled: bool = True):
+    """A rich progress bar on stderr: done/total, ``fields`` (a rich template of the task's fields, e.g.
+    ``"solved {task.fields[solved]}/{task.fields[ran]}"``), elapsed time and ETA."""
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     return Progress(
-        TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-        TextColumn("solved {task.fields[solved]}/{task.fields[ran]}"),
+        TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn(fields),
         TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
         console=Console(stderr=True), disable=not enabled,
     )
@@ -125,7 +125,7 @@ def run_experiment(
         run, schema = run_closed_loop_task, CLOSED_LOOP_ROW_SCHEMA
     executed = solved = errors = lost = 0
     first_loss = ""
-    with _progress_bar(progress) as bar:
+    with progress_bar("solved {task.fields[solved]}/{task.fields[ran]}", progress) as bar:
         bar_task = bar.add_task(spec.name, total=len(spec.tasks), completed=len(spec.tasks) - len(pending),
                                 solved=0, ran=0)
         for task, outcome in executor.imap_unordered(run, pending):
