@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from ..perception.camera import Camera
-from ..sim.closed_loop import DEPTH_DROPOUT, default_camera
-from ..sim.episode import Episode
+from ..sim.closed_loop import default_camera
+from ..sim.episode import DEPTH_DROPOUT, Episode
 from ..sim.conditions import Disturbance, execution_settings, setting_draws
 from ..errors import InputError
 from ..sim.model import DEPTH_CAMERA, Rig, enable_hand_collisions, set_servo_gains
