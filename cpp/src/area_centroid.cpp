@@ -60,7 +60,12 @@ namespace slideplan
         }
     }  // namespace
 
-    Eigen::Vector2d areaCentroid(const Points2 &input)
+    Eigen::Vector2d areaCentroid(const Points2 &points)
+    {
+        return plateRegion(points).centroid;
+    }
+
+    PlateRegion plateRegion(const Points2 &input)
     {
         if (input.rows() == 0)
             throw std::invalid_argument("area centroid of no points");
@@ -69,7 +74,7 @@ namespace slideplan
         const Points2 points = static_cast<std::size_t>(input.rows()) > kThinAbove ? thinned(input) : input;
         const Eigen::Vector2d mean = points.colwise().mean().transpose();
         if (points.rows() < 3)
-            return mean;
+            return {{}, 0.0, mean};
 
         std::vector<std::array<Eigen::Index, 3>> triangles;
         try
@@ -93,11 +98,11 @@ namespace slideplan
         }
         catch (const orgQhull::QhullError &)
         {
-            return mean;  // all points on one line (or coincident): no area
+            return {{}, 0.0, mean};  // all points on one line (or coincident): no area
         }
 
         const Eigen::VectorXd spacing = localSpacing(points);
-        double area = 0.0;
+        PlateRegion region;
         Eigen::Vector2d moment = Eigen::Vector2d::Zero();
         for (const auto &[a, b, c] : triangles)
         {
@@ -107,9 +112,11 @@ namespace slideplan
                 continue;
             const Eigen::Vector2d e1 = pb - pa, e2 = pc - pa;
             const double triangleArea = 0.5 * std::abs(e1.x() * e2.y() - e1.y() * e2.x());
-            area += triangleArea;
+            region.area += triangleArea;
             moment += triangleArea * (pa + pb + pc) / 3.0;
+            region.triangles.push_back({pa, pb, pc});
         }
-        return area > 0.0 ? Eigen::Vector2d(moment / area) : mean;
+        region.centroid = region.area > 0.0 ? Eigen::Vector2d(moment / region.area) : mean;
+        return region;
     }
 }  // namespace slideplan

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
@@ -267,6 +268,20 @@ namespace slideplan
                 return false;
         }
         return true;
+    }
+
+    double convexSignedDistance(const std::vector<Eigen::Vector2d> &hull, const Eigen::Vector2d &point)
+    {
+        if (hull.size() < 3)
+            return -std::numeric_limits<double>::infinity();
+        double nearest = std::numeric_limits<double>::infinity();
+        for (std::size_t i = 0; i < hull.size(); ++i)
+        {
+            const Eigen::Vector2d a = hull[i], edge = hull[(i + 1) % hull.size()] - a;
+            const double t = std::clamp((point - a).dot(edge) / edge.squaredNorm(), 0.0, 1.0);
+            nearest = std::min(nearest, (point - (a + t * edge)).norm());
+        }
+        return pointInConvex(hull, point) ? nearest : -nearest;
     }
 
 }  // namespace slideplan

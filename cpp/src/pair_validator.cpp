@@ -1,6 +1,7 @@
 #include "slideplan/pair_validator.hpp"
 
 #include "slideplan/contact_frame.hpp"
+#include "slideplan/hold_model.hpp"
 #include "slideplan/validity.hpp"
 
 #include <ompl/base/SpaceInformation.h>
@@ -85,6 +86,7 @@ namespace slideplan
       , world_(world ? world->clone()
                      : std::make_unique<CollisionWorld>(task_->robot, *task_->table, task_->obstacles, task_->contactLinks))
       , graspMap_(graspMap ? std::move(graspMap) : std::make_shared<const GraspMap>(*task_, params_))
+      , plate_(params_.graspModel ? plateRegion(task_->objectXY) : PlateRegion{})
     {
         if (!graspMap_->fits(*task_, params_))
             throw std::invalid_argument("grasp map made for another robot, table, grasp frame, object thickness or "
@@ -100,14 +102,19 @@ namespace slideplan
         result.comMargin = table.signedDistance(motion.apply(task_->objectCom));
         result.comInside = result.comMargin > 0.0 && result.comMargin >= params_.comMargin;
         std::vector<Eigen::Vector2d> &outside = outside_;  // reused: asked for every promising root pair
+        std::vector<Eigen::Vector2d> &supported = supported_;
         outside.clear();
+        supported.clear();
         double weight = 0.0;
         const Eigen::Isometry2d move = motion.transform();
         for (int i = 0; i < points.rows(); ++i)
         {
             const Eigen::Vector2d moved = move * points.row(i).transpose();
             if (table.contains(moved))
+            {
+                supported.push_back(moved);
                 continue;
+            }
             const double w = exact ? 1.0 : task_->footprintWeight(i);
             outside.push_back(moved);
             result.outsideCentroid += w * moved;
@@ -116,6 +123,14 @@ namespace slideplan
         result.outsideCount = static_cast<int>(weight);
         if (outside.empty())
             return result;
+        if (params_.supportHull && result.comInside)
+        {
+            // The table bears the object where it lies on it: past the hull of that part, the centre of mass
+            // tips the object over the edge once the finger lets go (an L whose centre of mass lies off its
+            // own material, inside the table).
+            result.comMargin = std::min(result.comMargin, convexSignedDistance(convexHull(supported), motion.apply(task_->objectCom)));
+            result.comInside = result.comMargin > 0.0 && result.comMargin >= params_.comMargin;
+        }
         result.outsideCentroid /= weight;
         result.edge = table.closestEdge(result.outsideCentroid);
         const auto beyond = [&](const Eigen::Vector2d &point) {
@@ -150,6 +165,18 @@ namespace slideplan
                 result.graspPoint += *offset * along;
         }
         return result;
+    }
+
+    HoldEstimate PairValidator::hold(const Overhang &overhang) const
+    {
+        const Eigen::Isometry2d move = overhang.motion.transform();
+        PlateRegion moved = plate_;
+        for (auto &triangle : moved.triangles)
+            for (Eigen::Vector2d &corner : triangle)
+                corner = move * corner;
+        const Eigen::Vector2d &outward = overhang.edge.outwardNormal;
+        return estimateHold(moved, overhang.motion.apply(task_->objectCom), task_->thickness(), overhang.graspPoint,
+                            (overhang.graspPoint - overhang.edge.closest).dot(outward), outward, params_);
     }
 
     bool PairValidator::graspable(const Overhang &overhang) const
@@ -403,7 +430,7 @@ namespace slideplan
         }
         if (!result.comInside)
         {
-            verdict.reason = "centre of mass off the table or within com_margin of its edge";
+            verdict.reason = "centre of mass off the table, off the part of the object the table bears, or within com_margin of either";
             return verdict;
         }
         if (std::abs(result.motion.yaw) > params_.maxObjectYaw)
@@ -424,6 +451,11 @@ namespace slideplan
         {
             verdict.reason = result.holds ? "overhang below u* on the full cloud"
                                           : "no place along the edge holds grasp_hold of the object on the full cloud";
+            return verdict;
+        }
+        if (params_.graspModel && !hold(result).holds)
+        {
+            verdict.reason = "the closed hand would not hold the object up (grasp_model)";
             return verdict;
         }
         if (knownUnreachable(result))

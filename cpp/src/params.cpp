@@ -152,6 +152,10 @@ namespace slideplan
                      "per radian of the object's yaw travel."),
                 real("com_margin", &P::comMargin, "m", 0.005, 0.0, closed, inf, open, 0.0, "IV-C.1: the CoM inside Q", false,
                      false, "Beyond the paper: the final centre of mass lies at least this far inside the table."),
+                flag("support_hull", &P::supportHull, true, 0.0, "IV-C.1: the CoM inside Q", false, false,
+                     "Beyond the paper: at the final pose the centre of mass lies com_margin inside the convex hull of "
+                     "the object's part on the table too (what the table bears: an L's centre of mass may lie inside "
+                     "the table and off that part, and the object tips over the edge when the finger lets go)."),
                 flag("com_supported", &P::comSupported, true, 0.0, "IV-C.1: the final pose only", false, false,
                      "Beyond the paper: the object's centre of mass stays on the table at every state of the slide."),
                 real("max_object_yaw", &P::maxObjectYaw, "rad", 1.0, 0.0, open, inf, open, M_PI, "IV-C.1: any turn", false,
@@ -160,6 +164,26 @@ namespace slideplan
                      false,
                      "Beyond the paper: the largest turn of the object per metre of fingertip travel in each "
                      "extension step (0: any). Hand-specific: how fast its pad can turn an object."),
+                // The grasp model (hold_model.hpp): does the closed hand hold the object up?
+                flag("grasp_model", &P::graspModel, true, 0.0, beyond + ": the overhang alone decides", false, false,
+                     "Beyond the paper: a pair counts only if the closed hand holds the object up against gravity: "
+                     "gravity's moment about the pads, the object's weight times the lever from the patch of object "
+                     "between them to its centre of mass, is at most grip_force times that patch's length along the "
+                     "lever (a soft-finger pinch, hold_model.hpp)."),
+                real("pad_width", &P::padWidth, "m", 0.03, 0.0, open, inf, open, leftOpen,
+                     "open, and moot in the paper preset: grasp_model is off", true, false,
+                     "The grasp model's pads: their width along the table edge (the T42's fingers: 3 cm)."),
+                real("pad_length", &P::padLength, "m", 0.045, 0.0, open, inf, open, leftOpen,
+                     "open, and moot in the paper preset: grasp_model is off", true, false,
+                     "The grasp model's pads: their length along the approach, centred on H_g (the T42's distal "
+                     "links: 4.5 cm)."),
+                real("grip_force", &P::gripForce, "N", 5.0, 0.0, open, inf, open, leftOpen,
+                     "open, and moot in the paper preset: grasp_model is off", true, false,
+                     "The grasp model's effective closing force of the pads, calibrated against MuJoCo for the "
+                     "T42 (docs/results/grasp_model.md)."),
+                real("object_density", &P::objectDensity, "kg/m^3", 1000.0, 0.0, open, inf, open, leftOpen,
+                     "open, and moot in the paper preset: grasp_model is off", false, false,
+                     "The grasp model's object density: the object weighs this times its thickness and area."),
             };
         }
     }  // namespace

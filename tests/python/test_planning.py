@@ -372,7 +372,9 @@ def test_a_plan_from_a_state_at_an_edge_keeps_the_centre_of_mass_on_the_table():
         return min(scene.table.edge_margin(move_planar(com, planar_motion(first, row_to_pose(row))))
                    for row in result.fingertip_poses)
 
-    loose = plan(scene, obj, PlannerConfig.for_scene(scene, seed=data["seed"], time_limit_s=30.0, com_supported=False),
+    # The grasp's physics rules off too: they were not there when this re-plan swung the object.
+    loose = plan(scene, obj, PlannerConfig.for_scene(scene, seed=data["seed"], time_limit_s=30.0, com_supported=False,
+                                                     support_hull=False, grasp_model=False),
                  start_config=data["start_config"])
     assert loose.solved and verify(loose).ok and lowest_margin(loose) < -0.01
     claimed = PlanResult.from_dict({**loose.to_dict(), "params": {**loose.params, "com_supported": True}})

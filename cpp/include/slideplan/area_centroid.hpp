@@ -5,6 +5,9 @@
 
 #include <Eigen/Core>
 
+#include <array>
+#include <vector>
+
 namespace slideplan
 {
     /// Row-major list of 2-D points, one point per row.
@@ -23,4 +26,17 @@ namespace slideplan
     ///          one line).
     /// \throws std::invalid_argument if a coordinate is not finite or there are no points.
     Eigen::Vector2d areaCentroid(const Points2 &points);
+
+    /// The region areaCentroid finds: its triangles, area (m^2, 0 when the points cover none) and area centroid.
+    struct PlateRegion
+    {
+        std::vector<std::array<Eigen::Vector2d, 3>> triangles;
+        double area{0.0};
+        Eigen::Vector2d centroid{Eigen::Vector2d::Zero()};
+    };
+
+    /// areaCentroid's region itself: the material of a plate known by points (the grasp model's patch,
+    /// hold_model.hpp, is the part of it between the pads; its mass is density x thickness x area).
+    /// \throws std::invalid_argument as areaCentroid.
+    PlateRegion plateRegion(const Points2 &points);
 }  // namespace slideplan

@@ -73,4 +73,8 @@ namespace slideplan
     /// True if `point` lies in the counter-clockwise convex polygon `hull` (boundary included).
     bool pointInConvex(const std::vector<Eigen::Vector2d> &hull, const Eigen::Vector2d &point);
 
+    /// Signed distance of `point` inside the counter-clockwise convex polygon `hull` (negative outside;
+    /// -infinity for a hull of fewer than 3 vertices, which bears nothing).
+    double convexSignedDistance(const std::vector<Eigen::Vector2d> &hull, const Eigen::Vector2d &point);
+
 }  // namespace slideplan

@@ -5,6 +5,7 @@
 
 #include "slideplan/collision.hpp"
 #include "slideplan/grasp_map.hpp"
+#include "slideplan/hold_model.hpp"
 #include "slideplan/object_motion.hpp"
 #include "slideplan/params.hpp"
 #include "slideplan/task.hpp"
@@ -30,7 +31,9 @@ namespace slideplan
         bool holds{true};             ///< some place along the edge puts grasp_hold of the object between the fingers
         double held{0.0};             ///< overhang held by the hand: u, less what lies within the hand's free length
         bool comInside{false};        ///< CoM of P'_o inside Q, at least params.comMargin from its boundary
-        double comMargin{0.0};        ///< signed distance of that CoM to the boundary of Q (m, > 0 inside)
+                                      ///< (and, with params.supportHull, from the hull of P'_o's points on Q)
+        double comMargin{0.0};        ///< signed distance of that CoM to the boundary of Q, or of that hull where
+                                      ///< nearer (m, > 0 inside)
     };
 
     struct PairVerdict
@@ -60,6 +63,10 @@ namespace slideplan
         /// on P_o itself (`exact`), or on its fixed-resolution footprint, u then also over the convex
         /// hull's vertices (the farthest point of P_o beyond an edge is one of them).
         Overhang overhang(const PlanarMotion &motion, bool exact = false) const;
+
+        /// Beyond the paper (params.graspModel): whether the hand closed at the overhang's grasp point holds
+        /// the object up (hold_model.hpp), on P_o itself.
+        HoldEstimate hold(const Overhang &overhang) const;
 
         /// Whether the hand holds at least u* of the object (IV-C.1's u >= u*, with params.graspStandoff).
         bool graspable(const Overhang &overhang) const;
@@ -113,10 +120,12 @@ namespace slideplan
         PlannerParams params_;
         std::unique_ptr<CollisionWorld> world_;  ///< holds the object at its final pose while a pair is checked
         mutable std::vector<Eigen::Vector2d> outside_;  ///< overhang()'s points beyond Q, kept to reuse the memory
+        mutable std::vector<Eigen::Vector2d> supported_;  ///< and its points on Q
         mutable std::vector<Eigen::Vector2d> reached_;  ///< of those, the ones within the fingers' reach (grasp_hold)
         mutable std::vector<Eigen::VectorXd> graspSeeds_;  ///< recent successful grasp configurations
         std::shared_ptr<const GraspMap> graspMap_;
         mutable std::set<std::pair<int, long>> unreachable_;  ///< stretches where this plan's grasp IK failed
+        PlateRegion plate_;  ///< the material P_o covers where it lies (grasp_model), empty without the model
     };
 
 }  // namespace slideplan

@@ -35,9 +35,11 @@ namespace slideplan
         double maxJointStep, maxTipStep, projectionTolerance;
         int projectionIterations, rootIkAttempts;
         // Departures from the paper (docs/paper-to-code.md), each with its switch.
-        bool screenPairs, graspFlip, graspMap, goalGraspFilter, liftCheck, cacheVerdicts, comSupported;
+        bool screenPairs, graspFlip, graspMap, goalGraspFilter, liftCheck, cacheVerdicts, comSupported, graspModel, supportHull;
         double pairedGoals, contactRadius, comMargin, maxObjectYaw, maxYawRate, shortcutYawWeight;
         int shortcutAttempts;
+        // The grasp model (hold_model.hpp).
+        double padWidth, padLength, gripForce, objectDensity;
 
         RootPolicy policy{RootPolicy::Sampled};
 

@@ -3,6 +3,7 @@
 #include "slideplan/area_centroid.hpp"
 #include "slideplan/contact_frame.hpp"
 #include "slideplan/geometry.hpp"
+#include "slideplan/hold_model.hpp"
 #include "slideplan/outline_icp.hpp"
 
 #include <pybind11/eigen.h>
@@ -40,6 +41,27 @@ namespace slideplan::bindings
                    "Centre of mass of a uniform thin plate known by (N, 2) points of its top surface: the area "
                    "centroid of the alpha shape they cover, whatever their density (the points' mean if they "
                    "cover no area). Raises ValueError for no points or a non-finite one.");
+        module.def(
+            "estimate_hold",
+            [](const Points2 &points, const Eigen::Vector2d &com, double thickness, const Eigen::Vector2d &grasp,
+               double beyond, const Eigen::Vector2d &outward, const PlannerParams &params) {
+                const HoldEstimate e = estimateHold(plateRegion(points), com, thickness, grasp, beyond, outward, params);
+                py::dict result;
+                result["patch_area"] = e.patchArea;
+                result["mass"] = e.mass;
+                result["lever"] = e.lever;
+                result["patch_length"] = e.patchLength;
+                result["demand"] = e.demand;
+                result["capacity"] = e.capacity;
+                result["holds"] = e.holds;
+                return result;
+            },
+            py::arg("points"), py::arg("com"), py::arg("thickness"), py::arg("grasp"), py::arg("beyond"), py::arg("outward"),
+            py::arg("params"),
+            "The grasp model (hold_model.hpp): whether the hand closed at `grasp` (H_g in the table plane, `beyond` m "
+            "beyond the table edge, approaching along -`outward`) holds the object known by its (N, 2) top points at their final pose (the region "
+            "area_centroid finds) and its centre of mass there. A dict: patch_area (m^2), mass (kg), lever (m), "
+            "patch_length (m), demand and capacity (N m), holds. Raises ValueError as area_centroid.");
         py::class_<OutlineIcp>(module, "OutlineIcp",
                                "Trimmed 2-D ICP of edge points to an object's outline (the closed loop's tracker). "
                                "Immutable: one instance may serve many threads.")

@@ -76,7 +76,7 @@ def check_grasp_pose(result: PlanResult, world: PlanWorld,
             where = f"the centroid of the overhanging points (IV-C.1) moved {shift:+.4f} m along the edge onto the object"
     expected = np.array([*xy, float(result.table["height"]) + 0.5 * float(result.object["thickness"])])
     pose = row_to_pose(result.grasp["pose"])
-    violations = []
+    violations = check_hold(result, xy, float((xy - start) @ normal), normal)
     offset = float(np.linalg.norm(pose[:3, 3] - expected))
     if offset > tolerance[0]:
         violations.append(f"grasp.pose: {offset:.4f} m from H_g at ({expected[0]:.4f}, {expected[1]:.4f}, "
@@ -96,6 +96,39 @@ def check_grasp_pose(result: PlanResult, world: PlanWorld,
                           f"({allowed[0]:g}, {allowed[1]:g}, {allowed[2]:g})"
                           + (" (or rolled by pi: grasp_flip)" if len(frames) > 1 else ""))
     return violations
+
+
+def check_hold(result: PlanResult, grasp_xy: np.ndarray, beyond: float, outward: np.ndarray) -> list[str]:
+    """With ``grasp_model``: the hand closed at ``H_g`` holds the object up (cpp/include/slideplan/hold_model.hpp),
+    judged where the object lay (``H_g`` and the edge's normal moved back by the object's motion: the plate's
+    material is then the planner's to the last bit).
+
+    Args:
+        result: the plan.
+        grasp_xy: ``H_g`` in the table plane, at the object's final pose.
+        beyond: how far ``H_g`` lies beyond the closest table edge (m).
+        outward: that edge's outward normal.
+
+    Returns:
+        A violation naming ``grasp.pose`` with gravity's moment and what the pads resist, or none.
+    """
+    from .. import _core
+    from ..plan.config import PARAMETERS, PlannerConfig
+
+    if not result.params.get("grasp_model", False):
+        return []  # off, or a plan from before the model
+    motion = result.object_motion
+    yaw = float(motion["yaw"])
+    back = np.array([[np.cos(yaw), np.sin(yaw)], [-np.sin(yaw), np.cos(yaw)]])  # R(yaw)^T
+    params = PlannerConfig(**{name: result.params[name] for name in PARAMETERS if name in result.params}).to_params()
+    hold = _core.estimate_hold(np.ascontiguousarray(np.asarray(result.object["points"], dtype=float)[:, :2]),
+                               np.asarray(result.object["com_xy"], dtype=float), float(result.object["thickness"]),
+                               back @ (grasp_xy - np.array([motion["x"], motion["y"]])), beyond, back @ outward, params)
+    if hold["demand"] <= hold["capacity"] * (1.0 + 1e-6):
+        return []
+    return [f"grasp.pose: the closed hand would not hold the object up (grasp_model): gravity's moment "
+            f"{hold['demand']:.5f} N m about the pads exceeds the {hold['capacity']:.5f} N m they resist "
+            f"({1000 * hold['lever']:.1f} mm lever, {1000 * hold['patch_length']:.1f} mm of patch along it)"]
 
 
 def check_grasp(result: PlanResult, world: PlanWorld) -> list[str]:

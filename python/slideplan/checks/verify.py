@@ -341,7 +341,8 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
     motion = result.object_motion
     com = np.asarray(result.object["com_xy"], dtype=float)
     moved_com = move_planar(com, (motion["x"], motion["y"], motion["yaw"]))
-    end = Ending(held, table.edge_margin(moved_com))  # the overhang the hand holds
+    support = bool(result.params.get("support_hull", False))
+    end = Ending(held, Ending.at(table, result.moved_object_xy(), moved_com, support).com_margin)  # the overhang the hand holds
     if not end.overhangs(result.params["u_star"], STEP_SLACK):
         violations.append(f"final object pose: overhang held by the hand {held:.6f} m < u_star {result.params['u_star']}")
     if abs(u - result.overhang_m) > MOTION_TOLERANCE:
@@ -351,10 +352,14 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
     if float(np.linalg.norm(com - centroid)) > MOTION_TOLERANCE:
         violations.append(f"object.com_xy: ({com[0]:.4f}, {com[1]:.4f}) is not the area centroid of the object's "
                           f"points ({centroid[0]:.4f}, {centroid[1]:.4f})")
-    if end.com_margin <= 0.0:
+    if table.edge_margin(moved_com) <= 0.0:
         violations.append(f"final object pose: centre of mass ({moved_com[0]:.4f}, {moved_com[1]:.4f}) is off the table")
+    elif end.com_margin <= 0.0:
+        violations.append(f"final object pose: centre of mass ({moved_com[0]:.4f}, {moved_com[1]:.4f}) is off the hull of "
+                          "the object's part on the table (support_hull): it tips over the edge")
     elif not end.com_inside(result.params.get("com_margin", 0.0), MOTION_TOLERANCE):
-        violations.append(f"final object pose: centre of mass {end.com_margin:.4f} m inside the table edge, "
+        bearer = "the table edge, or the hull of the object's part on the table (support_hull)," if support else "the table edge,"
+        violations.append(f"final object pose: centre of mass {end.com_margin:.4f} m inside {bearer} "
                           f"less than com_margin {result.params['com_margin']}")
     return violations
 

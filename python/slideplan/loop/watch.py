@@ -115,7 +115,8 @@ class Segment:
         if not shapely.MultiPoint(now.points[:, :2]).convex_hull.contains(shapely.Point(tip[:2, 3])):
             return False
         end = perceived.moved(compose_planar(seen, planar_motion(tip, row_to_pose(self.result.fingertip_poses[-1]))))
-        return Ending.at(table, end.points[:, :2], end.centroid_xy).graspable(config.u_star, config.com_margin)
+        ending = Ending.at(table, end.points[:, :2], end.centroid_xy, support=bool(config.support_hull))
+        return ending.graspable(config.u_star, config.com_margin)
 
 
 def slide_segment(result: PlanResult, top: float, base) -> Segment:

@@ -399,6 +399,7 @@ def _episode(report: dict[str, Any], first: PlanResult, loop: SlideLoop, watch: 
         if loop.abandoned:
             failure = ("slide", "no progress: the finger travelled on and the object did not, and no new plan followed")
         else:
+            report["grasp_pose"] = [float(value) for value in grasp_plan.grasp["pose"]]
             failure = runner.grasp(np.asarray(grasp_plan.grasp["approach"], dtype=float),
                                    plan_times(grasp_plan, "approach", len(grasp_plan.grasp["approach"])),
                                    np.asarray(grasp_plan.grasp["config"], dtype=float), robot,

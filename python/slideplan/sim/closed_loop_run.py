@@ -47,6 +47,9 @@ class ClosedLoopRun(jsontext.Document):
         seen_motion: the object's motion from its perceived pose to where it was seen then, ``{x, y, yaw}``.
         seen_overhang_m, seen_com_margin_m: at that pose.
         true_overhang_m, true_com_margin_m: at the object's true pose then.
+        true_motion: the object's true motion from where it lay to its pose then, ``{x, y, yaw}``.
+        grasp_pose: the grasp the hand made, ``[x, y, z, qx, qy, qz, qw]`` (the plan's ``grasp.pose``), or None
+            without a grasp.
         lifted: the runner's lift check (the object rose half the lift and stayed): diagnostic.
         slide_stop: ``""`` or the bounds (:mod:`slideplan.loop.bounds`) the closed loop met, ``+``-joined:
             ``"no_progress"`` (a slide stopped: the finger travelled on, the object as seen did not),
@@ -78,6 +81,8 @@ class ClosedLoopRun(jsontext.Document):
     seen_com_margin_m: float | None
     true_overhang_m: float | None
     true_com_margin_m: float | None
+    true_motion: dict[str, float] | None
+    grasp_pose: list[float] | None
     lifted: bool
     slide_stop: str
     slide_s: float
@@ -112,7 +117,7 @@ def new_report(mode: str, setting: str, draws: dict[str, float], disturbance: Di
     return dict(
         success=False, mode=mode, setting=setting, failed_stage=None, failure="", replans=0, replan_latency_s=None,
         kept=0, looks=0, lost_looks=0, events=[], seen_status=None, seen_frames=[], seen_motion=None, seen_overhang_m=None,
-        seen_com_margin_m=None, true_overhang_m=None, true_com_margin_m=None, lifted=False, slide_stop="", slide_s=0.0,
+        seen_com_margin_m=None, true_overhang_m=None, true_com_margin_m=None, true_motion=None, grasp_pose=None, lifted=False, slide_stop="", slide_s=0.0,
         draws=draws, disturbance=None if disturbance is None else dataclasses.asdict(disturbance),
     )
 
@@ -133,3 +138,4 @@ def diagnose(report: dict[str, Any], table, perceived: ThinObject, truth: ThinOb
     motion = (*(com - move_planar(np.asarray(truth.centroid_xy, dtype=float), (0.0, 0.0, yaw))), yaw)
     true_end = Ending.at(table, move_planar(truth.points[:, :2], motion), com)
     report["true_overhang_m"], report["true_com_margin_m"] = map(float, true_end)
+    report["true_motion"] = dict(zip(("x", "y", "yaw"), map(float, motion)))

@@ -255,16 +255,26 @@ class Ending(NamedTuple):
 
     Attributes:
         overhang: ``u`` (m), :func:`overhang` at the final pose (the verifier gives the part the hand holds).
-        com_margin: the centre of mass's signed distance inside the table edge (m; negative off the table).
+        com_margin: the centre of mass's signed distance inside the table edge (m; negative off the table), or
+            inside the hull of the part the table bears where nearer (``support``).
     """
 
     overhang: float
     com_margin: float
 
     @classmethod
-    def at(cls, table: SupportSurface, moved_xy: np.ndarray, moved_com) -> Ending:
-        """The ending of an object whose points are at ``moved_xy`` (N, 2) and centre of mass at ``moved_com``."""
-        return cls(overhang(table, moved_xy)[0], table.edge_margin(moved_com))
+    def at(cls, table: SupportSurface, moved_xy: np.ndarray, moved_com, support: bool = False) -> Ending:
+        """The ending of an object whose points are at ``moved_xy`` (N, 2) and centre of mass at ``moved_com``;
+        with ``support`` (the planner's ``support_hull``), its centre of mass kept inside what the table bears too:
+        the convex hull of its points on the table, past which it tips over the edge once the finger lets go."""
+        u, outside, _ = overhang(table, moved_xy)
+        margin = table.edge_margin(moved_com)
+        if support and outside.any():
+            hull = shapely.MultiPoint(moved_xy[~outside]).convex_hull
+            point = shapely.Point(np.asarray(moved_com, dtype=float))
+            inside = hull.geom_type == "Polygon" and hull.contains(point)
+            margin = min(margin, float(hull.exterior.distance(point)) if inside else -float(hull.distance(point)))
+        return cls(u, margin)
 
     def overhangs(self, u_star: float, slack: float = 0.0) -> bool:
         """``u >= u*`` (less ``slack``: the verifier's tolerance of the planner's steps)."""
