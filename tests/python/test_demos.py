@@ -89,6 +89,27 @@ def test_without_the_extra_the_command_says_how_to_install_it(tmp_path, monkeypa
     assert "no_such_scene" in bad_input("--scene", "no_such_scene", "--episodes", "2", "--out", str(tmp_path / "e"))
 
 
+def test_a_second_generation_into_a_folder_being_written_is_refused_naming_the_lock(tmp_path, monkeypatch):
+    """Two generations into one folder interleaved their episodes and merged a corrupt dataset: the second is
+    refused while the first holds the folder's lock, and goes on once it is free (the lock dies with its
+    process)."""
+    import fcntl
+
+    from slideplan.demos import generate as demos_generate
+
+    monkeypatch.setattr(demos_generate, "require_lerobot", lambda: (lambda: None))  # the lock comes before lerobot's work
+    out = tmp_path / "d"
+    out.mkdir()
+    with open(out / demos_generate.LOCK_FILE, "a") as first:  # as a running generation holds it
+        fcntl.flock(first, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        line = bad_input("--scene", "square", "--episodes", "2", "--out", str(out), "--workers", "1")
+        assert "--out" in line and "another slideplan demos is writing" in line and demos_generate.LOCK_FILE in line
+        assert sorted(path.name for path in out.iterdir()) == [demos_generate.LOCK_FILE]  # nothing else written
+    # Free again (the first finished, or was killed): the lock file alone does not make the folder another's.
+    prepare(Request(scene="square", episodes=2), out)
+    assert (out / REQUEST_FILE).exists()
+
+
 def test_the_draw_is_the_seeds_and_lies_wholly_on_the_table():
     scene = load_scene("square")
     objects = ("crescent", "square", "triangle")

@@ -57,6 +57,16 @@ def test_valid_handmade_plan_passes(grasp_plan):
     assert grasp_plan.overhang_m > grasp_plan.params["u_star"]
 
 
+def test_a_grasp_the_pads_cannot_hold_up_is_reported(grasp_plan):
+    """grasp_model: with a grip a thousandth of the one it was planned with, gravity's moment about the pads
+    exceeds what they resist; with the model off nothing is asked."""
+    weak = copy.deepcopy(grasp_plan)
+    weak.params["grip_force"] = grasp_plan.params["grip_force"] / 1000.0
+    assert_reported(weak, "the closed hand would not hold the object up (grasp_model)")
+    weak.params["grasp_model"] = False
+    assert verify(weak).ok
+
+
 def test_a_lifted_fingertip_is_not_a_grasp(valid_plan):
     # build_plan calls the end of its lift (the fingertip 6 cm above the table) its grasp.
     violations = verify(valid_plan).violations

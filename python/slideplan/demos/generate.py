@@ -8,7 +8,9 @@ with the same request goes on where it stopped; a killed worker loses the episod
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import fcntl
 import hashlib
 import json
 import shutil
@@ -24,6 +26,7 @@ from .draw import check_setting, draw, episode_seed
 from .frames import PHASES, CameraSpec, Frames
 
 REQUEST_FILE = "slideplan_demos.json"
+LOCK_FILE = ".slideplan_demos.lock"
 MAX_EPISODES = 1_000_000
 KEEP = ("success", "all")
 
@@ -175,13 +178,32 @@ def prepare(request: Request, out: Path, *, record: bool = True) -> None:
             raise InputError(f"{out} holds a generation asked with other {', '.join(changed)}: give another folder, "
                              "or the same options to resume it", field="--out")
         return
-    if out.exists() and any(out.iterdir()):
+    if out.exists() and any(path.name != LOCK_FILE for path in out.iterdir()):
         what = "a dataset" if (out / "meta" / "info.json").exists() else "other files"
         raise InputError(f"{out} holds {what}: give a new or empty folder", field="--out")
     if not record:
         return
     out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(saved, {**wanted, "phases": list(PHASES)})
+
+
+@contextlib.contextmanager
+def writing(out: Path):
+    """Hold ``out``'s lock while a generation writes there: a second generation into the same folder is
+    refused, not interleaved (an advisory lock the system releases when the process ends, killed or not).
+
+    Raises:
+        InputError: another generation holds it.
+    """
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / LOCK_FILE, "a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(f"another slideplan demos is writing to {out} (it holds the lock {out / LOCK_FILE}): "
+                             "let it finish, then run the command again to go on, or give another folder",
+                             field="--out") from None
+        yield
 
 
 def generate(request: Request, out: str | Path, executor, progress: Callable[[dict], None] | None = None) -> dict:
@@ -210,6 +232,12 @@ def generate(request: Request, out: str | Path, executor, progress: Callable[[di
     out = Path(out)
     prepare(request, out, record=False)  # every option checked before the extra, and nothing written without it
     lerobot_loaded = require_lerobot()
+    with writing(out):
+        return _generate(request, out, executor, progress, lerobot_loaded)
+
+
+def _generate(request: Request, out: Path, executor, progress, lerobot_loaded) -> dict:
+    """:func:`generate` once the options are checked and the folder is this run's."""
     prepare(request, out)
     done = records(out)
     todo = [Episode(request, index, str(out)) for index in range(request.episodes) if index not in done]
