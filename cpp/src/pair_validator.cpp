@@ -128,8 +128,8 @@ namespace slideplan
             // The table bears the object where it lies on it: past the hull of that part, the centre of mass
             // tips the object over the edge once the finger lets go (an L whose centre of mass lies off its
             // own material, inside the table).
-            result.comMargin = std::min(result.comMargin, convexSignedDistance(convexHull(supported), motion.apply(task_->objectCom)));
-            result.comInside = result.comMargin > 0.0 && result.comMargin >= params_.comMargin;
+            result.supportMargin = convexSignedDistance(convexHull(supported), motion.apply(task_->objectCom));
+            result.supported = result.supportMargin >= params_.supportMargin;
         }
         result.outsideCentroid /= weight;
         result.edge = table.closestEdge(result.outsideCentroid);
@@ -430,7 +430,12 @@ namespace slideplan
         }
         if (!result.comInside)
         {
-            verdict.reason = "centre of mass off the table, off the part of the object the table bears, or within com_margin of either";
+            verdict.reason = "centre of mass off the table or within com_margin of its edge";
+            return verdict;
+        }
+        if (!result.supported)
+        {
+            verdict.reason = "centre of mass within support_margin of the edge of what the table bears (support_hull)";
             return verdict;
         }
         if (std::abs(result.motion.yaw) > params_.maxObjectYaw)
@@ -447,6 +452,11 @@ namespace slideplan
         // The checks above ran on the fixed-resolution footprint, a screen; from here on P_o itself (the
         // paper's definition): P_out, u and H_g at the centroid of P_out, once per pair that gets this far.
         verdict.overhang = overhang(result.motion, true);
+        if (!result.supported)
+        {
+            verdict.reason = "centre of mass within support_margin of the edge of what the table bears on the full cloud";
+            return verdict;
+        }
         if (!graspable(result))
         {
             verdict.reason = result.holds ? "overhang below u* on the full cloud"

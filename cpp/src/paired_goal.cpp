@@ -55,7 +55,7 @@ namespace slideplan
                 std::abs(motion.yaw) > params.maxYawRate * (contact - startTip.translation().head<2>()).norm())
                 continue;
             const Overhang result = validator.overhang(motion);
-            if (!validator.graspable(result) || !result.comInside)
+            if (!validator.graspable(result) || !result.comInside || !result.supported)
                 continue;
             // Last, as they may cost a grasp IK: a side grasp reachable where this pose would be grasped, with
             // the hand clear of the table there.

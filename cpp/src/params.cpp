@@ -153,9 +153,13 @@ namespace slideplan
                 real("com_margin", &P::comMargin, "m", 0.005, 0.0, closed, inf, open, 0.0, "IV-C.1: the CoM inside Q", false,
                      false, "Beyond the paper: the final centre of mass lies at least this far inside the table."),
                 flag("support_hull", &P::supportHull, true, 0.0, "IV-C.1: the CoM inside Q", false, false,
-                     "Beyond the paper: at the final pose the centre of mass lies com_margin inside the convex hull of "
-                     "the object's part on the table too (what the table bears: an L's centre of mass may lie inside "
+                     "Beyond the paper: at the final pose the centre of mass lies support_margin inside the convex hull "
+                     "of the object's part on the table too (what the table bears: an L's centre of mass may lie inside "
                      "the table and off that part, and the object tips over the edge when the finger lets go)."),
+                real("support_margin", &P::supportMargin, "m", 0.0075, 0.0, closed, inf, open, leftOpen,
+                     "open, and moot in the paper preset: support_hull is off", false, false,
+                     "With support_hull: how far inside the hull of the object's part on the table its centre of mass "
+                     "lies at the final pose; calibrated against MuJoCo (docs/results/grasp_model.md)."),
                 flag("com_supported", &P::comSupported, true, 0.0, "IV-C.1: the final pose only", false, false,
                      "Beyond the paper: the object's centre of mass stays on the table at every state of the slide."),
                 real("max_object_yaw", &P::maxObjectYaw, "rad", 1.0, 0.0, open, inf, open, M_PI, "IV-C.1: any turn", false,
@@ -177,7 +181,7 @@ namespace slideplan
                      "open, and moot in the paper preset: grasp_model is off", true, false,
                      "The grasp model's pads: their length along the approach, centred on H_g (the T42's distal "
                      "links: 4.5 cm)."),
-                real("grip_force", &P::gripForce, "N", 5.0, 0.0, open, inf, open, leftOpen,
+                real("grip_force", &P::gripForce, "N", 0.75, 0.0, open, inf, open, leftOpen,
                      "open, and moot in the paper preset: grasp_model is off", true, false,
                      "The grasp model's effective closing force of the pads, calibrated against MuJoCo for the "
                      "T42 (docs/results/grasp_model.md)."),

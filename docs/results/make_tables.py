@@ -18,7 +18,7 @@ not show::
     <!-- /generated -->
 
 The name says which value goes there (the functions ``values()`` of ``numbers_planning.py``,
-``numbers_execution.py``, ``numbers_closed_loop.py``, ``numbers_benchmarks.py`` and ``numbers_hands.py`` make them). A block whose opening comment ends
+``numbers_execution.py``, ``numbers_closed_loop.py``, ``numbers_benchmarks.py``, ``numbers_hands.py`` and ``numbers_grasp_model.py`` make them). A block whose opening comment ends
 its line is a block of lines
 (tables); any other is inline and must not start a line (markdown would take the line for raw HTML).
 Edit the text around a block freely; edit inside it and the next run (or ``--check``) puts the rows'
@@ -182,12 +182,13 @@ def all_values() -> dict[str, str]:
     import numbers_benchmarks
     import numbers_closed_loop
     import numbers_execution
+    import numbers_grasp_model
     import numbers_hands
     import numbers_headline
     import numbers_planning
 
     parts = [numbers_planning.values(), numbers_execution.values(), numbers_closed_loop.values(), numbers_benchmarks.values(),
-             numbers_hands.values(), numbers_headline.values()]
+             numbers_hands.values(), numbers_headline.values(), numbers_grasp_model.values()]
     names = [name for part in parts for name in part]
     clash = {name for name in names if names.count(name) > 1}
     assert not clash, f"block names defined twice: {sorted(clash)}"

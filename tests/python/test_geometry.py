@@ -8,7 +8,7 @@ from shapely.geometry import Polygon
 
 from slideplan import _core
 from slideplan.errors import InputError
-from slideplan.world.geometry import Ending, SupportSurface, area_centroid
+from slideplan.world.geometry import Ending, SupportSurface, area_centroid, support_margin
 
 SQUARE = [[0.35, -0.25], [0.85, -0.25], [0.85, 0.25], [0.35, 0.25]]
 L_SHAPE = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.4], [0.4, 0.4], [0.4, 1.0], [0.0, 1.0]]
@@ -121,7 +121,7 @@ def test_ending_is_the_overhang_and_centre_of_mass_margin_and_graspable_needs_bo
     assert Ending.at(table, points - [0.1, 0.0], (0.73, 0.0)).overhang == 0.0
 
 
-def test_ending_with_support_keeps_the_centre_of_mass_on_what_the_table_bears():
+def test_the_support_margin_is_the_centre_of_mass_inside_what_the_table_bears():
     """support_hull: an L whose 2 cm foot lies beyond the x = 0.85 edge and whose 2 cm stem runs back along the
     table. Its centre of mass lies 1.8 cm inside the table, yet off the part the table bears (the stem): the L
     tips over the edge once the finger lets go."""
@@ -130,13 +130,11 @@ def test_ending_with_support_keeps_the_centre_of_mass_on_what_the_table_bears():
     grid = np.column_stack([xs.ravel(), ys.ravel()])
     points = grid[(grid[:, 0] >= 0.86 - 1e-9) | (grid[:, 1] <= -0.03 + 1e-9)]  # the foot and the stem
     com = area_centroid(points)
-    plain, supported = Ending.at(table, points, com), Ending.at(table, points, com, support=True)
-    assert plain.com_margin == pytest.approx(0.85 - com[0]) and plain.com_margin > 0.015
-    assert plain.graspable(0.02, 0.005)
-    assert supported.overhang == plain.overhang
+    end = Ending.at(table, points, com)
+    assert end.com_margin == pytest.approx(0.85 - com[0]) and end.com_margin > 0.015 and end.graspable(0.02, 0.005)
     assert -0.03 < com[1] < -0.015  # above the stem, whose part on the table spans y in [-0.05, -0.03]
-    assert supported.com_margin == pytest.approx(-(com[1] + 0.03), abs=1e-9)
-    assert not supported.graspable(0.02, 0.0)
+    assert support_margin(table, points, com) == pytest.approx(-(com[1] + 0.03), abs=1e-9)
     # Where the part on the table surrounds the centre of mass, it reaches the table's edge (to the grid's 2 mm).
-    square = Ending.at(table, grid, (0.85 - 0.02, 0.0), support=True)
-    assert square.com_margin == pytest.approx(0.02, abs=0.0021)
+    assert support_margin(table, grid, (0.85 - 0.02, 0.0)) == pytest.approx(0.02, abs=0.0021)
+    # Wholly off the table, nothing bears it.
+    assert support_margin(table, grid + [1.0, 0.0], (1.83, 0.0)) == -math.inf

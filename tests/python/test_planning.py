@@ -389,25 +389,25 @@ def test_the_final_pose_keeps_the_centre_of_mass_on_what_the_table_bears():
     """support_hull (beyond the paper): the L's centre of mass lies off its own material. On the triangle table
     the plan without the rule leaves it inside the table and off the L's part on the table, and in MuJoCo
     that L tipped over the edge when the finger let go and the grasp closed on nothing
-    (docs/results/grasp_model.md). With the rule it stays com_margin inside that part, and the verifier
+    (docs/results/grasp_model.md). With the rule it stays support_margin inside that part, and the verifier
     holds a plan that claims the rule to it."""
     from slideplan.transforms import move_planar
-    from slideplan.world.geometry import Ending
+    from slideplan.world.geometry import support_margin
 
     scene = load_scene("triangle")
     obj = load_object("L", table_height=scene.table.height, pose=(0.5191195067123792, -0.048628356003934226, -0.3383366871271103))
 
-    def support_margin(result):
+    def margin(result):
         motion = result.object_motion
         com = move_planar(np.asarray(result.object["com_xy"]), (motion["x"], motion["y"], motion["yaw"]))
-        return Ending.at(scene.table, result.moved_object_xy(), com, support=True).com_margin
+        return support_margin(scene.table, result.moved_object_xy(), com)
 
     loose = plan(scene, obj, PlannerConfig.for_scene(scene, seed=86967003, time_limit_s=10.0, support_hull=False))
-    assert loose.solved and verify(loose).ok and support_margin(loose) < 0.0
+    assert loose.solved and verify(loose).ok and margin(loose) < 0.0
     claimed = PlanResult.from_dict({**loose.to_dict(), "params": {**loose.params, "support_hull": True}})
-    assert any("(support_hull): it tips over the edge" in line for line in verify(claimed).violations)
+    assert any("less than support_margin" in line and "tip over the edge" in line for line in verify(claimed).violations)
 
     held = plan(scene, obj, PlannerConfig.for_scene(scene, seed=86967003, time_limit_s=10.0))
     assert held.solved and held.params["support_hull"] is True
     assert_verified(held)
-    assert support_margin(held) >= held.params["com_margin"]
+    assert margin(held) >= held.params["support_margin"]

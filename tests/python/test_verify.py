@@ -58,13 +58,14 @@ def test_valid_handmade_plan_passes(grasp_plan):
 
 
 def test_a_grasp_the_pads_cannot_hold_up_is_reported(grasp_plan):
-    """grasp_model: with a grip a thousandth of the one it was planned with, gravity's moment about the pads
-    exceeds what they resist; with the model off nothing is asked."""
-    weak = copy.deepcopy(grasp_plan)
-    weak.params["grip_force"] = grasp_plan.params["grip_force"] / 1000.0
-    assert_reported(weak, "the closed hand would not hold the object up (grasp_model)")
-    weak.params["grasp_model"] = False
-    assert verify(weak).ok
+    """grasp_model: the hand-made plate hangs 8 cm from its grasp. A plan that claims the model with a grip of
+    1 mN is refused; with 100 N the pads hold it; with the model off nothing is asked."""
+    claimed = copy.deepcopy(grasp_plan)
+    claimed.params.update(grasp_model=True, grip_force=0.001)
+    assert_reported(claimed, "the closed hand would not hold the object up (grasp_model)")
+    claimed.params["grip_force"] = 100.0
+    assert verify(claimed).ok
+    assert not grasp_plan.params["grasp_model"] and verify(grasp_plan).ok
 
 
 def test_a_lifted_fingertip_is_not_a_grasp(valid_plan):

@@ -11,6 +11,7 @@
 #include "slideplan/task.hpp"
 
 #include <ompl/base/PlannerTerminationCondition.h>
+#include <limits>
 #include <random>
 #include <set>
 #include <string>
@@ -31,9 +32,12 @@ namespace slideplan
         bool holds{true};             ///< some place along the edge puts grasp_hold of the object between the fingers
         double held{0.0};             ///< overhang held by the hand: u, less what lies within the hand's free length
         bool comInside{false};        ///< CoM of P'_o inside Q, at least params.comMargin from its boundary
-                                      ///< (and, with params.supportHull, from the hull of P'_o's points on Q)
-        double comMargin{0.0};        ///< signed distance of that CoM to the boundary of Q, or of that hull where
-                                      ///< nearer (m, > 0 inside)
+        double comMargin{0.0};        ///< signed distance of that CoM to the boundary of Q (m, > 0 inside)
+        /// With params.supportHull (and the CoM inside): the CoM's signed distance inside the convex hull of
+        /// P'_o's points on Q, what the table bears (m; +infinity when not asked), and whether it is at least
+        /// params.supportMargin.
+        double supportMargin{std::numeric_limits<double>::infinity()};
+        bool supported{true};
     };
 
     struct PairVerdict

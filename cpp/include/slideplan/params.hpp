@@ -39,7 +39,7 @@ namespace slideplan
         double pairedGoals, contactRadius, comMargin, maxObjectYaw, maxYawRate, shortcutYawWeight;
         int shortcutAttempts;
         // The grasp model (hold_model.hpp).
-        double padWidth, padLength, gripForce, objectDensity;
+        double supportMargin, padWidth, padLength, gripForce, objectDensity;
 
         RootPolicy policy{RootPolicy::Sampled};
 

@@ -57,7 +57,7 @@ from .common import (
     pose_mismatch,
 )
 from ..errors import InputError, require_type
-from ..world.geometry import Ending, SupportSurface, area_centroid, overhang
+from ..world.geometry import Ending, SupportSurface, area_centroid, overhang, support_margin
 from .grasp import check_grasp, check_grasp_pose
 from ..plan.result import PlanResult
 from ..plan.schema import check_ends, check_shapes
@@ -341,8 +341,7 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
     motion = result.object_motion
     com = np.asarray(result.object["com_xy"], dtype=float)
     moved_com = move_planar(com, (motion["x"], motion["y"], motion["yaw"]))
-    support = bool(result.params.get("support_hull", False))
-    end = Ending(held, Ending.at(table, result.moved_object_xy(), moved_com, support).com_margin)  # the overhang the hand holds
+    end = Ending(held, table.edge_margin(moved_com))  # the overhang the hand holds
     if not end.overhangs(result.params["u_star"], STEP_SLACK):
         violations.append(f"final object pose: overhang held by the hand {held:.6f} m < u_star {result.params['u_star']}")
     if abs(u - result.overhang_m) > MOTION_TOLERANCE:
@@ -352,15 +351,17 @@ def check_graspability(result: PlanResult, table: SupportSurface) -> list[str]:
     if float(np.linalg.norm(com - centroid)) > MOTION_TOLERANCE:
         violations.append(f"object.com_xy: ({com[0]:.4f}, {com[1]:.4f}) is not the area centroid of the object's "
                           f"points ({centroid[0]:.4f}, {centroid[1]:.4f})")
-    if table.edge_margin(moved_com) <= 0.0:
+    if end.com_margin <= 0.0:
         violations.append(f"final object pose: centre of mass ({moved_com[0]:.4f}, {moved_com[1]:.4f}) is off the table")
-    elif end.com_margin <= 0.0:
-        violations.append(f"final object pose: centre of mass ({moved_com[0]:.4f}, {moved_com[1]:.4f}) is off the hull of "
-                          "the object's part on the table (support_hull): it tips over the edge")
     elif not end.com_inside(result.params.get("com_margin", 0.0), MOTION_TOLERANCE):
-        bearer = "the table edge, or the hull of the object's part on the table (support_hull)," if support else "the table edge,"
-        violations.append(f"final object pose: centre of mass {end.com_margin:.4f} m inside {bearer} "
+        violations.append(f"final object pose: centre of mass {end.com_margin:.4f} m inside the table edge, "
                           f"less than com_margin {result.params['com_margin']}")
+    elif result.params.get("support_hull", False):
+        margin = support_margin(table, result.moved_object_xy(), moved_com)
+        if margin < result.params["support_margin"] - MOTION_TOLERANCE:
+            violations.append(f"final object pose: centre of mass {margin:.4f} m inside the hull of the object's part on "
+                              f"the table, less than support_margin {result.params['support_margin']} (support_hull): "
+                              "it may tip over the edge when the finger lets go")
     return violations
 
 

@@ -21,7 +21,7 @@ import shapely
 
 from ..perception.camera import Camera
 from ..errors import InputError
-from ..world.geometry import Ending
+from ..world.geometry import Ending, support_margin
 from ..plan.motions import plan_times, rest_to_rest
 from ..world.objects import ThinObject
 from ..checks.pipeline import plan_checked
@@ -115,8 +115,9 @@ class Segment:
         if not shapely.MultiPoint(now.points[:, :2]).convex_hull.contains(shapely.Point(tip[:2, 3])):
             return False
         end = perceived.moved(compose_planar(seen, planar_motion(tip, row_to_pose(self.result.fingertip_poses[-1]))))
-        ending = Ending.at(table, end.points[:, :2], end.centroid_xy, support=bool(config.support_hull))
-        return ending.graspable(config.u_star, config.com_margin)
+        if not Ending.at(table, end.points[:, :2], end.centroid_xy).graspable(config.u_star, config.com_margin):
+            return False
+        return not config.support_hull or support_margin(table, end.points[:, :2], end.centroid_xy) >= config.support_margin
 
 
 def slide_segment(result: PlanResult, top: float, base) -> Segment:

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import NamedTuple
 
+import math
+
 import numpy as np
 import shapely
 from shapely.geometry import Polygon
@@ -250,31 +252,39 @@ def overhang(table: SupportSurface, moved_xy: np.ndarray) -> tuple[float, np.nda
     return float(np.max((out_points - start) @ normal)), outside, (start, normal)
 
 
+def support_margin(table: SupportSurface, moved_xy: np.ndarray, moved_com) -> float:
+    """The centre of mass's signed distance inside what the table bears (m; negative outside): the convex hull
+    of the object's points on the table (``support_hull``). Past it the object tips over the edge once the
+    finger lets go, though its centre of mass may lie inside the table (an L's lies off its own material).
+
+    Args:
+        table: the support surface.
+        moved_xy: (N, 2) the object's points where it lies.
+        moved_com: (2,) its centre of mass there.
+    """
+    on = moved_xy[table.contains(moved_xy)]
+    point = shapely.Point(np.asarray(moved_com, dtype=float))
+    hull = shapely.MultiPoint(on).convex_hull if len(on) else None
+    if hull is None or hull.geom_type != "Polygon":
+        return -math.inf  # a point or a line bears nothing
+    return float(hull.exterior.distance(point)) if hull.contains(point) else -float(hull.distance(point))
+
+
 class Ending(NamedTuple):
     """How a slide leaves an object for the grasp (paper IV-C.1): the one home of "the slide ends graspable".
 
     Attributes:
         overhang: ``u`` (m), :func:`overhang` at the final pose (the verifier gives the part the hand holds).
-        com_margin: the centre of mass's signed distance inside the table edge (m; negative off the table), or
-            inside the hull of the part the table bears where nearer (``support``).
+        com_margin: the centre of mass's signed distance inside the table edge (m; negative off the table).
     """
 
     overhang: float
     com_margin: float
 
     @classmethod
-    def at(cls, table: SupportSurface, moved_xy: np.ndarray, moved_com, support: bool = False) -> Ending:
-        """The ending of an object whose points are at ``moved_xy`` (N, 2) and centre of mass at ``moved_com``;
-        with ``support`` (the planner's ``support_hull``), its centre of mass kept inside what the table bears too:
-        the convex hull of its points on the table, past which it tips over the edge once the finger lets go."""
-        u, outside, _ = overhang(table, moved_xy)
-        margin = table.edge_margin(moved_com)
-        if support and outside.any():
-            hull = shapely.MultiPoint(moved_xy[~outside]).convex_hull
-            point = shapely.Point(np.asarray(moved_com, dtype=float))
-            inside = hull.geom_type == "Polygon" and hull.contains(point)
-            margin = min(margin, float(hull.exterior.distance(point)) if inside else -float(hull.distance(point)))
-        return cls(u, margin)
+    def at(cls, table: SupportSurface, moved_xy: np.ndarray, moved_com) -> Ending:
+        """The ending of an object whose points are at ``moved_xy`` (N, 2) and centre of mass at ``moved_com``."""
+        return cls(overhang(table, moved_xy)[0], table.edge_margin(moved_com))
 
     def overhangs(self, u_star: float, slack: float = 0.0) -> bool:
         """``u >= u*`` (less ``slack``: the verifier's tolerance of the planner's steps)."""
