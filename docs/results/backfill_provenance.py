@@ -50,7 +50,7 @@ FILES = {
     # benchmarks/hands_sweep.py's rows, recorded at run time from their first run (hands.md names them).
     "hands.parquet": ("c07a69c", AMD, "2026-12-07"),
     # benchmarks/grasp_model.py's rows, recorded at run time (grasp_model.md names them).
-    "grasp_model.parquet": (UNRECORDED, AMD, "2026-12-07"),
+    "grasp_model.parquet": ("bd11be7", AMD, "2026-12-07"),
 }
 # File -> planner -> (build, cpu, date): rows a page dates more closely than the file as a whole.
 BY_PLANNER = {

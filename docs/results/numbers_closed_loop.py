@@ -16,6 +16,7 @@ HARD_P = 0.01  # ...above the open loop's with McNemar p below this
 LARGE_CAMERA_ERROR_M = 0.01  # a hard draw's camera offset counted as large
 
 SET_FILES = {name: f"closed_loop_{name}.parquet" for name in SETS}
+LETTERS_RERUN = "closed_loop_eval_rerun.parquet"  # the former eval set's tasks again, on a later build
 
 
 def values() -> dict[str, str]:
@@ -27,7 +28,33 @@ def values() -> dict[str, str]:
             "cl53-eval-targets": targets_sentence(eval_runs) if ran else "not run yet",
             "cl53-eval-hard": hard_failures(eval_runs) if ran else "not run yet",
             "cl53-eval-others": other_failures(eval_runs) if ran else "not run yet",
-            "cl53-eval-speed": speed(eval_runs) if ran else "not run yet"}
+            "cl53-eval-speed": speed(eval_runs) if ran else "not run yet",
+            "cl-letters-rerun": rerun_table(eval_runs, rows(LETTERS_RERUN, "runs")) if ran and (HERE / LETTERS_RERUN).exists()
+            else "not run yet"}
+
+
+def rerun_table(before, after) -> str:
+    """The same tasks, settings and modes on two builds: true success on each, and the runs only one of them
+    lifted (paired on task, setting and mode; McNemar's exact p)."""
+    from scipy.stats import binomtest
+
+    from slideplan.experiments.closed_loop_report import builds
+
+    key = ["task_id", "setting", "mode"]
+    paired = before[key + ["success", "object"]].merge(after[key + ["success"]], on=key, suffixes=("_before", "_after"))
+    header = (f"| setting | mode | build {builds(before)} | build {builds(after)} | only before | only after | p |")
+    lines = [header, "|---|---|---|---|---|---|---|"]
+    for (setting, mode), group in paired.groupby(["setting", "mode"], sort=False):
+        old, new = group["success_before"].fillna(False).astype(bool), group["success_after"].fillna(False).astype(bool)
+        only_old, only_new = int((old & ~new).sum()), int((new & ~old).sum())
+        p = binomtest(only_new, only_old + only_new, 0.5).pvalue if only_old + only_new else 1.0
+        lines.append(f"| {setting} | {mode} | {100 * old.mean():.1f}% | {100 * new.mean():.1f}% | {only_old} | {only_new} | "
+                     f"{p:.2g} |")
+    by_object = paired[paired["setting"] == "nominal"].groupby("object")[["success_before", "success_after"]].mean()
+    lines.append("")
+    lines.append("Nominal, both modes, by object: " + ", ".join(
+        f"{name} {100 * row.success_before:.0f}% then {100 * row.success_after:.0f}%" for name, row in by_object.iterrows()) + ".")
+    return "\n".join(lines)
 
 
 def eval_sentence(runs) -> str:
