@@ -152,8 +152,8 @@ namespace slideplan
                      "per radian of the object's yaw travel."),
                 real("com_margin", &P::comMargin, "m", 0.005, 0.0, closed, inf, open, 0.0, "IV-C.1: the CoM inside Q", false,
                      false, "Beyond the paper: the final centre of mass lies at least this far inside the table."),
-                flag("support_hull", &P::supportHull, true, 0.0, "IV-C.1: the CoM inside Q", false, false,
-                     "Beyond the paper: at the final pose the centre of mass lies support_margin inside the convex hull "
+                flag("support_hull", &P::supportHull, false, 0.0, "IV-C.1: the CoM inside Q", false, false,
+                     "Beyond the paper (opt-in): at the final pose the centre of mass lies support_margin inside the convex hull "
                      "of the object's part on the table too (what the table bears: an L's centre of mass may lie inside "
                      "the table and off that part, and the object tips over the edge when the finger lets go)."),
                 real("support_margin", &P::supportMargin, "m", 0.0075, 0.0, closed, inf, open, leftOpen,
@@ -169,8 +169,8 @@ namespace slideplan
                      "Beyond the paper: the largest turn of the object per metre of fingertip travel in each "
                      "extension step (0: any). Hand-specific: how fast its pad can turn an object."),
                 // The grasp model (hold_model.hpp): does the closed hand hold the object up?
-                flag("grasp_model", &P::graspModel, true, 0.0, beyond + ": the overhang alone decides", false, false,
-                     "Beyond the paper: a pair counts only if the closed hand holds the object up against gravity: "
+                flag("grasp_model", &P::graspModel, false, 0.0, beyond + ": the overhang alone decides", false, false,
+                     "Beyond the paper (opt-in): a pair counts only if the closed hand holds the object up against gravity: "
                      "gravity's moment about the pads, the object's weight times the lever from the patch of object "
                      "between them to its centre of mass, is at most grip_force times that patch's length along the "
                      "lever (a soft-finger pinch, hold_model.hpp)."),

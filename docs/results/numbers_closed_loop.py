@@ -35,13 +35,15 @@ def values() -> dict[str, str]:
 
 def rerun_table(before, after) -> str:
     """The same tasks, settings and modes on two builds: true success on each, and the runs only one of them
-    lifted (paired on task, setting and mode; McNemar's exact p)."""
+    lifted (paired on object, table, pose, setting and mode: a task's id hashes the planner's parameters, which
+    the later build has more of; McNemar's exact p)."""
     from scipy.stats import binomtest
 
     from slideplan.experiments.closed_loop_report import builds
 
-    key = ["task_id", "setting", "mode"]
-    paired = before[key + ["success", "object"]].merge(after[key + ["success"]], on=key, suffixes=("_before", "_after"))
+    key = ["object", "scene", "pose_index", "setting", "mode"]
+    paired = before[key + ["success"]].merge(after[key + ["success"]], on=key, suffixes=("_before", "_after"))
+    assert len(paired) == len(before) == len(after), "the rerun's runs are not the earlier runs' tasks"
     header = (f"| setting | mode | build {builds(before)} | build {builds(after)} | only before | only after | p |")
     lines = [header, "|---|---|---|---|---|---|---|"]
     for (setting, mode), group in paired.groupby(["setting", "mode"], sort=False):

@@ -942,9 +942,6 @@ TEST(SlidingPlanner, BaselinesProduceValidPlansWhenTheySolve)
             // search takes several times longer, and must give the same verdict. So no timed RRTConnect
             // transfer either: straight transfers only.
             params.transferIterations = 0;
-            // The grasp's physics rules off, as Fig. 11 runs the baselines (the paper's IsPairValid): with them
-            // the draws differ, and CBiRRT's one fixed pair of some seed does not connect within the calls.
-            params.supportHull = params.graspModel = false;
             const PlanResult result = planSliding(task, params, seed, afterCalls(2000000));
             EXPECT_EQ(result.planner, name);
             EXPECT_EQ(result.stats.startRoots, 1);

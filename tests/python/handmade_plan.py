@@ -174,10 +174,8 @@ def build_grasp_plan(grasp_y: float = GRASP_Y, slide_steps: int = 4) -> PlanResu
     approach = np.vstack([trajectory[-1:]] + [dense_motion(robot, a, b) for a, b in zip(waypoints[:-1], waypoints[1:])])
     motion_x = float(slide_xs[-1] - slide_xs[0])
     moved = points[:, :2] + (motion_x, 0.0)
-    # Pressed 3.4 cm from the centre of mass: a hand-made slide, not drawn within contact_radius. Its long
-    # plate hangs 8 cm from the grasp, more than the calibrated grip holds: the grasp model's check is tested apart.
-    config = PlannerConfig(grasp_standoff=max(0.0, grasp_y - GRASP_TABLE_EDGE_Y), contact_radius=0.0,
-                           grasp_model=False).resolved()
+    # Pressed 3.4 cm from the centre of mass: a hand-made slide, not drawn within contact_radius.
+    config = PlannerConfig(grasp_standoff=max(0.0, grasp_y - GRASP_TABLE_EDGE_Y), contact_radius=0.0).resolved()
     params = {key: value for key, value in config.to_dict().items() if key not in ("planner", "seed")}
     return PlanResult(
         status="solved",

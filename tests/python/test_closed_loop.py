@@ -559,11 +559,12 @@ def test_the_ros_node_perceives_the_object_as_the_simulated_loop_does():
 def test_the_ls_grasp_lifts_once_its_centre_of_mass_stays_on_what_the_table_bears():
     """support_hull: on the triangle table the plan without the grasp's physics rules leaves the L's centre of
     mass inside the table and off the L's part on it; when the finger lets go the L tips over the edge and the
-    hand closes on nothing. With the rules (the default) the same task is lifted."""
+    hand closes on nothing. With the rules (opt-in) the same task is lifted."""
     scene = load_scene("triangle")
     pose, seed = (0.5191195067123792, -0.048628356003934226, -0.3383366871271103), 86967003
     rules_off = PlannerConfig.for_scene(scene, seed=seed, support_hull=False, grasp_model=False)
     tipped = run(scene, "L", pose, seed=seed, closed=False, config=rules_off)
     assert not tipped.success and tipped.failed_stage == "grasp", tipped.summary()
-    held = run(scene, "L", pose, seed=seed, closed=False)
+    rules_on = PlannerConfig.for_scene(scene, seed=seed, support_hull=True, grasp_model=True)
+    held = run(scene, "L", pose, seed=seed, closed=False, config=rules_on)
     assert held.success, held.summary()
