@@ -2,10 +2,12 @@
 subset in one run, and the results are compared.
 
 - The README's plans (``slideplan plan``): the plan JSON must be identical but for clock readings
-  (``planning_time_s``, the core's set-up times) and where the package lies (the URDF's folder).
+  (``planning_time_s``, the core's set-up times), where the package lies (the URDF's folder) and the
+  parameters the older build did not have (named in the table; their values must leave the plan as it was).
 - The closed loop's dev subset, ``slideplan experiment closed-loop --scene square --poses 1`` (5 objects x
-  4 settings x 2 modes = 40 runs): every column of every row must be equal but the provenance and the
-  wall-clock ones (times, re-plan latencies); the simulated seconds per wall second of each build, per
+  4 settings x 2 modes = 40 runs): paired by object, table, pose, setting and mode, every column of every row
+  must be equal but the provenance, the task id (it hashes the whole configuration) and the wall-clock ones
+  (times, re-plan latencies); the simulated seconds per wall second of each build, per
   mode, are reported (medians, p10 and p90 over every pass), measured in this run with the other core
   idle, in passes whose order alternates (older first, then this build first) so that a drift in the
   machine's speed falls on both.
@@ -72,8 +74,14 @@ def compare_plans(before: str, work: Path) -> list[str]:
             if done.returncode not in (0, 1):
                 raise SystemExit(f"{label}: slideplan plan {' '.join(arguments)} failed: {done.stderr}")
             plans.append(behaviour(json.loads(out.read_text())))
+        # Parameters the older build did not have are compared by the plan they make, not by their presence.
+        added = sorted(set(plans[1]["params"]) - set(plans[0]["params"]))
+        for name in added:
+            plans[1]["params"].pop(name)
+            plans[1]["params"].get("sources", {}).pop(name, None)
         same = plans[0] == plans[1]
-        lines.append(f"| `slideplan plan {' '.join(arguments)}` | {plans[1]['status']} | {'identical' if same else 'DIFFERENT'} |")
+        note = f" (new parameters: {', '.join(added)})" if added else ""
+        lines.append(f"| `slideplan plan {' '.join(arguments)}` | {plans[1]['status']} | {'identical' if same else 'DIFFERENT'}{note} |")
     return lines
 
 
@@ -113,8 +121,10 @@ def main() -> None:
             order = builds if index % 2 == 0 else builds[::-1]
             passes.append({label: subset_rows(path, work / f"pass{index}" / label) for label, path in order})
         rows = passes[0]
-    key = ["task_id", "setting", "mode"]
-    columns = sorted(set(rows["after"].columns) - NOT_BEHAVIOUR - {"sim_time_s"} - {c for c in rows["after"] if c.endswith("_wall_s")})
+    # A task's id hashes the planner's whole configuration, so a new parameter changes it: runs pair by task.
+    key = ["object", "scene", "pose_index", "setting", "mode"]
+    columns = sorted(set(rows["after"].columns) - NOT_BEHAVIOUR - {"sim_time_s", "task_id"}
+                     - {c for c in rows["after"] if c.endswith("_wall_s")})
     left, right = (rows[label].sort_values(key).reset_index(drop=True)[columns] for label in ("before", "after"))
     differing = [column for column in columns if column not in left or not left[column].equals(right[column])]
     differing += [f"pass {index}: {column}" for index, run in enumerate(passes[1:], 1) for column in columns
