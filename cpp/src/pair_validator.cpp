@@ -112,7 +112,8 @@ namespace slideplan
             const Eigen::Vector2d moved = move * points.row(i).transpose();
             if (table.contains(moved))
             {
-                supported.push_back(moved);
+                if (params_.supportHull)  // only the support rule asks for the points the table bears
+                    supported.push_back(moved);
                 continue;
             }
             const double w = exact ? 1.0 : task_->footprintWeight(i);
@@ -169,14 +170,11 @@ namespace slideplan
 
     HoldEstimate PairValidator::hold(const Overhang &overhang) const
     {
-        const Eigen::Isometry2d move = overhang.motion.transform();
-        PlateRegion moved = plate_;
-        for (auto &triangle : moved.triangles)
-            for (Eigen::Vector2d &corner : triangle)
-                corner = move * corner;
+        // Judged where the object lay (the grasp carried back by the motion): the plate is not copied and moved.
+        const Eigen::Isometry2d back = overhang.motion.transform().inverse();
         const Eigen::Vector2d &outward = overhang.edge.outwardNormal;
-        return estimateHold(moved, overhang.motion.apply(task_->objectCom), task_->thickness(), overhang.graspPoint,
-                            (overhang.graspPoint - overhang.edge.closest).dot(outward), outward, params_);
+        return estimateHold(plate_, task_->objectCom, task_->thickness(), back * overhang.graspPoint,
+                            (overhang.graspPoint - overhang.edge.closest).dot(outward), back.linear() * outward, params_);
     }
 
     bool PairValidator::graspable(const Overhang &overhang) const
