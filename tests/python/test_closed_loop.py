@@ -18,7 +18,7 @@ from slideplan.world.objects import load_object
 from slideplan.sim.rendering import Box, depth_image, noisy_depth, place_objects, scene_spec
 from slideplan.perception.tracking import Tracker
 from slideplan.transforms import row_to_pose, wrap_angle
-from slideplan.transforms import planar_motion
+from slideplan.transforms import move_planar, planar_motion
 from slideplan.loop.watch import Watch
 
 DEMO = ("square", "crescent", (0.55, -0.08, 0.4))
@@ -568,3 +568,42 @@ def test_the_ls_grasp_lifts_once_its_centre_of_mass_stays_on_what_the_table_bear
     rules_on = PlannerConfig.for_scene(scene, seed=seed, support_hull=True, grasp_model=True)
     held = run(scene, "L", pose, seed=seed, closed=False, config=rules_on)
     assert held.success, held.summary()
+
+
+def test_a_pose_seen_a_few_millimetres_off_the_pressing_finger_is_moved_under_it():
+    # The tracker takes a fit with the fingertip up to INLIER_M outside the object's hull, and the camera's
+    # mounting error moves every fit; a re-plan from such a pose was refused as not starting on the
+    # object. The finger presses on it: the pose is moved onto the finger, by the least shift.
+    from slideplan.checks.verify import start_contact
+    from slideplan.loop.watch import FINGER_SNAP_M
+    from slideplan.perception.tracking import INLIER_M
+
+    scene = load_scene("square")
+    for name in ("square", "crescent"):
+        obj = load_object(name, table_height=scene.table.height, pose=(0.5, 0.0, 0.3))
+        watch = Watch(scene, obj, PlannerConfig.for_scene(scene), default_camera(scene), (0.003, 0.035), 1.0)
+        hull = shapely.MultiPoint(obj.points[:, :2]).convex_hull
+        centre = np.asarray(hull.centroid.coords[0])
+        edge = obj.points[np.argmax(np.linalg.norm(obj.points[:, :2] - centre, axis=1)), :2]  # a hull vertex
+        outward = (edge - centre) / np.linalg.norm(edge - centre)  # beyond it: off the hull, this far off the object
+        seen = (0.004, -0.002, 0.05)  # the fit: a few millimetres and degrees off the perceived pose
+        moved = obj.moved(seen)
+        seen_edge = move_planar(edge, seen)
+        seen_outward = outward @ np.array([[math.cos(0.05), math.sin(0.05)], [-math.sin(0.05), math.cos(0.05)]])
+        for outside, snapped in ((0.5 * INLIER_M, True), (0.9 * INLIER_M, True), (2 * INLIER_M, False)):
+            tip = np.eye(4)
+            tip[:2, 3] = seen_edge + outside * seen_outward
+            assert not shapely.MultiPoint(moved.points[:, :2]).convex_hull.contains(shapely.Point(tip[:2, 3]))
+            now = watch.on_finger(seen, tip)
+            if not snapped:  # pushed from under the finger: left for a new contact
+                assert now == seen
+                continue
+            assert now[2] == seen[2] and 0 < np.hypot(now[0] - seen[0], now[1] - seen[1]) <= FINGER_SNAP_M
+            under = obj.moved(now).points[:, :2]
+            assert shapely.MultiPoint(under).convex_hull.contains(shapely.Point(tip[:2, 3]))  # the planner's test
+            gap, tolerance = start_contact(under, tip[:2, 3])  # the verifier's
+            assert gap <= tolerance
+        deepest = obj.points[np.argmax(shapely.distance(hull.exterior, shapely.points(obj.points[:, :2]))), :2]
+        inside = np.eye(4)
+        inside[:2, 3] = move_planar(deepest, seen)  # on one of its points, deep inside its hull
+        assert watch.on_finger(seen, inside) == seen  # already on it: unchanged

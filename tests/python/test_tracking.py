@@ -129,6 +129,16 @@ def test_a_fit_must_put_the_object_under_the_fingertip(square):
     assert on.ok and np.allclose(on.motion, free.motion)
     off = tracker.track(depth, contact=obj.centroid_xy + (0.2, 0.0))
     assert not off.ok and "fingertip" in off.reason
+    # Inside the L's convex hull but in its corner, off its material: the finger would press on the table.
+    import shapely
+
+    hull = obj.outline.convex_hull
+    grid = np.stack(np.meshgrid(*(np.linspace(low, high, 60) for low, high in zip(hull.bounds[:2], hull.bounds[2:]))), -1).reshape(-1, 2)
+    grid = grid[shapely.contains_xy(hull.buffer(-0.002), grid[:, 0], grid[:, 1])]
+    corner = grid[np.argmax(shapely.distance(obj.outline, shapely.points(grid)))]
+    assert obj.outline.distance(shapely.Point(corner)) > 0.01
+    bite = tracker.track(depth, contact=corner)
+    assert not bite.ok and "fingertip" in bite.reason
 
 
 def test_a_straight_edge_alone_does_not_fix_the_pose(square):

@@ -188,9 +188,10 @@ def check_names(result: PlanResult, robot) -> list[str]:
     return violations
 
 
-def _start_contact_violations(cloud_xy: np.ndarray, tip_xy: np.ndarray) -> list[str]:
-    """Eq. 3: the slide starts with the fingertip on the object (within the cloud's own point spacing
-    of one of its points), or nothing is pushed."""
+def start_contact(cloud_xy: np.ndarray, tip_xy: np.ndarray) -> tuple[float, float]:
+    """Eq. 3's test of a slide's first contact: ``(gap, tolerance)``, the fingertip's distance to the
+    cloud's nearest point and the cloud's own point spacing (at least 1 mm); the slide starts on the object
+    when ``gap <= tolerance``. The closed loop asks it too, before it plans from where the finger presses."""
     tree = shapely.STRtree(shapely.points(cloud_xy))
     # Each point's nearest other point (exclusive: not itself, nor its duplicates); of a dense cloud, every
     # k-th point's (200,000 points took 2.2 s, most of verifying the plan; the median of 2,000 is as good).
@@ -199,10 +200,17 @@ def _start_contact_violations(cloud_xy: np.ndarray, tip_xy: np.ndarray) -> list[
     ordered = np.sort(nearest)  # its median; np.median would import numpy.ma (16 ms of every CLI plan)
     spacing = 0.5 * float(ordered[(len(ordered) - 1) // 2] + ordered[len(ordered) // 2]) if len(ordered) else 0.0
     gap = float(tree.query_nearest(shapely.Point(tip_xy), return_distance=True, all_matches=False)[1][0])
-    if gap <= max(spacing, 1e-3):
+    return gap, max(spacing, 1e-3)
+
+
+def _start_contact_violations(cloud_xy: np.ndarray, tip_xy: np.ndarray) -> list[str]:
+    """Eq. 3: the slide starts with the fingertip on the object (within the cloud's own point spacing
+    of one of its points), or nothing is pushed."""
+    gap, tolerance = start_contact(cloud_xy, tip_xy)
+    if gap <= tolerance:
         return []
     return [f"trajectory[0]: the fingertip is {gap:.4f} m from the nearest point of the object (point spacing "
-            f"{spacing:.4f} m): the slide does not start on the object"]
+            f"{tolerance:.4f} m): the slide does not start on the object"]
 
 
 def check_sliding_path(result: PlanResult, world: PlanWorld) -> list[str]:

@@ -245,7 +245,8 @@ class SlideLoop:
                 arm.stop(stop)
             lifted, trigger = (self.clear_way(segment.result, end_config, predicted), "blind") if blind else (None, "clear")
             if lifted is None:
-                again, event, seen = watch.replan("end", arm.clock(), arm.frames(), predicted, end_config)
+                again, event, seen = watch.replan("end", arm.clock(), arm.frames(), predicted, end_config,
+                                                  tip=np.asarray(robot.fk(end_config)))
                 arm.record(event)
                 lifted = self.clear_way(segment.result, end_config, predicted) if event.outcome == "lost" else None
             if lifted is not None:  # the arm hides the object: the finger moves clear, looks and comes back

@@ -25,16 +25,19 @@ from ..world.geometry import Ending, support_margin
 from ..plan.motions import plan_times, rest_to_rest
 from ..world.objects import ThinObject
 from ..checks.pipeline import plan_checked
+from ..checks.verify import start_contact
 from ..plan.config import PlannerConfig
 from ..plan.result import PlanResult
 from ..world.scenes import Scene
-from ..perception.tracking import NOT_UNDER_TIP, Tracker
-from ..transforms import compose_planar, move_planar, planar_motion, pose_to_row, row_to_pose, wrap_angle
+from ..perception.tracking import INLIER_M, NOT_UNDER_TIP, Tracker
+from ..transforms import compose_planar, move_planar, planar_motion, pose_to_row, rotation_2d, row_to_pose, wrap_angle
 
 CONFIRM = 2  # looks in a row off the predicted pose, agreeing with each other, that make a drift
 AGREE = 3.0  # two looks agree within this many thresholds
 END_LOOKS = 4  # frames at most at the end of a slide for two in a row that agree
 OBSTACLE_MARGIN = 0.01  # a search of the table keeps this far from an obstacle's footprint (its sides, depth noise)
+FINGER_SNAP_M = 0.01  # the pressing finger moves a seen pose at most this far onto itself (Watch.on_finger)
+START_INSIDE_M = 0.001  # ... onto a point of the object this far inside its hull (the planner's start test)
 
 
 @dataclass
@@ -167,6 +170,12 @@ class Watch:
         self.free_table = scene.table.polygon if obstacles is None else scene.table.polygon.difference(
             obstacles.buffer(OBSTACLE_MARGIN))
         perceived.symmetry_turns  # computed once, before the first look's latency
+        points = np.asarray(perceived.points, dtype=float)[:, :2]
+        # The planner's start test, in the perceived frame: inside the hull of the points, here with a margin.
+        self._start_region = shapely.MultiPoint(points).convex_hull.buffer(-START_INSIDE_M)
+        shapely.prepare(self._start_region)
+        inner = shapely.contains_xy(self._start_region, points[:, 0], points[:, 1])
+        self._starts = points[inner] if inner.any() else points  # what a snapped fingertip may rest on
         self.looks = self.lost_looks = self.kept = 0
         self._last: tuple | None = None  # (motion seen, fingertip pose then) of the last look that found the object
         self._beyond: list = []  # (pose seen, fingertip pose, frame) of the looks in a row off the predicted pose
@@ -190,6 +199,31 @@ class Watch:
     def carried_last(self, tip: np.ndarray):
         """The pose last seen, carried by the fingertip's motion since (Eq. 2), or None."""
         return None if self._last is None else self.carried(*self._last, tip)
+
+    def on_finger(self, motion, tip: np.ndarray):
+        """The seen pose ``motion`` with the object under the pressing fingertip at ``tip`` (4, 4) as a
+        re-plan's start needs it: inside the hull of its points (the planner's test) and near one of them
+        (the verifier's, :func:`~slideplan.checks.verify.start_contact`). The finger presses on the object
+        where the tracker's fit has it a few millimetres off (its scatter, the camera's mounting error),
+        and every re-plan from there was refused as not starting on the object. Moved by the least shift onto a point of the object ``START_INSIDE_M`` inside its
+        hull; unchanged when the tip already is on it, when it lies further than ``INLIER_M`` off the
+        object's outline (the tracker's own test: the object pushed from under the finger, for a new contact), or
+        when the shift would exceed ``FINGER_SNAP_M``."""
+        x, y, yaw = (float(value) for value in motion)
+        local = (np.asarray(tip, dtype=float)[:2, 3] - (x, y)) @ rotation_2d(yaw)  # R^T (tip - t)
+        point = shapely.Point(local)
+        if self.tracker.outline.distance(point) > INLIER_M:
+            return motion
+        if self._start_region.contains(point):
+            gap, tolerance = start_contact(np.asarray(self.perceived.points)[:, :2], local)
+            if gap <= tolerance:
+                return motion
+        offsets = np.linalg.norm(self._starts - local, axis=1)
+        nearest = int(np.argmin(offsets))
+        if offsets[nearest] > FINGER_SNAP_M:
+            return motion
+        shift = (local - self._starts[nearest]) @ rotation_2d(yaw).T  # R (local - q): the world shift
+        return (x + float(shift[0]), y + float(shift[1]), yaw)
 
     def look(self, frame: np.ndarray, tip: np.ndarray, predicted, *, under_tip: bool = True) -> Any:
         """Track the object in ``frame`` (a depth image) with the fingertip measured at ``tip`` (4, 4), from
@@ -275,6 +309,9 @@ class Watch:
             frames: gives the next ``(depth, measured fingertip pose)``.
             predicted: where Eq. 2 puts the object now (motion from its perceived pose).
             start_config: the arm's configuration to plan from.
+            tip: where the fingertip presses on the object (4, 4) during the slide, or where it stopped
+                and comes back to after a look from clear: the pose seen is moved under it
+                (:meth:`on_finger`) but after a ``"search"``; None: not moved.
             start_tip: its fingertip pose when it is later than the look's (``tip``): a moving arm goes
                 on while the loop plans, and the object as seen is carried there by Eq. 2; None: the same.
 
@@ -299,6 +336,8 @@ class Watch:
         error_m, error_yaw = self.error(seen.motion, predicted)
         event = Replan(elapsed, trigger, error_m, math.degrees(error_yaw), tracked - started - sensed[0], 0.0, "lost",
                        seen.reason, sensed[0], list(range(first_frame, self.looks)))
+        if seen.ok and tip is not None and trigger != "search":  # the finger presses there, or comes back to
+            seen = dataclasses.replace(seen, motion=self.on_finger(seen.motion, tip))
         if trigger == "blind" and (not seen.ok or segment.still_works(self.perceived, self.scene.table, self.replan_config, tip,
                                                                       seen.motion)):
             # On track, or not seen even from above: the rest of the slide goes on as it would have.

@@ -112,7 +112,8 @@ class Tracker:
         self.table_plane = None if table_plane is None else as_numbers(table_plane, 3, source="", field="table_plane")
         # Concave, unlike symmetry_turns' convex hull: a crescent's convex hull covers its bite, where the camera sees table.
         outline = obj.outline if obj.outline is not None else _cloud_outline(obj.points[:, :2])
-        self._hull = outline.convex_hull  # where a start contact may be (the planner's test)
+        self.outline = outline  # where the pressing finger may be: on the material, not in a crescent's bite
+        shapely.prepare(self.outline)
         interior = outline.buffer(-INLIER_M)
         self._interior_outline = outline if interior.is_empty else interior  # a strip under 6 mm wide: all of it
         shapely.prepare(self._interior_outline)
@@ -263,12 +264,13 @@ class Tracker:
         return TrackedPose(True, (float(motion[0]), float(motion[1]), wrap_angle(float(motion[2]))), inliers, rmse)
 
     def _holds(self, motion: np.ndarray, contact) -> bool:
-        """Whether the outline's convex hull at ``motion`` covers ``contact`` (within ``INLIER_M``), as the
-        planner requires of a start contact; True without one."""
+        """Whether the outline at ``motion`` covers ``contact`` (within ``INLIER_M``): the finger presses
+        on the object's material (the planner draws its contacts from the object's points), so a fit with
+        the fingertip in a concave bite is a wrong one; True without one."""
         if contact is None:
             return True
         local = (np.asarray(contact, dtype=float) - motion[:2]) @ rotation_2d(motion[2])
-        return self._hull.distance(shapely.Point(local)) <= INLIER_M
+        return self.outline.distance(shapely.Point(local)) <= INLIER_M
 
     def _interior(self, motion: np.ndarray, inside: np.ndarray, table: np.ndarray) -> tuple[int, float]:
         """The object pixels inside the outline at ``motion`` (``INLIER_M`` in from its edge), and the
