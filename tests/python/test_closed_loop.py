@@ -571,9 +571,10 @@ def test_the_ls_grasp_lifts_once_its_centre_of_mass_stays_on_what_the_table_bear
 
 
 def test_a_pose_seen_a_few_millimetres_off_the_pressing_finger_is_moved_under_it():
-    # The tracker takes a fit with the fingertip up to INLIER_M outside the object's hull, and the camera's
+    # The tracker takes a fit with the fingertip up to INLIER_M outside the object's outline, and the camera's
     # mounting error moves every fit; a re-plan from such a pose was refused as not starting on the
-    # object. The finger presses on it: the pose is moved onto the finger, by the least shift.
+    # object. The finger presses on it: the pose is moved onto the finger, by the least shift; a finger
+    # further off than FINGER_SNAP_M is not on the object (pushed from under it) and the pose stays.
     from slideplan.checks.verify import start_contact
     from slideplan.loop.watch import FINGER_SNAP_M
     from slideplan.perception.tracking import INLIER_M
@@ -590,7 +591,7 @@ def test_a_pose_seen_a_few_millimetres_off_the_pressing_finger_is_moved_under_it
         moved = obj.moved(seen)
         seen_edge = move_planar(edge, seen)
         seen_outward = outward @ np.array([[math.cos(0.05), math.sin(0.05)], [-math.sin(0.05), math.cos(0.05)]])
-        for outside, snapped in ((0.5 * INLIER_M, True), (0.9 * INLIER_M, True), (2 * INLIER_M, False)):
+        for outside, snapped in ((0.5 * INLIER_M, True), (2 * INLIER_M, True), (FINGER_SNAP_M + 0.002, False)):
             tip = np.eye(4)
             tip[:2, 3] = seen_edge + outside * seen_outward
             assert not shapely.MultiPoint(moved.points[:, :2]).convex_hull.contains(shapely.Point(tip[:2, 3]))
@@ -607,3 +608,18 @@ def test_a_pose_seen_a_few_millimetres_off_the_pressing_finger_is_moved_under_it
         inside = np.eye(4)
         inside[:2, 3] = move_planar(deepest, seen)  # on one of its points, deep inside its hull
         assert watch.on_finger(seen, inside) == seen  # already on it: unchanged
+
+
+def test_after_a_slip_plans_press_in_the_deepest_quarter_of_the_band_then_from_another_contact():
+    scene = load_scene("square")
+    obj = load_object("square", table_height=scene.table.height, pose=(0.5, 0.0, 0.0))
+    config = PlannerConfig.for_scene(scene).resolved(scene)
+    watch = Watch(scene, obj, config, default_camera(scene), (0.003, 0.035), 1.0)
+    low, high, seed = watch.replan_config.dz_min, watch.replan_config.dz_max, watch.replan_config.seed
+    assert low < high
+    assert watch.press_deeper()
+    assert watch.replan_config.dz_min == pytest.approx(high - (high - low) / 4) and watch.replan_config.dz_max == high
+    assert watch.replan_config.seed == seed
+    assert not watch.press_deeper()  # as deep as it goes, and no other contact asked for
+    assert watch.press_deeper(another=True) and watch.replan_config.seed == seed + 1
+    assert watch.replan_config.dz_min == pytest.approx(high - (high - low) / 4)

@@ -16,7 +16,7 @@ from .stats import wilson_interval
 # eval: the former held-out set, spent, worked on as dev; eval2: held out; clutter: among obstacles, nominal only.
 SETS = ("dev", "eval", "eval2", "clutter")
 STAGES = ("plan", "slide", "release", "grasp", "hold", "simulation")  # ClosedLoopRun.failed_stage
-STOPS = ("no_progress", "replan_cap", "time_cap")  # ClosedLoopRun.slide_stop, "+"-joined
+STOPS = ("no_progress", "replan_cap", "time_cap", "slip")  # ClosedLoopRun.slide_stop, "+"-joined
 
 
 def _table(header: list[str], rows: list[list[str]]) -> str:

@@ -34,6 +34,9 @@ SIGHT_RADIUS_M = 0.005  # each a capsule of this radius (CollisionWorld.hidden_l
 HIDDEN_SHARE = 0.25  # a pose that hides at most this share of them shows the tracker enough of the object
 SET_DOWN_TRIES = 8  # points of an object over an edge tried for the finger's new contact, nearest its centre first
 BLIND_S = 1.0  # a slide no look has seen the object in for this long stops, and the finger rises clear to look
+SLIP_ANSWERS = 2  # slides stopped for no progress answered (pressed deeper, then from another contact too) before a slip ends the run
+SLIP_FAILURE = ("slip: the finger travelled on and the object did not, though pressed deeper and from another "
+                "contact")  # a run's failure then (no grasp), in simulation and on the ROS node alike
 
 
 class Unseen:
@@ -157,15 +160,16 @@ class SlideLoop:
     Attributes:
         replans: new plans followed.
         stops: the bounds met (:mod:`slideplan.loop.bounds`), each once, in order: ``"no_progress"``,
-            ``"replan_cap"``, ``"time_cap"``; :attr:`stopped` joins them with ``+`` ("" for none).
+            ``"replan_cap"``, ``"time_cap"``, and ``"slip"`` (no progress after :data:`SLIP_ANSWERS`
+            answers: :meth:`answer_slip`); :attr:`stopped` joins them with ``+`` ("" for none).
         seen: whether the object's motion :meth:`run` returned was seen (else predicted), and
         seen_frames: the frames of the look it came from.
-        abandoned: the slide stopped for no progress and no new plan followed: no grasp is made.
+        abandoned: the run ended for a slip (``"slip"`` in :attr:`stops`): no grasp is made.
     """
 
     def __init__(self, watch: Watch | None, robot, top: float, end_replans: int, arm: Arm) -> None:
         self.watch, self.robot, self.top, self.end_replans, self.arm = watch, robot, top, end_replans, arm
-        self.replans = self.ends = self.blinds = 0
+        self.replans = self.ends = self.blinds = self.slips = 0
         self.unseen = Unseen()
         self.progress = Progress()
         self.segment: Segment | None = None
@@ -221,9 +225,9 @@ class SlideLoop:
         robot, arm, watch = self.robot, self.arm, self.watch
         segment = slide_segment(result, self.top, (0.0, 0.0, 0.0))
         self.seen, self.seen_frames = None, []
+        self.anchor(result, (0.0, 0.0, 0.0))
         while True:
             self.segment = segment
-            self.progress.reset()
             stop = arm.slide(segment, None if watch is None else self.look)
             if stop is not None and stop.plan is not None:
                 self.replans += 1
@@ -243,26 +247,26 @@ class SlideLoop:
             if stop is not None:  # blind, or no progress: the slide ends where the arm stops
                 self.blinds += blind
                 arm.stop(stop)
-            lifted, trigger = (self.clear_way(segment.result, end_config, predicted), "blind") if blind else (None, "clear")
-            if lifted is None:
-                again, event, seen = watch.replan("end", arm.clock(), arm.frames(), predicted, end_config,
-                                                  tip=np.asarray(robot.fk(end_config)))
-                arm.record(event)
-                lifted = self.clear_way(segment.result, end_config, predicted) if event.outcome == "lost" else None
-            if lifted is not None:  # the arm hides the object: the finger moves clear, looks and comes back
-                arm.move(segment.result, lifted, "clear")
-                again, event, seen = watch.replan(trigger, arm.clock(), arm.frames(), predicted, end_config,
-                                                  segment=segment, tip=np.asarray(robot.fk(end_config)))
-                arm.record(event)
-                if event.outcome == "lost" and (found := watch.locate(arm.frames(), predicted)) is not None:
-                    # Not near where it was expected even from clear (pushed away, or left behind by a pad
-                    # that slipped over it): the whole table is searched, and a new contact slides it on.
-                    searched = watch.replan("search", arm.clock(), arm.frames(), found, end_config)
-                    arm.record(searched[1])
-                    if searched[1].outcome != "lost":  # else the pose Eq. 2 predicts stays the best guess
-                        again, event, seen = searched
-                arm.move(segment.result, lifted[::-1], "clear")
-            self.unseen.update(True, arm.clock())
+            slipped, seen = stop is not None and stop.reason == "no_progress", None
+            if not slipped:
+                again, event, seen = self.look_at_end(segment, blind, end_config, predicted)
+                # Seen from clear, where the hand hid it through the slide: left behind by a pad that slipped.
+                if seen.ok and self.progress.update(np.asarray(robot.fk(end_config))[:2, 3], seen.motion):
+                    self._met("no_progress")
+                    slipped = True
+            if slipped:
+                fresh, motion = self.answer_slip(end_config, predicted, None if seen is None else seen.motion)
+                if fresh is None:  # nothing moved the object: no grasp
+                    self._met("slip")
+                    self.abandoned, self.seen, self.seen_frames = True, None, []
+                    return segment.result, predicted
+                self.replans += 1
+                arm.replanned("slip", "grasp" if len(fresh.trajectory) == 1 else "slide", self.replans)
+                self.seen = True
+                if len(fresh.trajectory) == 1:
+                    return fresh, motion
+                segment = slide_segment(fresh, self.top, motion)
+                continue
             outcome = event.outcome
             if again is None and outcome == "refused" and self.ends < self.end_replans:
                 again, outcome = self.new_contact(seen.motion, end_config), "new_contact"  # pushed from under the finger
@@ -270,9 +274,7 @@ class SlideLoop:
             if blind and not replanned:  # on track, not seen or no new plan: the rest of the slide, from rest
                 again = segment.rest(robot, end_s, end_config)
             self.seen, self.seen_frames = bool(seen.ok), event.frames
-            if again is None or self.ends >= self.end_replans:
-                # Its own grasp, from where Eq. 2 put the object; none after no progress (the arm is mid-slide).
-                self.abandoned = stop is not None and stop.reason == "no_progress"
+            if again is None or self.ends >= self.end_replans:  # its own grasp, from where Eq. 2 put the object
                 return segment.result, seen.motion
             if replanned:
                 self.replans += 1
@@ -281,6 +283,48 @@ class SlideLoop:
                 return again, seen.motion
             self.ends += replanned
             segment = slide_segment(again, self.top, seen.motion)
+
+    def look_at_end(self, segment: Segment, blind: bool, end_config: np.ndarray, predicted):
+        """The look where a slide ended or stopped blind, the arm at rest at ``end_config``: from there, or
+        from clear of the object where the arm hides it (and over the whole table when not found near
+        ``predicted``), the finger back at ``end_config`` after. Returns :meth:`Watch.replan`'s triple."""
+        robot, arm, watch = self.robot, self.arm, self.watch
+        lifted, trigger = (self.clear_way(segment.result, end_config, predicted), "blind") if blind else (None, "clear")
+        if lifted is None:
+            again, event, seen = watch.replan("end", arm.clock(), arm.frames(), predicted, end_config,
+                                              tip=np.asarray(robot.fk(end_config)))
+            arm.record(event)
+            lifted = self.clear_way(segment.result, end_config, predicted) if event.outcome == "lost" else None
+        if lifted is not None:  # the arm hides the object: the finger moves clear, looks and comes back
+            arm.move(segment.result, lifted, "clear")
+            again, event, seen = watch.replan(trigger, arm.clock(), arm.frames(), predicted, end_config,
+                                              segment=segment, tip=np.asarray(robot.fk(end_config)))
+            arm.record(event)
+            if event.outcome == "lost" and (found := watch.locate(arm.frames(), predicted)) is not None:
+                # Not near where it was expected even from clear (pushed away, or left behind by a pad
+                # that slipped over it): the whole table is searched, and a new contact slides it on.
+                searched = watch.replan("search", arm.clock(), arm.frames(), found, end_config)
+                arm.record(searched[1])
+                if searched[1].outcome != "lost":  # else the pose Eq. 2 predicts stays the best guess
+                    again, event, seen = searched
+            arm.move(segment.result, lifted[::-1], "clear")
+        self.unseen.update(True, arm.clock())
+        return again, event, seen
+
+    def answer_slip(self, config: np.ndarray, predicted, motion=None) -> tuple[PlanResult | None, tuple]:
+        """A slide stopped for no progress (the pad slipped over the object, or pushed it stuck fast), the
+        arm at rest at ``config``: looked at (unless seen at ``motion``), then slid anew from a new contact pressed deeper
+        (:meth:`~slideplan.loop.watch.Watch.press_deeper`), the second time from another contact too.
+        Returns the new plan followed (None after SLIP_ANSWERS answers, or when there is none: the run
+        ends for a slip) and the object's motion it was made from."""
+        self.slips += 1
+        watch = self.watch
+        if self.slips > SLIP_ANSWERS or not watch.press_deeper(another=self.slips > 1):
+            return None, predicted
+        if motion is None:
+            seen = watch.settled(self.arm.frames(), predicted)
+            motion = seen.motion if seen.ok else predicted
+        return self.new_contact(motion, config), motion
 
     def clear_way(self, result: PlanResult, config: np.ndarray, motion) -> np.ndarray | None:
         """Where the finger goes from ``config`` to look when the hand hides the object (at ``motion``) from
@@ -336,4 +380,13 @@ class SlideLoop:
         if reach is None:
             return None
         self.arm.move(fresh, reach, "reach")
+        self.anchor(fresh, motion)
         return fresh
+
+    def anchor(self, result: PlanResult, motion) -> None:
+        """Progress counted afresh from ``result``'s first contact on the object at ``motion``. It spans the
+        slides from one contact: a pad slipping over the object is seen off the plan and re-planned every
+        few looks, and a count reset by each re-plan never reached no progress; and anchored where the
+        finger came down, a slide the hand hides to its end is judged by the look from clear."""
+        self.progress.reset()
+        self.progress.update(np.asarray(result.fingertip_poses[0], dtype=float)[:2], motion)

@@ -29,7 +29,7 @@ from ..checks.verify import start_contact
 from ..plan.config import PlannerConfig
 from ..plan.result import PlanResult
 from ..world.scenes import Scene
-from ..perception.tracking import INLIER_M, NOT_UNDER_TIP, Tracker
+from ..perception.tracking import NOT_UNDER_TIP, Tracker
 from ..transforms import compose_planar, move_planar, planar_motion, pose_to_row, rotation_2d, row_to_pose, wrap_angle
 
 CONFIRM = 2  # looks in a row off the predicted pose, agreeing with each other, that make a drift
@@ -37,7 +37,9 @@ AGREE = 3.0  # two looks agree within this many thresholds
 END_LOOKS = 4  # frames at most at the end of a slide for two in a row that agree
 OBSTACLE_MARGIN = 0.01  # a search of the table keeps this far from an obstacle's footprint (its sides, depth noise)
 FINGER_SNAP_M = 0.01  # the pressing finger moves a seen pose at most this far onto itself (Watch.on_finger)
-START_INSIDE_M = 0.001  # ... onto a point of the object this far inside its hull (the planner's start test)
+START_INSIDE_M = 0.001  # ... onto the object this far inside its hull (the planner's start test)
+START_NEAR_SHARE = 0.9  # ... and this share of the verifier's tolerance from one of its points
+SLIP_DEPTH_SHARE = 4  # after a slip, plans press in the deepest quarter of the finger's contact-depth band
 
 
 @dataclass
@@ -164,6 +166,7 @@ class Watch:
                  threshold, replan_time_limit: float, table_plane=None) -> None:
         self.scene, self.perceived, self.threshold = scene, perceived, threshold
         self.replan_config = dataclasses.replace(config, time_limit_s=replan_time_limit)
+        self._band = (config.dz_min, config.dz_max)  # the finger's contact-depth band (m), before any slip
         self.tracker = Tracker(perceived, camera, table_height=scene.table.height, table_plane=table_plane)
         # The sides of an obstacle rise through the object's height: a search of the table leaves them out.
         obstacles = scene.footprints(scene.table.height + perceived.thickness + self.tracker.hand_clearance)
@@ -171,11 +174,13 @@ class Watch:
             obstacles.buffer(OBSTACLE_MARGIN))
         perceived.symmetry_turns  # computed once, before the first look's latency
         points = np.asarray(perceived.points, dtype=float)[:, :2]
-        # The planner's start test, in the perceived frame: inside the hull of the points, here with a margin.
-        self._start_region = shapely.MultiPoint(points).convex_hull.buffer(-START_INSIDE_M)
+        # Where a re-plan may start, in the perceived frame: inside the hull of the points (the planner's test)
+        # and near one of them (the verifier's), each with a margin.
+        points = np.asarray(perceived.points, dtype=float)[:, :2]
+        tolerance = start_contact(points, points[0])[1]
+        self._start_region = shapely.MultiPoint(points).convex_hull.buffer(-START_INSIDE_M).intersection(
+            shapely.MultiPoint(points).buffer(START_NEAR_SHARE * tolerance))
         shapely.prepare(self._start_region)
-        inner = shapely.contains_xy(self._start_region, points[:, 0], points[:, 1])
-        self._starts = points[inner] if inner.any() else points  # what a snapped fingertip may rest on
         self.looks = self.lost_looks = self.kept = 0
         self._last: tuple | None = None  # (motion seen, fingertip pose then) of the last look that found the object
         self._beyond: list = []  # (pose seen, fingertip pose, frame) of the looks in a row off the predicted pose
@@ -200,29 +205,38 @@ class Watch:
         """The pose last seen, carried by the fingertip's motion since (Eq. 2), or None."""
         return None if self._last is None else self.carried(*self._last, tip)
 
+    def press_deeper(self, another: bool = False) -> bool:
+        """After a slide the pad slipped through (the finger travelled on, the object did not): every plan
+        from now on presses in the deepest ``1 / SLIP_DEPTH_SHARE`` of the finger's band (more normal force
+        for the pad's friction against the table's), and ``another``: from another contact (a new seed for
+        the planner's start). False when the band is already that deep and no other contact is asked for."""
+        config, (low, high) = self.replan_config, self._band
+        if low is None or high is None:
+            return False
+        deeper = max(config.dz_min, high - (high - low) / SLIP_DEPTH_SHARE)
+        if deeper == config.dz_min and not another:
+            return False
+        self.replan_config = dataclasses.replace(config, dz_min=deeper, seed=(config.seed + 1) % 2**64 if another else config.seed)
+        return True
+
     def on_finger(self, motion, tip: np.ndarray):
         """The seen pose ``motion`` with the object under the pressing fingertip at ``tip`` (4, 4) as a
         re-plan's start needs it: inside the hull of its points (the planner's test) and near one of them
         (the verifier's, :func:`~slideplan.checks.verify.start_contact`). The finger presses on the object
         where the tracker's fit has it a few millimetres off (its scatter, the camera's mounting error),
-        and every re-plan from there was refused as not starting on the object. Moved by the least shift onto a point of the object ``START_INSIDE_M`` inside its
-        hull; unchanged when the tip already is on it, when it lies further than ``INLIER_M`` off the
-        object's outline (the tracker's own test: the object pushed from under the finger, for a new contact), or
-        when the shift would exceed ``FINGER_SNAP_M``."""
+        and every re-plan from there was refused as not starting on the object. Moved by the least shift
+        that meets both tests with a margin (``START_INSIDE_M``, ``START_NEAR_SHARE``); unchanged when the
+        tip already is on it, or when the shift would exceed ``FINGER_SNAP_M`` (the object pushed from
+        under the finger: a new contact)."""
         x, y, yaw = (float(value) for value in motion)
         local = (np.asarray(tip, dtype=float)[:2, 3] - (x, y)) @ rotation_2d(yaw)  # R^T (tip - t)
         point = shapely.Point(local)
-        if self.tracker.outline.distance(point) > INLIER_M:
+        if self._start_region.is_empty or self._start_region.contains(point):
             return motion
-        if self._start_region.contains(point):
-            gap, tolerance = start_contact(np.asarray(self.perceived.points)[:, :2], local)
-            if gap <= tolerance:
-                return motion
-        offsets = np.linalg.norm(self._starts - local, axis=1)
-        nearest = int(np.argmin(offsets))
-        if offsets[nearest] > FINGER_SNAP_M:
+        nearest = np.asarray(shapely.shortest_line(point, self._start_region).coords[1])
+        if np.linalg.norm(local - nearest) > FINGER_SNAP_M:
             return motion
-        shift = (local - self._starts[nearest]) @ rotation_2d(yaw).T  # R (local - q): the world shift
+        shift = (local - nearest) @ rotation_2d(yaw).T  # R (local - q): the world shift
         return (x + float(shift[0]), y + float(shift[1]), yaw)
 
     def look(self, frame: np.ndarray, tip: np.ndarray, predicted, *, under_tip: bool = True) -> Any:

@@ -10,7 +10,7 @@ from typing import Callable
 import numpy as np
 
 from ..perception.camera import Camera
-from ..loop.decisions import SlideLoop, Stop
+from ..loop.decisions import SLIP_FAILURE, SlideLoop, Stop
 from ..plan.motions import reference, rest_to_rest
 from ..plan.robot import base_pose_matrix
 from ..plan.result import PlanResult
@@ -44,8 +44,7 @@ class Execution:
         node.move(names, task.reach, rest_to_rest(result.robot_model(), task.reach, result.timing["limits"], "reach", capped=False), "reach")
         result, loop, expected = self.slide(result)
         if loop.abandoned:  # as slideplan.sim.closed_loop.run judges it: no grasp of an object the finger lost
-            raise Refused("slide", "no progress: the finger travelled on and the object did not, and no new plan "
-                                   f"followed (slide_stop {loop.stopped})")
+            raise Refused("slide", f"{SLIP_FAILURE} (slide_stop {loop.stopped})")
         approach = np.asarray(result.grasp["approach"], dtype=float)
         if len(approach):
             node.move(names, approach, result.timing["approach"], "approach")

@@ -62,7 +62,7 @@ from .episode import DEPTH_DROPOUT, Episode
 from .runner import SETTLE_S, Runner, Unstable, timing_options
 from .settings import ExecutionSettings
 from .video import VIDEO_FPS
-from ..loop.decisions import SlideLoop, Stop
+from ..loop.decisions import SLIP_FAILURE, SlideLoop, Stop
 from ..plan.motions import plan_times, rest_to_rest
 from ..world.objects import ThinObject, load_object, load_outline, place_outline
 from ..plan.config import PlannerConfig
@@ -397,7 +397,7 @@ def _episode(report: dict[str, Any], first: PlanResult, loop: SlideLoop, watch: 
             seen, seen_frames, seen_motion = look.ok, list(range(first_frame, watch.looks)), look.motion
         diagnose(report, table, perceived, truth, seen_motion, seen, seen_frames, runner)
         if loop.abandoned:
-            failure = ("slide", "no progress: the finger travelled on and the object did not, and no new plan followed")
+            failure = ("slide", SLIP_FAILURE)
         else:
             report["grasp_pose"] = [float(value) for value in grasp_plan.grasp["pose"]]
             failure = runner.grasp(np.asarray(grasp_plan.grasp["approach"], dtype=float),

@@ -29,8 +29,8 @@ class ClosedLoopRun(jsontext.Document):
             true state. What the camera saw plays no part.
         mode: ``"closed"`` or ``"open"``.
         setting: one of :data:`slideplan.sim.conditions.SETTINGS`.
-        failed_stage: None, ``"plan"`` (no first plan), ``"slide"`` (stopped for no progress, and no new plan
-            followed: no grasp), ``"release"`` (the object fell off the table when the finger let go), ``"grasp"`` (not lifted), ``"hold"`` (lifted, then out of the hand or lower than
+        failed_stage: None, ``"plan"`` (no first plan), ``"slide"`` (a slip: slides stopped for no progress,
+            answered and still none, :data:`~slideplan.loop.decisions.SLIP_FAILURE`: no grasp), ``"release"`` (the object fell off the table when the finger let go), ``"grasp"`` (not lifted), ``"hold"`` (lifted, then out of the hand or lower than
             3 cm in the hold) or ``"simulation"``.
         failure: one line saying what went wrong ("" on success).
         replans: re-plans whose new plan was followed (slides and grasps from a seen pose).
@@ -54,7 +54,9 @@ class ClosedLoopRun(jsontext.Document):
         slide_stop: ``""`` or the bounds (:mod:`slideplan.loop.bounds`) the closed loop met, ``+``-joined:
             ``"no_progress"`` (a slide stopped: the finger travelled on, the object as seen did not),
             ``"replan_cap"`` or ``"time_cap"`` (no new plan after ``MAX_REPLANS`` re-plans or ``MAX_SLIDE_S``
-            of sliding: the slide followed then ends as planned, and its own grasp follows).
+            of sliding: the slide followed then ends as planned, and its own grasp follows), ``"slip"``
+            (no progress after the loop pressed deeper and slid from another contact: the run ends
+            without a grasp, a failure the report counts apart).
         slide_s: simulated time from the first slide's start to the grasp's start (s).
         draws: the physical parameters of the run (the random and hard settings' draws).
         disturbance: the push applied (``--disturb``, or the hard setting's), or None.
