@@ -4,6 +4,7 @@ the dev and eval task sets, and the report's statistics."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -258,7 +259,8 @@ def _runs(outcomes: dict[str, list[tuple[bool, bool]]]) -> pd.DataFrame:
         for index, pair in enumerate(pairs):
             for mode, ok in zip(("open", "closed"), pair):
                 rows.append({"task_id": f"t{index}", "setting": setting, "mode": mode, "success": ok,
-                             "failed_stage": None if ok else "grasp", "slide_stop": "", "build": "abc1234"})
+                             "failed_stage": None if ok else "grasp", "slide_stop": "", "build": "abc1234",
+                             "draws": json.dumps({"pad_friction": 1.0, "table_friction": 0.4})})
     return pd.DataFrame(rows)
 
 
@@ -275,8 +277,16 @@ def test_the_report_gives_wilson_intervals_and_the_exact_mcnemar_test_of_the_pai
     assert mcnemar(runs[runs["setting"] == "nominal"]) == (0, 0, 1.0)
     runs.loc[(runs["setting"] == "hard") & (runs["mode"] == "open") & (runs["task_id"] == "t0"), "slide_stop"] = \
         "no_progress+replan_cap"
+    # Task t12 (the open loop alone succeeded) drew a pad less grippy than the table: its closed run slipped.
+    slipped = (runs["setting"] == "hard") & (runs["task_id"] == "t12")
+    runs.loc[slipped, "draws"] = json.dumps({"pad_friction": 0.5, "table_friction": 0.6})
+    runs.loc[slipped & (runs["mode"] == "closed"), "slide_stop"] = "no_progress+slip"
     text = report({"dev": runs, "eval": None})
-    assert "| hard | open | 0 | 0 | 0 | 12 | 0 | 0 | 1 | 1 | 0 |" in text  # failures by stage, then the bounds met
+    assert "| hard | open | 0 | 0 | 0 | 12 | 0 | 0 | 1 | 1 | 0 | 0 |" in text  # failures by stage, then the bounds met
+    assert "| hard | closed | 0 | 0 | 0 | 1 | 0 | 0 | 1 | 0 | 0 | 1 |" in text
+    # The hard setting by friction: 17 tasks with the pad grippier than the table, one without.
+    assert "| pad > table | closed | 17 | 17 (100.0%) |" in text and "| pad <= table | closed | 1 | 0 (0.0%) | 0.0-79.3% | 1 |" in text
+    assert "| pad > table | open | 17 | 5 (29.4%) |" in text and "pad" not in text[:text.index("| hard |")]
     assert "| hard | closed | 18 | 17 (94.4%) |" in text and "| hard | open | 18 | 6 (33.3%) |" in text
     assert "**`eval`: not run yet.**" in text and "abc1234 (72 runs)" in text
     assert text.index("| nominal |") < text.index("| hard |")  # settings in their order

@@ -8,6 +8,8 @@ the world's verdict (:mod:`slideplan.checks.verdict`), the same for both modes.
 
 from __future__ import annotations
 
+import json
+
 import pandas as pd
 
 from ..sim.conditions import SETTINGS
@@ -86,6 +88,26 @@ def failure_table(runs: pd.DataFrame) -> str:
     return _table(["setting", "mode", *STAGES, *(f"stopped: {stop}" for stop in STOPS)], rows)
 
 
+def friction_table(runs: pd.DataFrame) -> str:
+    """The hard setting by its draw of the pad's friction against the table's, per mode: runs, true
+    successes, 95% Wilson interval, and runs that ended for a slip. Where the pad's friction is below the
+    table's, no normal force lets the pad carry the object."""
+    hard = runs[runs["setting"] == "hard"]
+    above = hard["draws"].map(lambda text: (lambda draws: draws["pad_friction"] > draws["table_friction"])(json.loads(text)))
+    rows = []
+    for label, side in (("pad > table", True), ("pad <= table", False)):
+        for mode in ("open", "closed"):
+            group = hard[(above == side) & (hard["mode"] == mode)]
+            if not len(group):
+                continue
+            successes = int(_ok(group).sum())
+            low, high = wilson_interval(successes, len(group))
+            slips = int(group["slide_stop"].fillna("").str.split("+").map(lambda bounds: "slip" in bounds).sum())
+            rows.append([label, mode, str(len(group)), f"{successes} ({100 * successes / len(group):.1f}%)",
+                         f"{100 * low:.1f}-{100 * high:.1f}%", str(slips)])
+    return _table(["friction", "mode", "runs", "true success", "95% Wilson interval", "ended for a slip"], rows)
+
+
 def builds(runs: pd.DataFrame) -> str:
     """The builds the rows record, with their row counts."""
     counts = runs["build"].fillna("unrecorded").astype(str).value_counts()
@@ -109,4 +131,6 @@ def report(sets: dict[str, pd.DataFrame | None]) -> str:
                      "True success (the world's verdict):", success_table(runs),
                      "Closed against open loop, paired on the same tasks and draws:", mcnemar_table(runs),
                      "Where the runs failed (stage), and runs whose sliding a bound ended:", failure_table(runs)]
+        if (runs["setting"] == "hard").any():
+            sections += ["The hard setting by the pad's friction drawn against the table's:", friction_table(runs)]
     return "\n\n".join(sections)
