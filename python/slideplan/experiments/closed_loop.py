@@ -42,7 +42,8 @@ _RUN_COLUMNS = [
     ("seen_overhang_m", pa.float64()), ("seen_com_margin_m", pa.float64()),
     ("true_overhang_m", pa.float64()), ("true_com_margin_m", pa.float64()), ("lifted", pa.bool_()),
     ("slide_stop", pa.string()), ("slide_s", pa.float64()), ("decision_frames", pa.string()),
-    ("draws", pa.string()), ("disturbance", pa.string()), ("sim_time_s", pa.float64()), ("wall_time_s", pa.float64()),
+    ("draws", pa.string()), ("disturbance", pa.string()), ("camera_estimate", pa.string()), ("camera_error", pa.string()),
+    ("sim_time_s", pa.float64()), ("wall_time_s", pa.float64()),
 ]
 CLOSED_LOOP_ROW_SCHEMA = pa.schema(
     TASK_COLUMNS
@@ -53,7 +54,8 @@ CLOSED_LOOP_ROW_SCHEMA = pa.schema(
 )
 """Columns of a task's part file: the task, its ``task_set`` (``dev`` or ``eval``), ``solved`` (every run of
 it finished), then each run's outcome (:class:`slideplan.sim.closed_loop_run.ClosedLoopRun`; ``max_latency_s`` the
-slowest re-plan; as JSON: ``draws`` the physics, ``disturbance`` the push, ``seen_frames`` the frames of the
+slowest re-plan; as JSON: ``draws`` the physics, ``disturbance`` the push, ``camera_estimate`` and
+``camera_error`` the closed loop's camera calibration and the error it left, ``seen_frames`` the frames of the
 look after the slide, ``decision_frames`` each deciding look's trigger, outcome and frames), then ``error``
 (a run that raised), then the provenance columns of :data:`slideplan.experiments.results.ROW_SCHEMA`."""
 
@@ -61,7 +63,7 @@ look after the slide, ``decision_frames`` each deciding look's trigger, outcome 
 def run_columns(report) -> dict[str, Any]:
     """A :class:`~slideplan.sim.closed_loop_run.ClosedLoopRun` as the values of :data:`_RUN_COLUMNS`."""
     outcome = dataclasses.asdict(report)
-    for name in ("draws", "disturbance", "seen_frames"):
+    for name in ("draws", "disturbance", "seen_frames", "camera_estimate", "camera_error"):
         outcome[name] = json.dumps(outcome[name], sort_keys=True)
     outcome["decision_frames"] = json.dumps([[event.trigger, event.outcome, event.frames] for event in report.events])
     latencies = [event.latency_s for event in report.events if event.outcome != "lost"]

@@ -54,6 +54,7 @@ import numpy as np
 import shapely
 
 from .._fields import as_number, as_numbers, as_seed
+from ..perception.calibration import calibrate, pose_offset
 from ..perception.camera import Camera, back_project
 from .closed_loop_run import ClosedLoopRun, diagnose, new_report
 from .conditions import Disturbance, camera_as_mounted, execution_settings, hard_push, push_candidates, setting_draws
@@ -327,18 +328,33 @@ def run(
     if disturbance is not None and disturbance.after_s > slide_s:
         raise InputError(f"{disturbance.after_s} s is after the planned slide ends ({slide_s:.2f} s)", field="--disturb")
     settings = execution_settings(setting, draws, float(first.params["dz_min"]))
-    world = Episode(first, settings, truth, mounted, depth=(camera.height, camera.width, draws["depth_noise_at_1m"]),
-                    seed=seed, video=(video, video_fps, progress), observe=observe)
-    watch = Watch(scene, perceived, config, camera, threshold, replan_time_limit, table_plane=table_plane)
+    world = Episode(first, settings, truth, mounted, believed=camera if closed else None,
+                    depth=(camera.height, camera.width, draws["depth_noise_at_1m"]), seed=seed,
+                    video=(video, video_fps, progress), observe=observe)
     push = _Push(disturbance, draws, slide_s, scene.table, world, report)
 
     world.runner.press(first.trajectory[0], segment.depths[0])
+    if closed:  # where the camera is, from the robot in view: tracked and re-planned through from here on
+        camera, table_plane = _calibrated(world, camera, mounted, scene.table.height, table_plane, report)
+    watch = Watch(scene, perceived, config, camera, threshold, replan_time_limit, table_plane=table_plane)
     loop = SlideLoop(watch if closed else None, world.robot, top, end_replans,
                      _Simulated(world.runner, world.robot, settings, world.frames, report["events"], replan_period, push,
                                 world.recorder.mark))
     _episode(report, first, loop, watch, world, scene.table, perceived, truth, settings, top)
     world.recorder.write()
     return ClosedLoopRun(**report, sim_time_s=float(world.built.data.time), wall_time_s=time.perf_counter() - wall_start)
+
+
+def _calibrated(world: Episode, camera: Camera, mounted: Camera, table_height: float, table_plane,
+                report: dict[str, Any]) -> tuple[Camera, tuple[float, float, float]]:
+    """The camera where the robot in the next frame puts it, and the table plane as read through it; the
+    estimate and the error left into the report. Unchanged when the frame shows too little of the robot."""
+    fix = calibrate(world.frames()[0], world.robot_view(), camera, table_height)
+    if fix is not None:
+        report["camera_estimate"] = pose_offset(camera, fix.corrected(camera))
+        camera, table_plane = fix.corrected(camera), fix.plane(table_plane)
+    report["camera_error"] = pose_offset(camera, mounted)
+    return camera, table_plane
 
 
 def _checked_arguments(pose, replan_period: float, replan_time_limit: float, threshold,

@@ -59,6 +59,11 @@ class ClosedLoopRun(jsontext.Document):
             without a grasp, a failure the report counts apart).
         slide_s: simulated time from the first slide's start to the grasp's start (s).
         draws: the physical parameters of the run (the random and hard settings' draws).
+        camera_estimate: the closed loop's estimate of the depth camera's mounting error, found from the
+            robot in its first frame (:mod:`slideplan.perception.calibration`), as the hard setting draws it
+            (``dx_m, dy_m, dz_m, rx_deg, ry_deg, rz_deg``), or None (the open loop; a frame with too little
+            of the robot); camera_error: where the camera truly is from where the loop then puts it (the
+            same keys): the error left. The loop tracks and plans through the camera it puts there.
         disturbance: the push applied (``--disturb``, or the hard setting's), or None.
         sim_time_s, wall_time_s: simulated and wall time of the run (s).
     """
@@ -90,6 +95,8 @@ class ClosedLoopRun(jsontext.Document):
     slide_s: float
     draws: dict[str, float]
     disturbance: dict[str, float] | None
+    camera_estimate: dict[str, float] | None
+    camera_error: dict[str, float] | None
     sim_time_s: float
     wall_time_s: float
 
@@ -120,6 +127,7 @@ def new_report(mode: str, setting: str, draws: dict[str, float], disturbance: Di
         success=False, mode=mode, setting=setting, failed_stage=None, failure="", replans=0, replan_latency_s=None,
         kept=0, looks=0, lost_looks=0, events=[], seen_status=None, seen_frames=[], seen_motion=None, seen_overhang_m=None,
         seen_com_margin_m=None, true_overhang_m=None, true_com_margin_m=None, true_motion=None, grasp_pose=None, lifted=False, slide_stop="", slide_s=0.0,
+        camera_estimate=None, camera_error=None,
         draws=draws, disturbance=None if disturbance is None else dataclasses.asdict(disturbance),
     )
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..plan.robot import build_robot
-from .model import DEPTH_CAMERA, build_model
+from .model import BELIEVED_CAMERA, DEPTH_CAMERA, build_model
 from .rendering import camera_depth, noisy_depth
 from .runner import Runner
 from .settings import ExecutionSettings
@@ -28,6 +28,7 @@ class Episode:
         settings: the physics.
         truth: the object as it truly lies (a :class:`~slideplan.world.objects.ThinObject`).
         mounted: the depth camera where it really is (the model's camera ``depth``).
+        believed: where the loop believes that camera is, for :meth:`robot_view`, or None.
         depth: ``(height, width, noise at 1 m)`` of the depth frames :meth:`frames` renders, or None for none.
         seed: seeds the depth noise.
         video: (path or None, frames per simulated second, progress callback or None).
@@ -35,12 +36,12 @@ class Episode:
             every step (a demonstration's frames), or None.
     """
 
-    def __init__(self, source, settings: ExecutionSettings, truth, mounted, *, depth: tuple | None = None, seed: int = 0,
-                 video: tuple = (None, VIDEO_FPS, None), observe=None) -> None:
+    def __init__(self, source, settings: ExecutionSettings, truth, mounted, *, believed=None, depth: tuple | None = None,
+                 seed: int = 0, video: tuple = (None, VIDEO_FPS, None), observe=None) -> None:
         import mujoco
 
         self.settings = settings
-        self.built = build_model(source, settings, world_object=truth, camera=mounted)
+        self.built = build_model(source, settings, world_object=truth, camera=mounted, believed=believed)
         self.depth_renderer = None
         if depth is not None:
             height, width, self.depth_noise = depth
@@ -64,6 +65,26 @@ class Episode:
         frame = noisy_depth(camera_depth(self.depth_renderer, model, data, DEPTH_CAMERA), self.depth_noise,
                             DEPTH_DROPOUT, self.noise_rng)
         return frame, np.asarray(self.robot.fk(data.qpos[self.built.arm_qpos]))
+
+    def robot_view(self) -> np.ndarray:
+        """The depth image of the robot alone (NaN elsewhere) as the believed camera would see it now: what
+        the robot should look like in :meth:`frames` if the camera were where it is believed to be."""
+        import mujoco
+
+        model, data, renderer = self.built.model, self.built.data, self.depth_renderer
+        depth = camera_depth(renderer, model, data, BELIEVED_CAMERA)
+        renderer.enable_segmentation_rendering()
+        try:
+            renderer.update_scene(data, camera=BELIEVED_CAMERA)
+            seen = renderer.render()
+        finally:  # segmentation replaced depth rendering: the frames need it back
+            renderer.disable_segmentation_rendering()
+            renderer.enable_depth_rendering()
+        joint = int(np.flatnonzero(model.jnt_qposadr == self.built.arm_qpos[0])[0])
+        root = model.body_rootid[model.jnt_bodyid[joint]]  # the robot: the world's child the arm hangs from
+        robot = np.flatnonzero(model.body_rootid[model.geom_bodyid] == root)
+        shown = (seen[..., 1] == mujoco.mjtObj.mjOBJ_GEOM) & np.isin(seen[..., 0], robot)
+        return np.where(shown, depth, np.nan)
 
     def close(self) -> None:
         self.recorder.close()

@@ -24,6 +24,7 @@ from .bodies import TABLE_THICKNESS, add_world, cloud_footprint, object_boxes
 
 MESH_SUFFIXES = (".stl", ".obj")  # what MuJoCo reads from a URDF
 DEPTH_CAMERA = "slideplan_depth"
+BELIEVED_CAMERA = "slideplan_believed"
 
 _PAD_RADIUS = 0.006
 _ARENA_BYTES = 128 << 20  # a 20 cm plate has ~500 contacts with the table; MuJoCo's default arena drops them
@@ -164,7 +165,7 @@ class Model:
 
 
 def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_object=None, camera=None,
-                contacts: ContactModel | None = None) -> Model:
+                believed=None, contacts: ContactModel | None = None) -> Model:
     """Build the MuJoCo model of a plan (the package docstring).
 
     Args:
@@ -175,6 +176,8 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
             plan's is a perception of it; None: the plan's.
         camera: a :class:`~slideplan.perception.camera.Camera` to add as the fixed camera ``slideplan_depth``
             (the closed loop's depth camera), or None.
+        believed: where the loop believes that camera is, added as ``slideplan_believed`` (what the robot
+            should look like: :mod:`slideplan.perception.calibration`), or None.
         contacts: the contact geometry and solver options (:mod:`.contacts`); None: ``contacts.ACTIVE``.
 
     Raises:
@@ -196,6 +199,8 @@ def build_model(result: PlanResult | Rig, settings: ExecutionSettings, *, world_
     kinds, limits = _gripper_joints(spec, gripper_joints, joint_names, zero.model)
     _add_actuators(spec, result.joint_names, robot["fixed_joints"], gripper_joints, kinds)
     _add_world(spec, result, settings, world_object, camera, contacts)
+    if believed is not None:
+        add_camera(spec, BELIEVED_CAMERA, believed)
     try:
         model = spec.compile()
     except ValueError as error:
