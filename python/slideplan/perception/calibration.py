@@ -1,8 +1,8 @@
 """Where the depth camera really is, found from what it sees of the robot itself: the arm's kinematics
 put the hand and the fingertip where they are, so the robot as the camera is believed to see it (rendered
 from the believed pose) and the robot as it does see it differ by the camera's mounting error. Their
-points, both read through the believed camera, are registered by trimmed point-to-point ICP (Besl &
-McKay 1992; the rigid step of Arun, Huang & Blostein 1987); the transform that carries the seen points onto
+points, both read through the believed camera, are registered by trimmed point-to-plane ICP (Chen &
+Medioni 1992: the robot's faces are mostly flat, where point-to-point ICP slides slowly); the transform that carries the seen points onto
 the expected ones carries the believed camera to where it is (:class:`CameraFix`).
 
 No physics here: the expected view comes from whoever can render the robot (in simulation,
@@ -35,7 +35,7 @@ class CameraFix:
             the point is. The camera is where ``transform`` carries the believed camera
             (:meth:`corrected`).
         points: seen robot points registered.
-        rmse_m: their root mean square distance to the expected robot after the fit.
+        rmse_m: their root mean square distance to the expected robot's surface after the fit.
     """
 
     transform: np.ndarray
@@ -88,8 +88,9 @@ def calibrate(seen: np.ndarray, expected: np.ndarray, camera: Camera, table_heig
     observed = pixel_points(np.where(near, seen, np.nan), camera).reshape(-1, 3)
     observed = observed[np.isfinite(observed).all(axis=1)]
     observed = observed[observed[:, 2] > table_height + ABOVE_TABLE_M]
-    model = back_project(expected, camera)
-    model = model[model[:, 2] > table_height + ABOVE_TABLE_M]
+    model, normals = _surface(pixel_points(expected, camera))
+    robot = model[:, 2] > table_height + ABOVE_TABLE_M
+    model, normals = model[robot], normals[robot]
     if min(len(observed), len(model)) < MIN_POINTS:
         return None
     tree, transform = cKDTree(model), np.eye(4)
@@ -97,19 +98,36 @@ def calibrate(seen: np.ndarray, expected: np.ndarray, camera: Camera, table_heig
         moved = observed @ transform[:3, :3].T + transform[:3, 3]
         distance, index = tree.query(moved)
         kept = distance <= max(TRIM * float(np.median(distance)), TRIM_FLOOR_M)
-        transform = _rigid(moved[kept], model[index[kept]]) @ transform
+        transform = _step(moved[kept], model[index[kept]], normals[index[kept]]) @ transform
     moved = observed @ transform[:3, :3].T + transform[:3, 3]
-    distance = tree.query(moved)[0]
+    distance, index = tree.query(moved)
     kept = distance <= max(TRIM * float(np.median(distance)), TRIM_FLOOR_M)
-    return CameraFix(transform, int(kept.sum()), math.sqrt(float(np.mean(distance[kept] ** 2))))
+    along = np.einsum("ij,ij->i", moved[kept] - model[index[kept]], normals[index[kept]])
+    return CameraFix(transform, int(kept.sum()), math.sqrt(float(np.mean(along ** 2))))
 
 
-def _rigid(source: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """The rigid (4, 4) transform that best carries ``source`` onto ``target`` (paired rows), least squares."""
-    source_mean, target_mean = source.mean(axis=0), target.mean(axis=0)
-    left, _, right = np.linalg.svd((source - source_mean).T @ (target - target_mean))
-    flip = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(right.T @ left.T)))])
-    rotation = right.T @ flip @ left.T
+def _surface(grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The points of an organized cloud ((rows, columns, 3), NaN for none) that have all four neighbours,
+    and their unit normals (from the neighbours' differences)."""
+    across = grid[1:-1, 2:] - grid[1:-1, :-2]
+    down = grid[2:, 1:-1] - grid[:-2, 1:-1]
+    normals = np.cross(across, down).reshape(-1, 3)
+    points = grid[1:-1, 1:-1].reshape(-1, 3)
+    with np.errstate(invalid="ignore"):
+        normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    valid = np.isfinite(points).all(axis=1) & np.isfinite(normals).all(axis=1)
+    return points[valid], normals[valid]
+
+
+def _step(source: np.ndarray, target: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """One point-to-plane ICP step (Chen & Medioni 1992, linearized in the rotation): the rigid (4, 4)
+    transform that best moves ``source`` onto the planes through ``target`` with ``normals`` (paired rows)."""
+    from scipy.spatial.transform import Rotation
+
+    rows = np.hstack([np.cross(source, normals), normals])
+    residual = np.einsum("ij,ij->i", target - source, normals)
+    solution = np.linalg.lstsq(rows, residual, rcond=None)[0]
     transform = np.eye(4)
-    transform[:3, :3], transform[:3, 3] = rotation, target_mean - rotation @ source_mean
+    transform[:3, :3] = Rotation.from_rotvec(solution[:3]).as_matrix()
+    transform[:3, 3] = solution[3:]
     return transform
