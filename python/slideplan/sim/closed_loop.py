@@ -54,7 +54,8 @@ import numpy as np
 import shapely
 
 from .._fields import as_number, as_numbers, as_seed
-from ..perception.calibration import calibrate, pose_offset
+from ..perception.calibration import pose_offset
+from .calibration import episode_fix, first_fix
 from ..perception.camera import Camera, back_project
 from .closed_loop_run import ClosedLoopRun, diagnose, new_report
 from .conditions import Disturbance, camera_as_mounted, execution_settings, hard_push, push_candidates, setting_draws
@@ -211,6 +212,9 @@ class Start:
         truth, perceived: the object as it is, and as perceived.
         table_plane: the table plane perception fitted.
         camera, mounted: where the camera is believed to be, and where it is.
+        seen_through: where the camera was put by the arm seen before the plan
+            (:func:`~slideplan.sim.calibration.first_fix`, with ``calibrate``), the camera the object was
+            perceived through; ``camera`` itself without.
         config: the planner's parameters.
         first: the first plan (None if unsolved).
         unsolved: why there is no first plan (an object perceived over an edge, no plan found), or None.
@@ -222,14 +226,16 @@ class Start:
     table_plane: tuple[float, float, float]
     camera: Camera
     mounted: Camera
+    seen_through: Camera
     config: PlannerConfig
     first: PlanResult | None
     unsolved: str | None
 
     @classmethod
     def of(cls, scene: Scene, object_name, pose, *, seed: int, setting: str, config: PlannerConfig | None = None,
-           camera: Camera | None = None) -> Start:
-        """Perceive and plan for an object at ``pose`` (arguments as :func:`run`'s).
+           camera: Camera | None = None, calibrate: bool = False) -> Start:
+        """Perceive and plan for an object at ``pose`` (arguments as :func:`run`'s); ``calibrate``: through
+        the camera where the arm, held over the object first seen, puts it.
 
         Raises:
             InputError: the object is not wholly on the table, or cannot be read; an unknown setting; a seed
@@ -244,14 +250,24 @@ class Start:
             raise InputError(f"the object at {pose} is not wholly on the table", field="--pose")
         os.environ.setdefault("MUJOCO_GL", "egl")
         mounted = camera_as_mounted(camera, draws)
-        perceived, table_plane = _perceived_object(scene, object_name, camera, pose, draws["depth_noise_at_1m"], seed, mounted)
+        noise = draws["depth_noise_at_1m"]
+        perceived, table_plane = _perceived_object(scene, object_name, camera, pose, noise, seed, mounted)
+        seen_through = camera
+        if calibrate:
+            resolved = config.resolved(scene)
+            fix = first_fix(scene, truth, resolved, execution_settings(setting, draws, resolved.dz_min), camera, mounted,
+                            (camera.height, camera.width, noise), seed, perceived.centroid_xy)
+            if fix is not None:
+                seen_through = fix.corrected(camera)
+                perceived, table_plane = _perceived_object(scene, object_name, seen_through, pose, noise, seed, mounted)
         first = None
         try:  # the object as perceived (a camera mounted off moves it) may lie over an edge: a failed run, not bad input
             first = plan(scene, perceived, config)
             unsolved = None if first.solved else f"no plan for the object as perceived ({first.status})"
         except InputError as error:
             unsolved = f"no plan for the object as perceived: {error.problem}"
-        return cls(draws, truth, perceived, table_plane, camera, mounted, config, first if unsolved is None else None, unsolved)
+        return cls(draws, truth, perceived, table_plane, camera, mounted, seen_through, config,
+                   first if unsolved is None else None, unsolved)
 
 
 def run(
@@ -314,7 +330,7 @@ def run(
     pose, threshold = _checked_arguments(pose, replan_period, replan_time_limit, threshold, disturbance)
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
     camera = camera or default_camera(scene)
-    begun = Start.of(scene, object_name, pose, seed=seed, setting=setting, config=config, camera=camera)
+    begun = Start.of(scene, object_name, pose, seed=seed, setting=setting, config=config, camera=camera, calibrate=True)
     draws, truth, perceived, mounted, first = begun.draws, begun.truth, begun.perceived, begun.mounted, begun.first
     config, table_plane = begun.config, begun.table_plane
     report = new_report("closed" if closed else "open", setting, draws, disturbance)
@@ -328,33 +344,24 @@ def run(
     if disturbance is not None and disturbance.after_s > slide_s:
         raise InputError(f"{disturbance.after_s} s is after the planned slide ends ({slide_s:.2f} s)", field="--disturb")
     settings = execution_settings(setting, draws, float(first.params["dz_min"]))
-    world = Episode(first, settings, truth, mounted, believed=camera if closed else None,
+    world = Episode(first, settings, truth, mounted, believed=begun.seen_through if closed else None,
                     depth=(camera.height, camera.width, draws["depth_noise_at_1m"]), seed=seed,
                     video=(video, video_fps, progress), observe=observe)
     push = _Push(disturbance, draws, slide_s, scene.table, world, report)
 
     world.runner.press(first.trajectory[0], segment.depths[0])
+    seen_through = begun.seen_through
     if closed:  # where the camera is, from the robot in view: tracked and re-planned through from here on
-        camera, table_plane = _calibrated(world, camera, mounted, scene.table.height, table_plane, report)
-    watch = Watch(scene, perceived, config, camera, threshold, replan_time_limit, table_plane=table_plane)
+        seen_through, table_plane = episode_fix(world, seen_through, scene.table.height, table_plane)
+    report["camera_estimate"] = pose_offset(camera, seen_through)
+    report["camera_error"] = pose_offset(seen_through, mounted)
+    watch = Watch(scene, perceived, config, seen_through, threshold, replan_time_limit, table_plane=table_plane)
     loop = SlideLoop(watch if closed else None, world.robot, top, end_replans,
                      _Simulated(world.runner, world.robot, settings, world.frames, report["events"], replan_period, push,
                                 world.recorder.mark))
     _episode(report, first, loop, watch, world, scene.table, perceived, truth, settings, top)
     world.recorder.write()
     return ClosedLoopRun(**report, sim_time_s=float(world.built.data.time), wall_time_s=time.perf_counter() - wall_start)
-
-
-def _calibrated(world: Episode, camera: Camera, mounted: Camera, table_height: float, table_plane,
-                report: dict[str, Any]) -> tuple[Camera, tuple[float, float, float]]:
-    """The camera where the robot in the next frame puts it, and the table plane as read through it; the
-    estimate and the error left into the report. Unchanged when the frame shows too little of the robot."""
-    fix = calibrate(world.frames()[0], world.robot_view(), camera, table_height)
-    if fix is not None:
-        report["camera_estimate"] = pose_offset(camera, fix.corrected(camera))
-        camera, table_plane = fix.corrected(camera), fix.plane(table_plane)
-    report["camera_error"] = pose_offset(camera, mounted)
-    return camera, table_plane
 
 
 def _checked_arguments(pose, replan_period: float, replan_time_limit: float, threshold,

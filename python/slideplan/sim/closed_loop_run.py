@@ -59,11 +59,12 @@ class ClosedLoopRun(jsontext.Document):
             without a grasp, a failure the report counts apart).
         slide_s: simulated time from the first slide's start to the grasp's start (s).
         draws: the physical parameters of the run (the random and hard settings' draws).
-        camera_estimate: the closed loop's estimate of the depth camera's mounting error, found from the
-            robot in its first frame (:mod:`slideplan.perception.calibration`), as the hard setting draws it
-            (``dx_m, dy_m, dz_m, rx_deg, ry_deg, rz_deg``), or None (the open loop; a frame with too little
-            of the robot); camera_error: where the camera truly is from where the loop then puts it (the
-            same keys): the error left. The loop tracks and plans through the camera it puts there.
+        camera_estimate: where the run put the depth camera from where it was believed to be, found from the
+            robot it sees (:mod:`slideplan.sim.calibration`: the arm held over the object before the plan, and
+            for the closed loop the episode's first frame too), as the hard setting draws a mounting error
+            (``dx_m, dy_m, dz_m, rx_deg, ry_deg, rz_deg``; zero where the robot was not seen well enough);
+            camera_error: where the camera truly is from there (the same keys): the error left. The run
+            perceives, plans, tracks and re-plans through the camera it put there.
         disturbance: the push applied (``--disturb``, or the hard setting's), or None.
         sim_time_s, wall_time_s: simulated and wall time of the run (s).
     """
