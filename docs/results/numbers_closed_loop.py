@@ -17,6 +17,7 @@ LARGE_CAMERA_ERROR_M = 0.01  # a hard draw's camera offset counted as large
 
 SET_FILES = {name: f"closed_loop_{name}.parquet" for name in SETS}
 LETTERS_RERUN = "closed_loop_eval_rerun.parquet"  # the former eval set's tasks again, on a later build
+DEV_RERUN = "closed_loop_dev_rerun.parquet"  # the dev set's first 5 poses per cell again, on a later build
 
 
 def values() -> dict[str, str]:
@@ -30,6 +31,9 @@ def values() -> dict[str, str]:
             "cl53-eval-others": other_failures(eval_runs) if ran else "not run yet",
             "cl53-eval-speed": speed(eval_runs) if ran else "not run yet",
             "cl-letters-rerun": rerun_table(eval_runs, rows(LETTERS_RERUN, "runs")) if ran and (HERE / LETTERS_RERUN).exists()
+            else "not run yet",
+            "cl-dev-rerun": rerun_table(sets["dev"], rows(DEV_RERUN, "runs")) if (HERE / DEV_RERUN).exists() else "not run yet",
+            "cl-camera-calibration": calibration_table(rows(DEV_RERUN, "runs")) if (HERE / DEV_RERUN).exists()
             else "not run yet"}
 
 
@@ -42,7 +46,8 @@ def rerun_table(before, after) -> str:
     from slideplan.experiments.closed_loop_report import builds
 
     key = ["object", "scene", "pose_index", "setting", "mode"]
-    paired = before[key + ["success"]].merge(after[key + ["success"]], on=key, suffixes=("_before", "_after"))
+    before = before.merge(after[key[:3]].drop_duplicates(), on=key[:3])  # a rerun of part of the set: that part
+    paired = before[key + ["success", "draws"]].merge(after[key + ["success"]], on=key, suffixes=("_before", "_after"))
     assert len(paired) == len(before) == len(after), "the rerun's runs are not the earlier runs' tasks"
     header = (f"| setting | mode | build {builds(before)} | build {builds(after)} | only before | only after | p |")
     lines = [header, "|---|---|---|---|---|---|---|"]
@@ -52,6 +57,11 @@ def rerun_table(before, after) -> str:
         p = binomtest(only_new, only_old + only_new, 0.5).pvalue if only_old + only_new else 1.0
         lines.append(f"| {setting} | {mode} | {100 * old.mean():.1f}% | {100 * new.mean():.1f}% | {only_old} | {only_new} | "
                      f"{p:.2g} |")
+    grippy = paired["draws"].map(lambda text: (lambda draws: draws["pad_friction"] > draws["table_friction"])(json.loads(text)))
+    for mode, group in paired[(paired["setting"] == "hard") & grippy].groupby("mode", sort=False):
+        old, new = group["success_before"].fillna(False).astype(bool), group["success_after"].fillna(False).astype(bool)
+        lines.append(f"| hard, pad > table | {mode} | {100 * old.mean():.1f}% | {100 * new.mean():.1f}% | "
+                     f"{int((old & ~new).sum())} | {int((new & ~old).sum())} | |")
     by_object = paired[paired["setting"] == "nominal"].groupby("object")[["success_before", "success_after"]].mean()
     lines.append("")
     lines.append("Nominal, both modes, by object: " + ", ".join(
@@ -137,3 +147,45 @@ def speed(runs) -> str:
         parts.append(f"the {mode} loop's {len(values)} runs {values.median():.1f}x real time (p10 "
                      f"{values.quantile(0.1):.1f}x, p90 {values.quantile(0.9):.1f}x)")
     return " and ".join(parts) + f", on an {runs['cpu'].iloc[0]}"
+
+
+def calibration_table(runs) -> str:
+    """The hard setting's camera mounting error per axis, drawn and left after the run's calibration from the
+    robot (``camera_estimate``, ``camera_error``), median and 95th percentile of the absolute values over the
+    closed-loop runs, and what either moves a point of the table where the object started."""
+    from slideplan.experiments.tasks import cached_scene
+    from slideplan.sim.closed_loop import default_camera
+    from slideplan.sim.conditions import camera_as_mounted
+
+    hard = runs[(runs["setting"] == "hard") & (runs["mode"] == "closed") & runs["camera_error"].notna()]
+    drawn = hard["draws"].map(json.loads)
+    left = hard["camera_error"].map(json.loads)
+    estimate = hard["camera_estimate"].map(json.loads)
+    axes = [("dx_m", "x", 1000, "mm"), ("dy_m", "y", 1000, "mm"), ("dz_m", "z", 1000, "mm"),
+            ("rx_deg", "about x", 1, "deg"), ("ry_deg", "about y", 1, "deg"), ("rz_deg", "about z", 1, "deg")]
+    lines = ["| axis | drawn: median | drawn: p95 | left: median | left: p95 |", "|---|---|---|---|---|"]
+    for name, label, scale, unit in axes:
+        before = np.abs([draws[f"camera_{name}"] for draws in drawn]) * scale
+        after = np.abs([error[name] for error in left]) * scale
+        digits = 1 if unit == "mm" else 2
+        lines.append(f"| {label} ({unit}) | {np.median(before):.{digits}f} | {np.percentile(before, 95):.{digits}f} | "
+                     f"{np.median(after):.{digits}f} | {np.percentile(after, 95):.{digits}f} |")
+    misread = {"drawn": [], "left": []}
+    for row, draws, guess in zip(hard.itertuples(), drawn, estimate):
+        believed = default_camera(cached_scene(row.scene))
+        mounted = camera_as_mounted(believed, draws)
+        placed = camera_as_mounted(believed, {f"camera_{name}": value for name, value in guess.items()})
+        point = np.array([row.x, row.y, cached_scene(row.scene).table.height, 1.0])
+        for label, camera in (("drawn", believed), ("left", placed)):
+            read = camera.optical_pose() @ np.linalg.inv(mounted.optical_pose()) @ point
+            misread[label].append(1000 * float(np.linalg.norm(read[:3] - point[:3])))
+    lines.append(f"| a point of the table where the object started (mm) | {np.median(misread['drawn']):.1f} | "
+                 f"{np.percentile(misread['drawn'], 95):.1f} | {np.median(misread['left']):.1f} | "
+                 f"{np.percentile(misread['left'], 95):.1f} |")
+    return "\n".join(lines) + f"\n\nOver {len(hard)} closed-loop runs of the hard setting, build {_builds(hard)}."
+
+
+def _builds(runs) -> str:
+    from slideplan.experiments.closed_loop_report import builds
+
+    return builds(runs)

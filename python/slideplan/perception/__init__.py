@@ -7,7 +7,8 @@ it slides. No physics here; the simulated camera's frames come from :mod:`slidep
 - :mod:`.tabletop`: :func:`perceive`, a scene cloud to the table top and the objects on it (:class:`Perception`);
 - :mod:`.registration`: a known outline registered to a perceived object's points;
 - :mod:`.files`: a perception written as a scene file and object clouds;
-- :mod:`.tracking`: the sliding object tracked in depth frames.
+- :mod:`.tracking`: the sliding object tracked in depth frames;
+- :mod:`.calibration`: the camera's mounting error found from the robot it sees.
 """
 
 from .._moved import forwarding

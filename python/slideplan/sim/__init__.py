@@ -36,7 +36,8 @@ close the hand; lift 5 cm; hold 1 s.
 The modules: :mod:`.model` builds the MuJoCo model (the robot; :mod:`.world` the table and the object;
 :mod:`.contacts` who touches whom and the solver's options), :mod:`.runner` steps it (servoing, the slide,
 the grasp), :mod:`.replay` is :func:`execute` (open loop), :mod:`.report` and :mod:`.video` say what
-happened; :mod:`slideplan.sim.closed_loop` runs the same model and runner with a camera in the loop.
+happened; :mod:`slideplan.sim.closed_loop` runs the same model and runner with a camera in the loop,
+which :mod:`.calibration` finds from the robot it sees.
 """
 
 from .model import MESH_SUFFIXES, cloud_footprint, object_boxes
