@@ -248,9 +248,10 @@ def test_a_push_mid_slide_is_seen_re_planned_for_and_the_answer_is_true():
     looks = [status for status in client.statuses if status["phase"] == "look"]
     # Every slide ends with a look (once, in a full run, none came: the answer and phases say where it stopped).
     assert looks, (answer, [status["phase"] for status in client.statuses])
-    # Noticed: seen off the plan by about the push, or said to be lost from where it was looked for (pushed
-    # mostly off the table or out of view: docs/ros2.md counts both).
-    assert any(look["off_m"] > 0.02 or look["outcome"] == "lost" for look in looks), looks
+    # Noticed: seen off the plan by much of the push (the finger, pressing on, carries it back part of the
+    # way before the looks confirm it), or said to be lost from where it was looked for (pushed mostly off
+    # the table or out of view: docs/ros2.md counts both).
+    assert any(look["off_m"] > 0.01 or look["outcome"] == "lost" for look in looks), looks
     assert all(look["outcome"] in ("slide", "grasp", "refused", "timeout", "lost", "kept", "solved") for look in looks), looks
     assert all(look["detail"] for look in looks if look["outcome"] in ("refused", "lost")), looks  # each says why
     lifted, _ = _lifted_over_the_edge(client)
