@@ -313,14 +313,16 @@ class SlideLoop:
 
     def answer_slip(self, config: np.ndarray, predicted, motion=None) -> tuple[PlanResult | None, tuple]:
         """A slide stopped for no progress (the pad slipped over the object, or pushed it stuck fast), the
-        arm at rest at ``config``: looked at (unless seen at ``motion``), then slid anew from a new contact pressed deeper
-        (:meth:`~slideplan.loop.watch.Watch.press_deeper`), the second time from another contact too.
+        arm at rest at ``config``: looked at (unless seen at ``motion``), then slid anew from a new contact
+        pressed deeper (:meth:`~slideplan.loop.watch.Watch.press_deeper`), the second time from another
+        contact too.
         Returns the new plan followed (None after SLIP_ANSWERS answers, or when there is none: the run
         ends for a slip) and the object's motion it was made from."""
         self.slips += 1
         watch = self.watch
-        if self.slips > SLIP_ANSWERS or not watch.press_deeper(another=self.slips > 1):
+        if self.slips > SLIP_ANSWERS:
             return None, predicted
+        watch.press_deeper(another=self.slips > 1)  # already that deep: the same contact once more
         if motion is None:
             seen = watch.settled(self.arm.frames(), predicted)
             motion = seen.motion if seen.ok else predicted
