@@ -173,7 +173,6 @@ class Watch:
         self.free_table = scene.table.polygon if obstacles is None else scene.table.polygon.difference(
             obstacles.buffer(OBSTACLE_MARGIN))
         perceived.symmetry_turns  # computed once, before the first look's latency
-        points = np.asarray(perceived.points, dtype=float)[:, :2]
         # Where a re-plan may start, in the perceived frame: inside the hull of the points (the planner's test)
         # and near one of them (the verifier's), each with a margin.
         points = np.asarray(perceived.points, dtype=float)[:, :2]
@@ -216,7 +215,8 @@ class Watch:
         deeper = max(config.dz_min, high - (high - low) / SLIP_DEPTH_SHARE)
         if deeper == config.dz_min and not another:
             return False
-        self.replan_config = dataclasses.replace(config, dz_min=deeper, seed=(config.seed + 1) % 2**64 if another else config.seed)
+        seed = (config.seed + 1) % 2**64 if another else config.seed
+        self.replan_config = dataclasses.replace(config, dz_min=deeper, seed=seed)
         return True
 
     def on_finger(self, motion, tip: np.ndarray):
