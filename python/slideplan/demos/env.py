@@ -93,8 +93,9 @@ class SlideToEdgeEnv(gym.Env):
     ## Starting State
 
     ``reset(seed=s)`` draws an object (of ``objects``), a pose wholly on the table and clear of clutter, and
-    the setting's physics from ``s`` alone, perceives the object with the depth camera, plans, and presses
-    the finger at the plan's first contact: the episode a dataset calls seed ``s``. A draw that cannot be
+    the setting's physics from ``s`` alone, perceives the object with the depth camera (where the robot it
+    sees puts the camera: :mod:`slideplan.sim.calibration`), plans, and presses the finger at the plan's
+    first contact: the episode a dataset calls seed ``s``. A draw that cannot be
     planned is drawn again from the next seed (``info["redrawn"]``).
 
     ## Episode End
@@ -122,8 +123,9 @@ class SlideToEdgeEnv(gym.Env):
 
     - v0: ``pixels`` is ``{"front": RGB}`` at 256 x 256 and ``task_description`` the episode's own, as the
       datasets have them; success is the runs' verdict (3 cm, a whole hold sampled every 10 ms); releases before 0.2 judged
-      2.5 cm at each step. The id's suffix changes once the benchmark's protocol is frozen and anything that
-      changes scores changes.
+      2.5 cm at each step; the object is perceived through the camera the robot in view puts (releases
+      before 0.2 perceived through the camera where it was believed to be). The id's suffix changes once the
+      benchmark's protocol is frozen and anything that changes scores changes.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}

@@ -213,8 +213,8 @@ class Start:
         table_plane: the table plane perception fitted.
         camera, mounted: where the camera is believed to be, and where it is.
         seen_through: where the camera was put by the arm seen before the plan
-            (:func:`~slideplan.sim.calibration.first_fix`, with ``calibrate``), the camera the object was
-            perceived through; ``camera`` itself without.
+            (:func:`~slideplan.sim.calibration.first_fix`), the camera the object was perceived through
+            (``camera`` itself where the arm was not seen well enough).
         config: the planner's parameters.
         first: the first plan (None if unsolved).
         unsolved: why there is no first plan (an object perceived over an edge, no plan found), or None.
@@ -233,9 +233,9 @@ class Start:
 
     @classmethod
     def of(cls, scene: Scene, object_name, pose, *, seed: int, setting: str, config: PlannerConfig | None = None,
-           camera: Camera | None = None, calibrate: bool = False) -> Start:
-        """Perceive and plan for an object at ``pose`` (arguments as :func:`run`'s); ``calibrate``: through
-        the camera where the arm, held over the object first seen, puts it.
+           camera: Camera | None = None) -> Start:
+        """Perceive and plan for an object at ``pose`` (arguments as :func:`run`'s), through the camera where
+        the arm, held over the object first seen, puts it (:func:`~slideplan.sim.calibration.first_fix`).
 
         Raises:
             InputError: the object is not wholly on the table, or cannot be read; an unknown setting; a seed
@@ -252,14 +252,12 @@ class Start:
         mounted = camera_as_mounted(camera, draws)
         noise = draws["depth_noise_at_1m"]
         perceived, table_plane = _perceived_object(scene, object_name, camera, pose, noise, seed, mounted)
-        seen_through = camera
-        if calibrate:
-            resolved = config.resolved(scene)
-            fix = first_fix(scene, truth, resolved, execution_settings(setting, draws, resolved.dz_min), camera, mounted,
-                            (camera.height, camera.width, noise), seed, perceived.centroid_xy)
-            if fix is not None:
-                seen_through = fix.corrected(camera)
-                perceived, table_plane = _perceived_object(scene, object_name, seen_through, pose, noise, seed, mounted)
+        seen_through, resolved = camera, config.resolved(scene)
+        fix = first_fix(scene, truth, resolved, execution_settings(setting, draws, resolved.dz_min), camera, mounted,
+                        (camera.height, camera.width, noise), seed, perceived.centroid_xy)
+        if fix is not None:
+            seen_through = fix.corrected(camera)
+            perceived, table_plane = _perceived_object(scene, object_name, seen_through, pose, noise, seed, mounted)
         first = None
         try:  # the object as perceived (a camera mounted off moves it) may lie over an edge: a failed run, not bad input
             first = plan(scene, perceived, config)
@@ -330,7 +328,7 @@ def run(
     pose, threshold = _checked_arguments(pose, replan_period, replan_time_limit, threshold, disturbance)
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
     camera = camera or default_camera(scene)
-    begun = Start.of(scene, object_name, pose, seed=seed, setting=setting, config=config, camera=camera, calibrate=True)
+    begun = Start.of(scene, object_name, pose, seed=seed, setting=setting, config=config, camera=camera)
     draws, truth, perceived, mounted, first = begun.draws, begun.truth, begun.perceived, begun.mounted, begun.first
     config, table_plane = begun.config, begun.table_plane
     report = new_report("closed" if closed else "open", setting, draws, disturbance)
