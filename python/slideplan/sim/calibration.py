@@ -7,6 +7,7 @@ where the camera is believed to be (:meth:`~slideplan.sim.episode.Episode.robot_
 from __future__ import annotations
 
 import math
+
 import numpy as np
 
 from .. import _core
@@ -15,7 +16,7 @@ from ..perception.camera import Camera
 from ..plan.robot import robot_model, scene_collision_world
 from ..transforms import homogeneous
 from .episode import Episode
-from .model import Rig, set_servo_gains
+from .model import Rig
 
 HOVER_M = 0.12  # the fingertip this far above the object's top while the camera calibrates before the plan
 HOVER_YAWS = 8  # headings tried for a collision-free configuration there
@@ -53,7 +54,6 @@ def first_fix(scene, truth, config, settings, camera: Camera, mounted: Camera, d
     rig = Rig.for_scene(scene, truth, config, list(robot_model(scene).joint_names), hover)
     world = Episode(rig, settings, truth, mounted, believed=camera, depth=depth, seed=seed)
     try:
-        set_servo_gains(world.built, hover, settings)
         world.built.data.qpos[world.built.arm_qpos] = hover
         mujoco.mj_forward(world.built.model, world.built.data)
         return calibrate(world.frames()[0], world.robot_view(), camera, scene.table.height)
@@ -61,7 +61,8 @@ def first_fix(scene, truth, config, settings, camera: Camera, mounted: Camera, d
         world.close()
 
 
-def episode_fix(world: Episode, camera: Camera, table_height: float, table_plane) -> tuple[Camera, tuple[float, float, float]]:
+def episode_fix(world: Episode, camera: Camera, table_height: float,
+                table_plane) -> tuple[Camera, tuple[float, float, float]]:
     """The camera where the robot in the episode's next frame puts it (from ``camera``, where it was put
     before), and the table plane as read through it; both unchanged when the frame shows too little of the
     robot."""
