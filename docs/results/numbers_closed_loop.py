@@ -32,7 +32,7 @@ def values() -> dict[str, str]:
             "cl53-eval-speed": speed(eval_runs) if ran else "not run yet",
             "cl-letters-rerun": rerun_table(eval_runs, rows(LETTERS_RERUN, "runs")) if ran and (HERE / LETTERS_RERUN).exists()
             else "not run yet",
-            "cl-dev-rerun": rerun_table(sets["dev"], rows(DEV_RERUN, "runs")) if (HERE / DEV_RERUN).exists() else "not run yet",
+            "cl-dev-rerun": dev_rerun(sets["dev"], rows(DEV_RERUN, "runs")) if (HERE / DEV_RERUN).exists() else "not run yet",
             "cl-camera-calibration": calibration_table(rows(DEV_RERUN, "runs")) if (HERE / DEV_RERUN).exists()
             else "not run yet"}
 
@@ -67,6 +67,16 @@ def rerun_table(before, after) -> str:
     lines.append("Nominal, both modes, by object: " + ", ".join(
         f"{name} {100 * row.success_before:.0f}% then {100 * row.success_after:.0f}%" for name, row in by_object.iterrows()) + ".")
     return "\n".join(lines)
+
+
+def dev_rerun(before, after) -> str:
+    """The dev set's rerun against its runs (:func:`rerun_table`), then where the rerun's runs failed and
+    its hard setting by the pad's friction against the table's."""
+    from slideplan.experiments.closed_loop_report import failure_table, friction_table
+
+    return "\n\n".join([rerun_table(before, after), "Where the rerun's runs failed (stage), and runs whose sliding a bound ended:",
+                        failure_table(after), "The rerun's hard setting by the pad's friction drawn against the table's:",
+                        friction_table(after)])
 
 
 def eval_sentence(runs) -> str:
