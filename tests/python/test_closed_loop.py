@@ -115,6 +115,14 @@ def test_cli_bad_input_is_exit_2_with_one_line():
     assert "--pose" in result.output and "not wholly on the table" in result.output
 
 
+@pytest.mark.parametrize("seed", ["-1", str(2**64)])
+def test_cli_run_names_a_seed_out_of_range_before_drawing_a_pose_from_it(seed):
+    # Without --pose the pose is drawn from the seed: numpy's own error ("expected non-negative integer")
+    # named no option.
+    result = CliRunner().invoke(app, ["run", "--seed", seed])
+    assert result.exit_code == 2 and result.output.startswith("slideplan: error: --seed:"), result.output
+
+
 @pytest.mark.parametrize("disturb, problem", [(["nan", "0", "0", "1"], "DX nan is not a finite number"),
                                                (["0", "5", "0", "1"], "DY 5 is beyond 1 m in magnitude")])
 def test_cli_run_checks_the_disturbance_as_ros_sim_does(disturb, problem):

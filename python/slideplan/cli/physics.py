@@ -11,6 +11,7 @@ from typing import Optional, Tuple
 import numpy as np
 import typer
 
+from .._fields import as_seed
 from ..errors import InputError
 from ..world.objects import load_outline, sample_pose_on_table
 from ..plan.result import PlanResult
@@ -120,7 +121,7 @@ def run_command(
         from ..sim.conditions import Disturbance
 
         json_out, video = _output_file(json_out, "--json"), _output_file(video, "--video", VIDEO_SUFFIXES)
-        scene = load_scene(scene_name)
+        scene, seed = load_scene(scene_name), as_seed(seed)  # the seed checked before the pose is drawn from it
         if pose is None:
             outline, _, _ = load_outline(object_name)
             pose = sample_pose_on_table(outline, scene.table, rng=np.random.default_rng(seed))
