@@ -206,9 +206,10 @@ def test_coincident_vertices_are_counted_as_given():
 def test_a_scene_s_own_depth_band_is_blamed_on_the_scene_not_on_an_option_never_given(tmp_path):
     scene = tmp_path / "scene.toml"
     scene.write_text(TABLE + "[hand]\nparams = { dz_min = 0.02, dz_max = 0.01 }\n")
-    result = cli("plan", "--scene", scene, "--object", "square", "--pose", "0.6", "0.0", "0.0")
-    assert_one_line(result.exit_code, result.stderr, str(scene), "[hand] params.dz")
-    assert "--reconfiguration-range" not in result.stderr
+    for command in (("plan", "--pose", "0.6", "0.0", "0.0"), ("run",)):  # run has no such option at all
+        result = cli(*command, "--scene", scene, "--object", "square")
+        assert_one_line(result.exit_code, result.stderr, str(scene), "[hand] params.dz")
+        assert "--reconfiguration-range" not in result.stderr
 
 
 def load_scene_text(text: str):

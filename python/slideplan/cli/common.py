@@ -164,7 +164,7 @@ def _config_from_options(
         if error.field in scene.hand.params and not (error.field in ("dz_min", "dz_max") and reconfiguration_range is not None):
             # The scene's own [hand] params: its file is at fault, not an option the user did not give.
             raise InputError(error.problem, source=scene.source, field=f"[hand] params.{error.field}") from None
-        raise InputError(error.problem, field=_OPTION_OF_FIELD.get(error.field) or error.field) from None
+        raise InputError(error.problem, source=error.source, field=_OPTION_OF_FIELD.get(error.field) or error.field) from None
     return config
 
 

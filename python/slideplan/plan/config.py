@@ -59,7 +59,8 @@ class _ConfigMethods:
             **overrides: any field, e.g. ``seed=3, u_star=0.03``.
 
         Raises:
-            InputError: an unknown field or preset, or a bad value, naming the field.
+            InputError: an unknown field or preset, or a bad value, naming the field (``[hand] params.NAME``
+                and the scene's file where the scene's hand gave it).
         """
         require_type(scene, Scene, "scene", "a Scene (from load_scene)")
         unknown = sorted(set(overrides) - {item.name for item in dataclasses.fields(cls)} - {"preset"})
@@ -68,7 +69,13 @@ class _ConfigMethods:
         if preset not in PRESETS:
             raise InputError(f"unknown preset {preset!r} (expected one of: {', '.join(PRESETS)})", field="preset")
         published = parameters.PAPER_VALUES if preset == "paper" else {}
-        return cls(**{**scene.hand.params, **published, **overrides, "preset": preset}).resolved(scene)
+        try:
+            return cls(**{**scene.hand.params, **published, **overrides, "preset": preset}).resolved(scene)
+        except InputError as error:
+            if error.field in set(scene.hand.params) - set(published) - set(overrides):
+                # The scene's own [hand] params: its file is at fault, not an option or argument.
+                raise InputError(error.problem, source=scene.source, field=f"[hand] params.{error.field}") from None
+            raise
 
     def resolved(self, scene: Scene | None = None) -> PlannerConfig:
         """This config with every unset parameter filled: the scene's hand's value, else the built-in one.
