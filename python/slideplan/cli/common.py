@@ -158,12 +158,9 @@ def _config_from_options(
                                          **{"seed": seed, "time_limit_s": time_limit, "planner": planner, **overrides})
         if reconfiguration_range is not None:
             config = config.with_reconfiguration_range(reconfiguration_range)
-    except InputError as error:
+    except InputError as error:  # the scene's own [hand] params come named as its file's (PlannerConfig.for_scene)
         if error.field in overrides:
             raise InputError(error.problem, field=f"--param {error.field}") from None
-        if error.field in scene.hand.params and not (error.field in ("dz_min", "dz_max") and reconfiguration_range is not None):
-            # The scene's own [hand] params: its file is at fault, not an option the user did not give.
-            raise InputError(error.problem, source=scene.source, field=f"[hand] params.{error.field}") from None
         raise InputError(error.problem, source=error.source, field=_OPTION_OF_FIELD.get(error.field) or error.field) from None
     return config
 

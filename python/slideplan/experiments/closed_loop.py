@@ -55,7 +55,7 @@ CLOSED_LOOP_ROW_SCHEMA = pa.schema(
 """Columns of a task's part file: the task, its ``task_set`` (``dev`` or ``eval``), ``solved`` (every run of
 it finished), then each run's outcome (:class:`slideplan.sim.closed_loop_run.ClosedLoopRun`; ``max_latency_s`` the
 slowest re-plan; as JSON: ``draws`` the physics, ``disturbance`` the push, ``camera_estimate`` and
-``camera_error`` the closed loop's camera calibration and the error it left, ``seen_frames`` the frames of the
+``camera_error`` where the run put the camera from the robot it saw and the error left, ``seen_frames`` the frames of the
 look after the slide, ``decision_frames`` each deciding look's trigger, outcome and frames), then ``error``
 (a run that raised), then the provenance columns of :data:`slideplan.experiments.results.ROW_SCHEMA`."""
 

@@ -2,8 +2,9 @@
 put the hand and the fingertip where they are, so the robot as the camera is believed to see it (rendered
 from the believed pose) and the robot as it does see it differ by the camera's mounting error. Their
 points, both read through the believed camera, are registered by trimmed point-to-plane ICP (Chen &
-Medioni 1992: the robot's faces are mostly flat, where point-to-point ICP slides slowly); the transform that carries the seen points onto
-the expected ones carries the believed camera to where it is (:class:`CameraFix`).
+Medioni 1992: the robot's faces are mostly flat, where point-to-point ICP slides slowly); the transform
+that carries the seen points onto the expected ones carries the believed camera to where it is
+(:class:`CameraFix`).
 
 No physics here: the expected view comes from whoever can render the robot (in simulation,
 :meth:`slideplan.sim.episode.Episode.robot_view`).
@@ -93,17 +94,22 @@ def calibrate(seen: np.ndarray, expected: np.ndarray, camera: Camera, table_heig
     model, normals = model[robot], normals[robot]
     if min(len(observed), len(model)) < MIN_POINTS:
         return None
-    tree, transform = cKDTree(model), np.eye(4)
-    for _ in range(ITERATIONS):
+    tree = cKDTree(model)
+
+    def pairs(transform: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The seen points moved by ``transform`` and their nearest model points, the far pairs trimmed."""
         moved = observed @ transform[:3, :3].T + transform[:3, 3]
         distance, index = tree.query(moved)
         kept = distance <= max(TRIM * float(np.median(distance)), TRIM_FLOOR_M)
-        transform = _step(moved[kept], model[index[kept]], normals[index[kept]]) @ transform
-    moved = observed @ transform[:3, :3].T + transform[:3, 3]
-    distance, index = tree.query(moved)
-    kept = distance <= max(TRIM * float(np.median(distance)), TRIM_FLOOR_M)
-    along = np.einsum("ij,ij->i", moved[kept] - model[index[kept]], normals[index[kept]])
-    return CameraFix(transform, int(kept.sum()), math.sqrt(float(np.mean(along ** 2))))
+        return moved[kept], index[kept]
+
+    transform = np.eye(4)
+    for _ in range(ITERATIONS):
+        moved, index = pairs(transform)
+        transform = _step(moved, model[index], normals[index]) @ transform
+    moved, index = pairs(transform)
+    along = np.einsum("ij,ij->i", moved - model[index], normals[index])
+    return CameraFix(transform, len(moved), math.sqrt(float(np.mean(along ** 2))))
 
 
 def _surface(grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
