@@ -645,6 +645,6 @@ def test_a_pad_that_slips_over_the_object_ends_the_run_for_a_slip_after_pressing
                  closed=True, setting="hard")
     assert report.draws["pad_friction"] < report.draws["table_friction"] and not report.draws["push"]
     assert not report.success and report.failed_stage == "slide" and report.failure == SLIP_FAILURE, report.summary()
-    assert report.slide_stop.split("+")[-1] == "slip" and "no_progress" in report.slide_stop
+    assert report.slide_stop == "slip"  # the contract's value; it says what no progress would
     assert report.grasp_pose is None and not report.lifted
     assert sum(event.trigger == "new_contact" for event in report.events) >= 2

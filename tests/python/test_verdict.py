@@ -280,10 +280,10 @@ def test_the_report_gives_wilson_intervals_and_the_exact_mcnemar_test_of_the_pai
     # Task t12 (the open loop alone succeeded) drew a pad less grippy than the table: its closed run slipped.
     slipped = (runs["setting"] == "hard") & (runs["task_id"] == "t12")
     runs.loc[slipped, "draws"] = json.dumps({"pad_friction": 0.5, "table_friction": 0.6})
-    runs.loc[slipped & (runs["mode"] == "closed"), "slide_stop"] = "no_progress+slip"
+    runs.loc[slipped & (runs["mode"] == "closed"), "slide_stop"] = "slip"
     text = report({"dev": runs, "eval": None})
     assert "| hard | open | 0 | 0 | 0 | 12 | 0 | 0 | 1 | 1 | 0 | 0 |" in text  # failures by stage, then the bounds met
-    assert "| hard | closed | 0 | 0 | 0 | 1 | 0 | 0 | 1 | 0 | 0 | 1 |" in text
+    assert "| hard | closed | 0 | 0 | 0 | 1 | 0 | 0 | 0 | 0 | 0 | 1 |" in text
     # The hard setting by friction: 17 tasks with the pad grippier than the table, one without.
     assert "| pad > table | closed | 17 | 17 (100.0%) |" in text and "| pad <= table | closed | 1 | 0 (0.0%) | 0.0-79.3% | 1 |" in text
     assert "| pad > table | open | 17 | 5 (29.4%) |" in text and "pad" not in text[:text.index("| hard |")]

@@ -161,7 +161,8 @@ class SlideLoop:
         replans: new plans followed.
         stops: the bounds met (:mod:`slideplan.loop.bounds`), each once, in order: ``"no_progress"``,
             ``"replan_cap"``, ``"time_cap"``, and ``"slip"`` (no progress after :data:`SLIP_ANSWERS`
-            answers: :meth:`answer_slip`); :attr:`stopped` joins them with ``+`` ("" for none).
+            answers, :meth:`answer_slip`: it replaces ``"no_progress"``); :attr:`stopped` joins them with
+            ``+`` ("" for none).
         seen: whether the object's motion :meth:`run` returned was seen (else predicted), and
         seen_frames: the frames of the look it came from.
         abandoned: the run ended for a slip (``"slip"`` in :attr:`stops`): no grasp is made.
@@ -256,7 +257,8 @@ class SlideLoop:
                     slipped = True
             if slipped:
                 fresh, motion = self.answer_slip(end_config, predicted, None if seen is None else seen.motion)
-                if fresh is None:  # nothing moved the object: no grasp
+                if fresh is None:  # nothing moved the object: no grasp; the slip says what no progress did
+                    self.stops = [bound for bound in self.stops if bound != "no_progress"]
                     self._met("slip")
                     self.abandoned, self.seen, self.seen_frames = True, None, []
                     return segment.result, predicted

@@ -55,8 +55,8 @@ class ClosedLoopRun(jsontext.Document):
             ``"no_progress"`` (a slide stopped: the finger travelled on, the object as seen did not),
             ``"replan_cap"`` or ``"time_cap"`` (no new plan after ``MAX_REPLANS`` re-plans or ``MAX_SLIDE_S``
             of sliding: the slide followed then ends as planned, and its own grasp follows), ``"slip"``
-            (no progress after the loop pressed deeper and slid from another contact: the run ends
-            without a grasp, a failure the report counts apart).
+            (no progress after the loop pressed deeper and slid from another contact, in place of
+            ``"no_progress"``: the run ends without a grasp, a failure the report counts apart).
         slide_s: simulated time from the first slide's start to the grasp's start (s).
         draws: the physical parameters of the run (the random and hard settings' draws).
         camera_estimate: where the run put the depth camera from where it was believed to be, found from the
