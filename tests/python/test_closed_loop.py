@@ -2,6 +2,7 @@
 slideplan.sim.closed_loop; and ``slideplan run``): tracking with the arm in view, recovery from a disturbance
 that the open loop cannot recover from, determinism, bad input."""
 
+import dataclasses
 import math
 import os
 
@@ -648,3 +649,125 @@ def test_a_pad_that_slips_over_the_object_ends_the_run_for_a_slip_after_pressing
     assert report.slide_stop == "slip"  # the contract's value; it says what no progress would
     assert report.grasp_pose is None and not report.lifted
     assert sum(event.trigger == "new_contact" for event in report.events) >= 2
+
+
+def _seen(motion):
+    from slideplan.perception.tracking import TrackedPose
+
+    return TrackedPose(True, tuple(float(value) for value in motion), 200, 0.001)
+
+
+def test_at_the_end_of_a_slide_seen_where_eq_2_puts_the_object_the_planned_grasp_stands(monkeypatch):
+    # A grasp re-planned from the end look differs from the planned one by the tracker's scatter alone;
+    # re-planned from one end frame, the L's grasp failed where the open loop's lifted.
+    scene, obj, config, result, segment = _demo_segment()
+    end_config = np.asarray(result.trajectory)[-1]
+    tip = row_to_pose(result.fingertip_poses[-1])
+    predicted = segment.predicted(tip)
+    for off, kept in ((0.001, True), (0.02, False)):  # 1 mm (within the 3 mm threshold) and 2 cm back from the edge
+        watch = Watch(scene, obj, config, default_camera(scene), (0.003, math.radians(2.0)), 1.0)
+        seen = (predicted[0] - off, predicted[1], predicted[2])
+        monkeypatch.setattr(watch, "settled", lambda *_, seen=seen, **__: _seen(seen))
+        again, event, _ = watch.replan("end", 0.0, None, predicted, end_config, segment=segment, tip=tip)
+        assert (event.outcome == "kept") is kept and (again is None) is kept, (off, event)
+
+
+def test_a_slide_the_looks_find_graspable_early_ends_short_only_once_seen_so_from_clear(monkeypatch):
+    # A fit under the hand a centimetre ahead of the object made a nominal slide stop at 1.7 cm of overhang
+    # and grasp there, where the planned slide went on to 5 cm: the look from clear decides.
+    from slideplan.loop.decisions import SlideLoop, Stop
+    from slideplan.loop.watch import Replan
+    from slideplan.plan.robot import build_robot
+
+    scene, obj, config, result, segment = _demo_segment()
+    middle = len(result.trajectory) // 2
+    config_then = np.asarray(result.trajectory)[middle]
+    early_grasp = dataclasses.replace(result, trajectory=config_then[None, :])
+
+    class Arm:
+        def __init__(self):
+            self.slides, self.stops = [], []
+
+        def slide(self, segment, look):
+            self.slides.append(segment)
+            if len(self.slides) == 1:  # a drift look asks for a grasp halfway
+                return Stop(early_grasp, (0.01, 0.0, 0.0), config_then, float(segment.times[middle]))
+            return None
+
+        def stop(self, stop):
+            self.stops.append(stop)
+
+        def switch(self, stop):
+            raise AssertionError("the early grasp is not switched to before the look from clear")
+
+        def clock(self):
+            return 0.0
+
+        def record(self, event):
+            pass
+
+        def replanned(self, *_):
+            pass
+
+    robot = build_robot(result.robot)
+    for outcome, last in (("kept", "planned"), ("lost", "early")):
+        arm = Arm()
+        watch = Watch(scene, obj, config, default_camera(scene), (0.003, math.radians(2.0)), 1.0)
+        loop = SlideLoop(watch, robot, scene.table.height + obj.thickness, 3, arm)
+        asked = []
+
+        def look_at_end(segment, blind, end_config, predicted, clear=False, outcome=outcome):
+            asked.append(clear)
+            return None, Replan(0.0, "clear", 0.0, 0.0, 0.0, 0.0, outcome), _seen(predicted)
+
+        monkeypatch.setattr(loop, "look_at_end", look_at_end)
+        plan_made, _ = loop.run(result)
+        assert asked[0] is True and len(arm.stops) == 1  # stopped, and looked at from clear
+        if last == "planned":  # seen on track from clear: the rest of the slide, from rest, and its own grasp
+            assert len(arm.slides) == 2 and np.allclose(arm.slides[1].result.trajectory[0], config_then)
+            assert plan_made.grasp is result.grasp and len(plan_made.trajectory) > 1
+        else:  # not seen from clear: the grasp the looks asked for
+            assert plan_made is early_grasp and len(arm.slides) == 1
+
+
+def test_an_object_the_finger_alone_holds_on_the_table_is_not_let_go_to_look_from_clear(monkeypatch):
+    # An L slid past the edge, its centre of mass just inside what the table bears, tipped off the table
+    # when the finger rose to look; the open loop's grasp caught it where it was.
+    from slideplan.loop.decisions import SlideLoop
+    from slideplan.loop.watch import Replan, slide_segment
+    from slideplan.plan.robot import build_robot
+    from slideplan.world.geometry import support_margin
+
+    scene, _, config, result, segment = _demo_segment()
+    obj = load_object("L", table_height=scene.table.height, pose=(0.5, 0.0, 0.0))
+    watch = Watch(scene, obj, config, default_camera(scene), (0.003, math.radians(2.0)), 1.0)
+    moved = lambda dx: obj.moved((dx, 0.0, 0.0))
+    margins = {dx: support_margin(scene.table, moved(dx).points[:, :2], moved(dx).centroid_xy) for dx in np.arange(0.0, 0.4, 0.001)}
+    near = min((dx for dx, margin in margins.items() if 0.0 < margin < config.support_margin), key=lambda dx: margins[dx])
+
+    class Arm:
+        moves = []
+
+        def clock(self):
+            return 0.0
+
+        def frames(self):
+            return None
+
+        def record(self, event):
+            pass
+
+        def move(self, result, path, phase):
+            self.moves.append(phase)
+
+    loop = SlideLoop(watch, build_robot(result.robot), scene.table.height + obj.thickness, 3, Arm())
+    monkeypatch.setattr(loop, "clear_way", lambda *_: np.zeros((2, len(result.trajectory[0]))))
+    lost = Replan(0.0, "end", 0.0, 0.0, 0.0, 0.0, "lost")
+    monkeypatch.setattr(watch, "replan", lambda *_, **__: (None, lost, _seen((0.0, 0.0, 0.0))))
+    monkeypatch.setattr(watch, "locate", lambda *_: None)  # not found on the whole table either
+    end = np.asarray(result.trajectory)[-1]
+    for dx, lifted in ((0.0, True), (near, False)):
+        Arm.moves.clear()
+        assert loop.stays((dx, 0.0, 0.0)) is lifted
+        loop.look_at_end(segment, False, end, (dx, 0.0, 0.0))
+        assert (Arm.moves == ["clear", "clear"]) is lifted and (Arm.moves == []) is not lifted, (dx, Arm.moves)

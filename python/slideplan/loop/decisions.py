@@ -20,6 +20,7 @@ from .. import _core
 from .bounds import MAX_REPLANS, MAX_SLIDE_S, Progress
 from ..errors import InputError
 from ..plan.motions import Unreachable, collision_world, dense, reach_path, straight_line, straight_up
+from ..world.geometry import support_margin
 from ..world.objects import ThinObject
 from ..checks.pipeline import Checked, plan_checked
 from ..plan.config import PlannerConfig
@@ -230,27 +231,28 @@ class SlideLoop:
         while True:
             self.segment = segment
             stop = arm.slide(segment, None if watch is None else self.look)
-            if stop is not None and stop.plan is not None:
+            # Graspable already where the looks during the slide saw it: ended short only once seen so from clear.
+            early = stop is not None and stop.plan is not None and len(stop.plan.trajectory) == 1
+            if stop is not None and stop.plan is not None and not early:
                 self.replans += 1
-                arm.replanned("drift", "grasp" if len(stop.plan.trajectory) == 1 else "slide", self.replans)
+                arm.replanned("drift", "slide", self.replans)
                 arm.switch(stop)
-                if len(stop.plan.trajectory) == 1:  # already graspable where it was seen: the slide ends here
-                    self.seen = True
-                    return stop.plan, stop.motion
                 segment = slide_segment(stop.plan, self.top, stop.motion)
                 continue
-            blind = stop is not None and stop.reason == "blind"
+            blind = stop is not None and stop.plan is None and stop.reason == "blind"
             end_config, end_s = (stop.config, stop.at_s) if stop is not None else (np.asarray(segment.result.trajectory)[-1], float(segment.times[-1]))
             predicted = segment.predicted(np.asarray(robot.fk(end_config)))
             if watch is None or self.capped():
+                if early:  # no more looks: the grasp the looks during the slide asked for
+                    return self._early_grasp(stop)
                 self.seen, self.seen_frames = None, []
                 return segment.result, predicted
             if stop is not None:  # blind, or no progress: the slide ends where the arm stops
                 self.blinds += blind
                 arm.stop(stop)
-            slipped, seen = stop is not None and stop.reason == "no_progress", None
+            slipped, seen = stop is not None and stop.plan is None and stop.reason == "no_progress", None
             if not slipped:
-                again, event, seen = self.look_at_end(segment, blind, end_config, predicted)
+                again, event, seen = self.look_at_end(segment, blind, end_config, predicted, clear=early)
                 # Seen from clear, where the hand hid it through the slide: left behind by a pad that slipped.
                 if seen.ok and self.progress.update(np.asarray(robot.fk(end_config))[:2, 3], seen.motion):
                     self._met("no_progress")
@@ -273,30 +275,45 @@ class SlideLoop:
             if again is None and outcome == "refused" and self.ends < self.end_replans:
                 again, outcome = self.new_contact(seen.motion, end_config), "new_contact"  # pushed from under the finger
             replanned = again is not None
-            if blind and not replanned:  # on track, not seen or no new plan: the rest of the slide, from rest
+            if early and (outcome in ("lost", "refused", "timeout") or (replanned and len(again.trajectory) > 1
+                                                                        and self.ends >= self.end_replans)):
+                return self._early_grasp(stop)  # nothing better from clear
+            if (blind or early) and not replanned:  # on track, not seen or no new plan: the rest of the slide, from rest
                 again = segment.rest(robot, end_s, end_config)
             self.seen, self.seen_frames = bool(seen.ok), event.frames
             if again is None or self.ends >= self.end_replans:  # its own grasp, from where Eq. 2 put the object
                 return segment.result, seen.motion
             if replanned:
                 self.replans += 1
-                arm.replanned("blind" if blind else "end", outcome, self.replans)
+                arm.replanned("blind" if blind else "drift" if early else "end", outcome, self.replans)
             if len(again.trajectory) == 1:
                 return again, seen.motion
             self.ends += replanned
             segment = slide_segment(again, self.top, seen.motion)
 
-    def look_at_end(self, segment: Segment, blind: bool, end_config: np.ndarray, predicted):
+    def _early_grasp(self, stop: Stop) -> tuple[PlanResult, tuple]:
+        """The grasp a drift look asked for (the object graspable where the looks during the slide saw it)."""
+        self.replans += 1
+        self.arm.replanned("drift", "grasp", self.replans)
+        self.seen = True
+        return stop.plan, stop.motion
+
+    def look_at_end(self, segment: Segment, blind: bool, end_config: np.ndarray, predicted, clear: bool = False):
         """The look where a slide ended or stopped blind, the arm at rest at ``end_config``: from there, or
         from clear of the object where the arm hides it (and over the whole table when not found near
-        ``predicted``), the finger back at ``end_config`` after. Returns :meth:`Watch.replan`'s triple."""
+        ``predicted``), the finger back at ``end_config`` after. ``clear``: from clear at once (a slide
+        stopped short because the looks during it saw the object graspable: the hand hides part of it
+        then, and a fit a centimetre off along the slide ended one with 1.7 cm of overhang where the
+        planned slide went on to 5). Returns :meth:`Watch.replan`'s triple."""
         robot, arm, watch = self.robot, self.arm, self.watch
-        lifted, trigger = (self.clear_way(segment.result, end_config, predicted), "blind") if blind else (None, "clear")
+        stays = self.stays(predicted)
+        lifted = self.clear_way(segment.result, end_config, predicted) if (blind or clear) and stays else None
+        trigger = "blind" if blind else "clear"
         if lifted is None:
             again, event, seen = watch.replan("end", arm.clock(), arm.frames(), predicted, end_config,
-                                              tip=np.asarray(robot.fk(end_config)))
+                                              segment=segment, tip=np.asarray(robot.fk(end_config)))
             arm.record(event)
-            lifted = self.clear_way(segment.result, end_config, predicted) if event.outcome == "lost" else None
+            lifted = self.clear_way(segment.result, end_config, predicted) if event.outcome == "lost" and stays else None
         if lifted is not None:  # the arm hides the object: the finger moves clear, looks and comes back
             arm.move(segment.result, lifted, "clear")
             again, event, seen = watch.replan(trigger, arm.clock(), arm.frames(), predicted, end_config,
@@ -312,6 +329,16 @@ class SlideLoop:
             arm.move(segment.result, lifted[::-1], "clear")
         self.unseen.update(True, arm.clock())
         return again, event, seen
+
+    def stays(self, motion) -> bool:
+        """Whether the object at ``motion`` stays where it is when the finger rises: its centre of mass well
+        inside the part of it the table bears (:func:`~slideplan.world.geometry.support_margin`). An L slid past
+        the edge with its centre of mass off its own material is held down by the finger alone; lifted to
+        look, it tipped off the table, where the grasp's approach would have caught it. The margin is the
+        planner's ``support_margin``, calibrated in physics for the same tipping."""
+        watch = self.watch
+        moved = watch.perceived.moved(motion)
+        return support_margin(watch.scene.table, moved.points[:, :2], moved.centroid_xy) >= watch.replan_config.support_margin
 
     def answer_slip(self, config: np.ndarray, predicted, motion=None) -> tuple[PlanResult | None, tuple]:
         """A slide stopped for no progress (the pad slipped over the object, or pushed it stuck fast), the

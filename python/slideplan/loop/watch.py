@@ -61,8 +61,9 @@ class Replan:
         outcome: ``"slide"`` (a new slide followed), ``"grasp"`` (grasped from there), ``"refused"``,
             ``"timeout"`` or ``"lost"`` (the frame did not show the object); the last three keep the
             plan there was; ``"kept"`` (a blind look: the rest of the stopped slide still works from
-            the pose seen, or nothing was seen). After a blind look without a new plan the rest of the
-            stopped slide goes on, from rest.
+            the pose seen, or nothing was seen; an end or clear look: the object where Eq. 2 puts it
+            and the plan still ends graspable there, so its own grasp stands). After a blind look
+            without a new plan the rest of the stopped slide goes on, from rest.
         detail: why refused or lost ("" otherwise).
         frames: the indices of the depth frames (0 the run's first look) the decision used: the looks in a
             row that confirmed a drift, or the end look's frames.
@@ -358,6 +359,13 @@ class Watch:
             self.kept += 1
             event.outcome, event.detail = "kept", ("" if seen.ok else f"not seen ({seen.reason})")
             return None, event, (seen if seen.ok else dataclasses.replace(seen, motion=tuple(predicted)))
+        if (trigger in ("end", "clear") and seen.ok and segment is not None and self.agree(seen.motion, predicted, 1.0)
+                and segment.still_works(self.perceived, self.scene.table, self.replan_config, tip, seen.motion)):
+            # Where Eq. 2 put it, and the plan still ends graspable from there: a grasp re-planned from the
+            # look would differ from the planned one by the tracker's own scatter, so the plan stands.
+            self.kept += 1
+            event.outcome = "kept"
+            return None, event, seen
         if not seen.ok:
             return None, (event if trigger != "drift" else None), seen
         if trigger == "drift" and not self.drifted(seen, predicted, segment, tip):
