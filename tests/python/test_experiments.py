@@ -357,3 +357,41 @@ def _running(pid: int) -> bool:
         return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
     except OSError:
         return False
+
+
+CRASHER = """
+import os, pathlib, time
+
+
+def work(task):
+    # Task 1 kills its worker: once (MARK written first), or every time.
+    mark = pathlib.Path(MARK)
+    if task == 1 and (ALWAYS or not mark.exists()):
+        mark.touch()
+        os._exit(1)
+    time.sleep(0.2)
+    return task
+"""
+
+
+@pytest.mark.parametrize("always", [False, True])
+def test_a_killed_worker_loses_no_other_task_and_a_task_that_kills_each_worker_is_lost_alone(tmp_path, always):
+    # A dead worker breaks its pool, which fails every unfinished task, its neighbours' too: one killed demos
+    # worker lost all four episodes of a run.
+    import importlib
+    from concurrent.futures.process import BrokenProcessPool
+
+    (tmp_path / "crasher.py").write_text(CRASHER.replace("MARK", repr(str(tmp_path / "mark"))).replace("ALWAYS", str(always)))
+    sys.path.insert(0, str(tmp_path))
+    try:
+        crasher = importlib.import_module("crasher")
+        outcomes = dict(LocalPoolExecutor(workers=2).imap_unordered(crasher.work, [0, 1, 2, 3]))
+    finally:
+        sys.path.remove(str(tmp_path))
+        sys.modules.pop("crasher", None)
+    assert sorted(outcomes) == [0, 1, 2, 3]
+    assert all(outcomes[task] == task for task in (0, 2, 3))  # its neighbours ran again, to the end
+    if always:  # run again alone, it killed its worker again: lost, alone
+        assert isinstance(outcomes[1], BrokenProcessPool)
+    else:
+        assert outcomes[1] == 1

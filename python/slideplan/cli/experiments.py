@@ -180,8 +180,8 @@ def demos_command(
 ) -> None:
     """Record closed-loop episodes in MuJoCo as a LeRobotDataset v3.0 (needs the lerobot extra; docs/demos.md).
 
-    Exit codes: 0 every episode attempted and the kept ones merged, 1 some episodes lost (a worker died:
-    run the same command again to redo them), 2 bad input.
+    Exit codes: 0 every episode attempted and the kept ones merged, 1 some episodes lost (an episode
+    whose worker died again when run alone: run the same command again to redo them), 2 bad input.
     """
     try:
         from ..demos.generate import Request, generate

@@ -1,9 +1,10 @@
 """``slideplan demos``: closed-loop (or open-loop) episodes in MuJoCo recorded as a LeRobotDataset v3.0.
 
 The output folder holds the request (``slideplan_demos.json``), one folder per finished episode under
-``episodes/`` (a finalized dataset of its own, or only its record when the episode was not kept), and the
-merged dataset (``meta``, ``data``, ``videos``) once every episode is done. A stopped generation run again
-with the same request goes on where it stopped; a killed worker loses the episode it was in, nothing else.
+``episodes/`` (its record, and until the merge a finalized dataset of its own when the episode is kept), and
+the merged dataset (``meta``, ``data``, ``videos``) once every episode is done. A stopped generation run
+again with the same request goes on where it stopped; the episodes a killed worker's pool failed run again
+in a fresh pool (:class:`~slideplan.experiments.executors.LocalPoolExecutor`).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from .frames import PHASES, CameraSpec, Frames
 
 REQUEST_FILE = "slideplan_demos.json"
 LOCK_FILE = ".slideplan_demos.lock"
+MERGED_FILE = "slideplan_episodes.json"  # in meta/, written once the merge is whole
 MAX_EPISODES = 1_000_000
 KEEP = ("success", "all")
 
@@ -257,9 +259,12 @@ def _generate(request: Request, out: Path, executor, progress, lerobot_loaded) -
         tally()
     lerobot_loaded()  # a broken install is named, not only its lost episodes
     kept = [index for index in sorted(done) if done[index]["kept"]]
-    if lost == 0 and kept:
+    merged = out / "meta" / MERGED_FILE
+    if lost == 0 and kept and not merged.exists():
         merge([episode_dir(out, index) / "dataset" for index in kept], out)
-        write_json_atomic(out / "meta" / "slideplan_episodes.json",
-                          {"episodes": [dict(done[index], episode_index=position) for position, index in enumerate(kept)],
-                           "attempts": len(done), "phases": list(PHASES)})
+        write_json_atomic(merged, {"episodes": [dict(done[index], episode_index=position) for position, index in enumerate(kept)],
+                                   "attempts": len(done), "phases": list(PHASES)})
+    if merged.exists():  # merged whole: the episodes' own datasets are copies (about half the folder)
+        for index in kept:
+            shutil.rmtree(episode_dir(out, index) / "dataset", ignore_errors=True)
     return {"episodes": len(done), "kept": len(kept), "successes": sum(r["success"] for r in done.values()), "lost": lost}

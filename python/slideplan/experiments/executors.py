@@ -9,16 +9,23 @@ cluster gave up). Exceptions inside the function itself are the function's busin
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import multiprocessing
 import os
+import shutil
+import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
 from ..errors import InputError
 from .tasks import Task
+
 
 
 class TaskExecutor(Protocol):
@@ -39,8 +46,10 @@ class LocalPoolExecutor:
     object in Python, which holds the GIL.
     Processes are started with ``spawn``, not ``fork``: the parent runs a progress-bar
     thread, and forking a threaded process can deadlock the child. If a worker process dies
-    (e.g. a crash in the C++ core) the pool breaks: every unfinished task comes back with
-    the ``BrokenProcessPool`` error, and a resumed run picks them up.
+    (killed, or a crash in the C++ core) the pool breaks and fails every unfinished task, its
+    neighbours' too: those not yet started run again in a fresh pool, and those that had started
+    each in a pool of its own, where a task that kills its worker again comes back with the
+    ``BrokenProcessPool`` error (a resumed run picks it up).
 
     Args:
         workers: number of workers, >= 1; default: all cores.
@@ -66,14 +75,44 @@ class LocalPoolExecutor:
         Closing the iterator early (or Ctrl-C) cancels the tasks not yet started and
         waits for the running ones.
         """
-        pool = (
-            ThreadPoolExecutor(max_workers=self.workers)
-            if self.threads
-            else ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                     initializer=exit_with_parent, initargs=(os.getpid(),))
-        )
+        if self.threads:
+            yield from self._run(ThreadPoolExecutor(max_workers=self.workers), function, list(tasks), None)
+            return
+        # Batches of (tasks, workers): a broken pool's tasks that had not started run again together; those
+        # that had (the dead worker's, its neighbours') each alone, so that one that kills its worker each
+        # time is lost alone.
+        rounds, started = [(list(tasks), self.workers)], Path(tempfile.mkdtemp(prefix="slideplan-started-"))
         try:
-            futures = {pool.submit(function, task): task for task in tasks}
+            while rounds:
+                batch, workers = rounds.pop(0)
+                broken = []
+                with contextlib.closing(self._run(self._processes(workers), function, batch, started)) as outcomes:
+                    for task, outcome in outcomes:
+                        if isinstance(outcome, BrokenProcessPool) and len(batch) > 1:
+                            broken.append(task)
+                        else:
+                            yield task, outcome
+                suspects = [task for task in broken if (started / task_key(task)).exists()]
+                idle = [task for task in broken if task not in suspects]
+                if broken and not suspects:  # no task had started (a worker that cannot start): no retry helps
+                    for task in broken:
+                        yield task, BrokenProcessPool("the pool broke before any of its tasks started")
+                    continue
+                rounds = [([task], 1) for task in suspects] + [(idle, workers)] * bool(idle) + rounds
+        finally:
+            shutil.rmtree(started, ignore_errors=True)
+
+    def _processes(self, workers: int) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                                   initializer=exit_with_parent, initargs=(os.getpid(),))
+
+    @staticmethod
+    def _run(pool, function, tasks: list, started: Path | None) -> Iterator[tuple[Task, Any]]:
+        try:
+            if started is None:
+                futures = {pool.submit(function, task): task for task in tasks}
+            else:
+                futures = {pool.submit(_marked, function, task, str(started / task_key(task))): task for task in tasks}
             for future in as_completed(futures):
                 yield futures[future], _outcome(future)
         finally:
@@ -133,6 +172,18 @@ def exit_with_parent(parent: int, period_s: float = 1.0) -> None:
         os._exit(1)  # no clean-up: the driver that would collect the results is gone
 
     threading.Thread(target=watch, name="slideplan-exit-with-parent", daemon=True).start()
+
+
+def task_key(task) -> str:
+    """A file name for ``task``: its id, or its hash (tasks of other kinds, e.g. demos' episodes)."""
+    key = getattr(task, "task_id", None)
+    return str(key) if key is not None else hashlib.sha256(repr(task).encode()).hexdigest()[:16]
+
+
+def _marked(function: Callable[[Any], Any], task: Any, mark: str) -> Any:
+    """In a worker: ``function(task)``, the file ``mark`` written first (the task started)."""
+    Path(mark).touch()
+    return function(task)
 
 
 def _outcome(future) -> Any:

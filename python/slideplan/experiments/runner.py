@@ -26,7 +26,7 @@ class RunSummary:
         executed: tasks run now whose row was written (errors included).
         solved: of those, solved and verified.
         errors: of those, tasks that raised (row written with ``status="error"``).
-        lost: tasks that produced no row (a worker died); a rerun runs them.
+        lost: tasks that produced no row (their worker died again when run alone); a rerun runs them.
         first_loss: the reason of the first lost task ("" if none).
     """
 
