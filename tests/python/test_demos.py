@@ -110,6 +110,27 @@ def test_a_second_generation_into_a_folder_being_written_is_refused_naming_the_l
     assert (out / REQUEST_FILE).exists()
 
 
+def test_a_kept_episode_whose_dataset_is_not_whole_runs_again_rather_than_being_merged(tmp_path):
+    """An episode committed without its data/ folder made the documented recovery (the same command again)
+    fail asking the dataset hub for the missing files."""
+    from slideplan.demos import generate as demos_generate
+
+    out = tmp_path / "d"
+    for index, files in enumerate((["meta/info.json", "data/chunk-000/file-000.parquet"], ["meta/info.json"], [])):
+        folder = demos_generate.episode_dir(out, index)
+        folder.mkdir(parents=True)
+        for name in files:
+            (folder / "dataset" / name).parent.mkdir(parents=True, exist_ok=True)
+            (folder / "dataset" / name).write_text("")
+        demos_generate.write_json_atomic(folder / "record.json", {"index": index, "kept": True})
+    demos_generate.episode_dir(out, 3).mkdir()
+    demos_generate.write_json_atomic(demos_generate.episode_dir(out, 3) / "record.json", {"index": 3, "kept": False})
+    assert sorted(demos_generate.records(out)) == [0, 3]  # 1 (no data) and 2 (no dataset) run again
+    (out / "meta").mkdir()
+    demos_generate.write_json_atomic(out / "meta" / demos_generate.MERGED_FILE, {})
+    assert sorted(demos_generate.records(out)) == [0, 1, 2, 3]  # merged whole: the episodes' own datasets are gone
+
+
 def test_the_draw_is_the_seeds_and_lies_wholly_on_the_table():
     scene = load_scene("square")
     objects = ("crescent", "square", "triangle")

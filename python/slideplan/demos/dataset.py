@@ -31,7 +31,9 @@ EXTRA = 'lerobot (pip install "slideplan[lerobot]": the lerobot 0.4 line, with t
 
 def _quiet() -> None:
     """No progress bars from datasets and lerobot, and only errors from the AV1 encoder (SVT-AV1 prints its
-    configuration for every video): a generation's output is its own summary."""
+    configuration for every video): a generation's output is its own summary. The dataset hub offline: a
+    generation reads and writes local folders only (a missing file asked the hub, retried for minutes)."""
+    os.environ.setdefault("HF_HUB_OFFLINE", "1")  # local folders only: a missing file is named, never downloaded
     os.environ.setdefault("SVT_LOG", "1")
     os.environ.setdefault("TQDM_DISABLE", "1")
     os.environ.setdefault("HF_DATASETS_DISABLE_PROGRESS_BARS", "1")

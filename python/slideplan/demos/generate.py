@@ -156,10 +156,17 @@ def run_episode(episode: Episode) -> dict:
 
 
 def records(out: Path) -> dict[int, dict]:
-    """The finished episodes' records, by index."""
+    """The finished episodes' records, by index. Before the merge, a kept episode whose dataset is not whole
+    (its ``meta/info.json`` or its data missing: a folder written by hand, or by a version before the lock)
+    is not finished: it runs again, where merging it asked the dataset hub for the missing files."""
+    merged = (out / "meta" / MERGED_FILE).exists()
     found = {}
     for path in sorted((out / "episodes").glob("*/record.json")):
         record = json.loads(path.read_text())
+        dataset = path.parent / "dataset"
+        if record.get("kept") and not merged and not ((dataset / "meta" / "info.json").exists()
+                                                      and any((dataset / "data").glob("**/*.parquet"))):
+            continue
         found[int(record["index"])] = record
     return found
 
