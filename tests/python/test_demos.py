@@ -217,8 +217,15 @@ def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path, mo
     for index, block in enumerate(re.findall(r"```python\n(.*?)```", DEMOS_DOC.read_text(), re.S)):
         exec(compile(block, f"demos.md example {index + 1}", "exec"), namespace)
     assert len(namespace["dataset"]) == dataset.num_frames and namespace["info"]["is_success"]
-    phases = frames_of(tmp_path / "a")["phase"].tolist()
+    table = frames_of(tmp_path / "a")
+    phases = table["phase"].tolist()
     assert phases[0] == 0 and {4, 5, 6} <= set(phases)  # slide first; grasp, lift and hold recorded
+    # Offline RL's columns: each episode done on its last frame, rewarded there as it succeeded (all kept did).
+    for _, episode in table.groupby("episode_index"):
+        last = episode["frame_index"] == episode["frame_index"].max()
+        done, success, reward = (np.concatenate(episode[column].to_numpy()) for column in ("next.done", "next.success", "next.reward"))
+        assert done.tolist() == last.tolist() and success.tolist() == last.tolist()
+        assert reward.tolist() == last.astype(float).tolist()
     second = generate(tmp_path / "b", "--cameras", "front:64x64:depth", workers=1)
     assert second.returncode == 0, second.stderr
     a, b = frames_of(tmp_path / "a"), frames_of(tmp_path / "b")
@@ -336,9 +343,9 @@ def test_an_episode_written_without_lerobots_image_embedding_has_the_same_parque
     rows = [{"state": rng.normal(size=14), "action": rng.normal(size=8), "ee_delta": rng.normal(size=7), "phase": index // 10}
             for index in range(40)]
     feature_set = features([f"j{index}" for index in range(7)], ())
-    write_episode(tmp_path / "skipped", 10, feature_set, "arm", "slide", rows)
+    write_episode(tmp_path / "skipped", 10, feature_set, "arm", "slide", rows, True)
     monkeypatch.setattr(demos_dataset, "_without_image_embedding", lambda _features: contextlib.nullcontext())
-    write_episode(tmp_path / "embedded", 10, feature_set, "arm", "slide", rows)
+    write_episode(tmp_path / "embedded", 10, feature_set, "arm", "slide", rows, True)
     tables = [pq.read_table(next((tmp_path / name / "data").rglob("*.parquet"))) for name in ("skipped", "embedded")]
     assert tables[0].num_rows == 40 and tables[0].equals(tables[1])
     # the features lerobot records there too; the map adds only its cache's fingerprint (random per map)

@@ -124,6 +124,10 @@ def features(joint_names: list[str], cameras: tuple[CameraSpec, ...], convention
         "action": {"dtype": "float32", "shape": (len(shown) + 1,), "names": action},
         "ee_delta_action": {"dtype": "float32", "shape": (len(EE_ACTION_NAMES),), "names": EE_ACTION_NAMES},
         "phase": {"dtype": "int64", "shape": (1,), "names": ["phase"]},
+        # Offline RL's columns, as SlideToEdge-v0's sparse reward: 1 on the episode's last frame if it succeeded.
+        "next.reward": {"dtype": "float32", "shape": (1,), "names": None},
+        "next.done": {"dtype": "bool", "shape": (1,), "names": None},
+        "next.success": {"dtype": "bool", "shape": (1,), "names": None},
     }
     for camera in cameras:
         for name in (camera.name, f"{camera.name}_depth") if camera.depth else (camera.name,):
@@ -132,7 +136,8 @@ def features(joint_names: list[str], cameras: tuple[CameraSpec, ...], convention
     return out
 
 
-def write_episode(root: Path, fps: int, feature_set: dict, robot_type: str, task: str, rows: list[dict]) -> None:
+def write_episode(root: Path, fps: int, feature_set: dict, robot_type: str, task: str, rows: list[dict],
+                  success: bool) -> None:
     """One episode as a finalized dataset at ``root`` (which must not exist): written beside it and renamed
     into place, so ``root`` exists only whole.
 
@@ -143,6 +148,7 @@ def write_episode(root: Path, fps: int, feature_set: dict, robot_type: str, task
         robot_type: the robot's name (LeRobot's ``robot_type``).
         task: the episode's task string.
         rows: the frames (:class:`slideplan.demos.frames.Frames`'s rows).
+        success: the world's verdict of the episode (its last frame's ``next.success`` and reward).
     """
     _quiet()
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
@@ -152,10 +158,12 @@ def write_episode(root: Path, fps: int, feature_set: dict, robot_type: str, task
         shutil.rmtree(partial)
     dataset = LeRobotDataset.create(REPO_ID, fps, feature_set, root=partial, robot_type=robot_type,
                                     use_videos=True, streaming_encoding=True)
-    for row in rows:
+    for index, row in enumerate(rows):
+        last = index == len(rows) - 1
         frame = {"observation.state": row["state"].astype(np.float32), "action": row["action"].astype(np.float32),
                  "ee_delta_action": row["ee_delta"].astype(np.float32), "phase": np.array([row["phase"]], dtype=np.int64),
-                 "task": task}
+                 "next.reward": np.array([float(last and success)], dtype=np.float32),
+                 "next.done": np.array([last]), "next.success": np.array([last and success]), "task": task}
         for key in feature_set:
             if key.startswith("observation.images."):
                 frame[key] = row[key.removeprefix("observation.images.")]

@@ -150,7 +150,7 @@ def run_episode(episode: Episode) -> dict:
             convention.apply(frames.rows, taken["gripper"])
         robot_type = convention.robot_type if convention else scene.urdf_path.stem
         write_episode(folder / "dataset", request.fps, features(taken["joints"], request.camera_specs(), convention),
-                      robot_type, drawn.task(scene.name), frames.rows)
+                      robot_type, drawn.task(scene.name), frames.rows, bool(record["success"]))
     write_json_atomic(folder / "record.json", record)  # last: an episode with a record is done
     return record
 
