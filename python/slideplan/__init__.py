@@ -35,7 +35,7 @@ from .world.objects import ThinObject, load_object
 from .world.scenes import Scene, load_scene
 
 _moved.install()
-_environments.install()  # gym.make("slideplan/SlideToEdge-v0") after import slideplan
+_environments.install()  # gym.make("slideplan/SlideToEdge-v1") after import slideplan
 _ON_FIRST_USE = {"Perception": "slideplan.perception.tabletop", "perceive": "slideplan.perception.tabletop",
                  "Verification": "slideplan.checks.verify", "verify": "slideplan.checks.verify"}
 

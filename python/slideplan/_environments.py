@@ -1,4 +1,4 @@
-"""The Gymnasium environment's registration: ``gym.make("slideplan/SlideToEdge-v0")`` works after
+"""The Gymnasium environment's registration: ``gym.make("slideplan/SlideToEdge-v1")`` works after
 ``import slideplan``, whichever of slideplan and gymnasium is imported first, and ``import slideplan`` does
 not import gymnasium (about 0.1 s) for a command that never uses it: the registration waits for gymnasium's
 own import. It names the environment's class by its path, so nothing of the simulation loads until
@@ -10,15 +10,21 @@ import importlib.abc
 import importlib.util
 import sys
 
-ENV_ID = "slideplan/SlideToEdge-v0"
+ENV_ID = "slideplan/SlideToEdge-v1"
+# Earlier versions still made (the same class; gymnasium warns that a newer version exists).
+OLDER_IDS = ("slideplan/SlideToEdge-v0",)
 ENTRY_POINT = "slideplan.demos.env:SlideToEdgeEnv"
+BENCHMARK_ID = "slideplan/SlideToEdgeBenchmark-v1"  # a tier of the frozen protocol (slideplan.benchmark)
+BENCHMARK_ENTRY_POINT = "slideplan.benchmark.tier_env:BenchmarkEnv"
 MAX_EPISODE_STEPS = 800  # slideplan.demos.env.EPISODE_S at the default 10 steps a second (a test checks)
 
 
 def register(gymnasium) -> None:
     """Register the environment with ``gymnasium`` (once)."""
-    if ENV_ID not in gymnasium.registry:
-        gymnasium.register(id=ENV_ID, entry_point=ENTRY_POINT, max_episode_steps=MAX_EPISODE_STEPS)
+    for env_id, entry_point in ((ENV_ID, ENTRY_POINT), *((old, ENTRY_POINT) for old in OLDER_IDS),
+                                (BENCHMARK_ID, BENCHMARK_ENTRY_POINT)):
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=entry_point, max_episode_steps=MAX_EPISODE_STEPS)
 
 
 class _Registering(importlib.abc.Loader):

@@ -108,9 +108,10 @@ def test_a_mistyped_command_does_not_parse():
         parse(["ros", "serve", "--camera-pose", "1", "2"])
 
 
-# Hours of sweeps, their plots, nodes that serve until stopped; and demos, whose lerobot extra make test-physics
-# does not install (test_demos runs generations like it under make test-lerobot).
-LONG_RUNNING = ("experiment", "plot", "ros", "demos")
+# Hours of sweeps, their plots, nodes that serve until stopped, a whole tier's episodes (test_benchmark scores two);
+# and demos, whose lerobot extra make test-physics does not install (test_demos runs generations like it under
+# make test-lerobot).
+LONG_RUNNING = ("experiment", "plot", "ros", "demos", "eval")
 
 
 @pytest.mark.physics

@@ -1,4 +1,4 @@
-"""The Gymnasium environment slideplan/SlideToEdge-v0: Gymnasium's own checker in every observation mode,
+"""The Gymnasium environment slideplan/SlideToEdge-v1: Gymnasium's own checker in every observation mode,
 two copies under AsyncVectorEnv, the expert lifting the object, success as the world's state, and the
 demonstrations' joint actions replayed to their recorded outcome. Whole episodes: marked physics."""
 
@@ -13,7 +13,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import slideplan.demos.env  # noqa: F401 - registers slideplan/SlideToEdge-v0
+import slideplan.demos.env  # noqa: F401 - registers slideplan/SlideToEdge-v1
 from slideplan.demos.env import SlideToEdgeEnv
 from slideplan.errors import InputError
 
@@ -42,7 +42,7 @@ def test_the_environment_is_made_by_its_id_after_import_slideplan(first):
     second = {"slideplan": "gymnasium", "gymnasium": "slideplan"}[first]
     code = (f"import {first}, {second}, sys\nimport gymnasium as gym\n"
             "loaded = 'slideplan.demos.env' in sys.modules\n"
-            "env = gym.make('slideplan/SlideToEdge-v0')\n"
+            "env = gym.make('slideplan/SlideToEdge-v1')\n"
             "print(loaded, env.spec.max_episode_steps, type(env.unwrapped).__name__)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.split() == ["False", "800", "SlideToEdgeEnv"]
@@ -60,7 +60,7 @@ def test_the_registered_step_limit_is_the_environment_s_own_at_its_default_rate(
 def test_gymnasiums_checker_passes(obs_type):
     from gymnasium.utils.env_checker import check_env
 
-    env = gym.make("slideplan/SlideToEdge-v0", obs_type=obs_type, image_size=(48, 32), render_mode="rgb_array")
+    env = gym.make("slideplan/SlideToEdge-v1", obs_type=obs_type, image_size=(48, 32), render_mode="rgb_array")
     check_env(env.unwrapped, skip_render_check=False)
     observation, info = env.reset(seed=4)
     assert info["is_success"] is False and info["task_description"].startswith(f"slide the {info['object']}")
@@ -97,7 +97,7 @@ def test_a_policy_trained_on_a_dataset_sees_in_the_environment_what_it_was_train
 def _make():
     import slideplan.demos.env  # noqa: F401 - a spawned worker registers the id itself
 
-    return gym.make("slideplan/SlideToEdge-v0")
+    return gym.make("slideplan/SlideToEdge-v1")
 
 
 @pytest.mark.physics
@@ -144,7 +144,7 @@ def test_an_ee_delta_step_moves_the_fingertip_and_holds_a_joint_at_its_limit():
 @pytest.mark.physics
 @pytest.mark.parametrize("action_type", ["joint", "ee_delta"])
 def test_the_expert_lifts_the_object_and_success_is_the_worlds(action_type):
-    env = gym.make("slideplan/SlideToEdge-v0", action_type=action_type, reward_type="dense")
+    env = gym.make("slideplan/SlideToEdge-v1", action_type=action_type, reward_type="dense")
     observation, _ = env.reset(seed=3)
     start_z = observation["environment_state"][3]
     rewards, info = [], {}

@@ -12,13 +12,14 @@ is written with status ``"invalid"``); every command exits 130 when stopped by C
 stderr as one line ``slideplan: warning: ...`` each.
 
 The commands live in one module per group (:mod:`~slideplan.cli.plans`, :mod:`~slideplan.cli.outputs`,
-:mod:`~slideplan.cli.physics`, :mod:`~slideplan.cli.experiments`, :mod:`~slideplan.cli.ros`), each adding its
+:mod:`~slideplan.cli.physics`, :mod:`~slideplan.cli.experiments`, :mod:`~slideplan.cli.benchmark`,
+:mod:`~slideplan.cli.ros`), each adding its
 commands to the one :data:`app` of :mod:`~slideplan.cli.common` when imported (in this order: ``--help``
 lists them so).
 """
 
 # Each module adds its commands to app when imported; --help lists them in this order.
-from . import plans, outputs, physics, experiments, ros
+from . import plans, outputs, physics, experiments, benchmark, ros
 from .common import app
 
 __all__ = ["app"]

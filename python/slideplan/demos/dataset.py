@@ -124,7 +124,7 @@ def features(joint_names: list[str], cameras: tuple[CameraSpec, ...], convention
         "action": {"dtype": "float32", "shape": (len(shown) + 1,), "names": action},
         "ee_delta_action": {"dtype": "float32", "shape": (len(EE_ACTION_NAMES),), "names": EE_ACTION_NAMES},
         "phase": {"dtype": "int64", "shape": (1,), "names": ["phase"]},
-        # Offline RL's columns, as SlideToEdge-v0's sparse reward: 1 on the episode's last frame if it succeeded.
+        # Offline RL's columns, as SlideToEdge-v1's sparse reward: 1 on the episode's last frame if it succeeded.
         "next.reward": {"dtype": "float32", "shape": (1,), "names": None},
         "next.done": {"dtype": "bool", "shape": (1,), "names": None},
         "next.success": {"dtype": "bool", "shape": (1,), "names": None},

@@ -1,4 +1,4 @@
-"""``slideplan/SlideToEdge-v0``: the slide, grasp and lift as a Gymnasium environment, to evaluate the
+"""``slideplan/SlideToEdge-v1``: the slide, grasp and lift as a Gymnasium environment, to evaluate the
 policies trained on ``slideplan demos`` datasets in the same physics.
 
 An episode starts as a demonstration does (:class:`slideplan.sim.closed_loop.Start`: the same draw for the same
@@ -121,11 +121,14 @@ class SlideToEdgeEnv(gym.Env):
 
     ## Version History
 
+    - v1: the benchmark's protocol frozen (:mod:`slideplan.benchmark.protocol`: its tiers' tasks in
+      ``data/benchmark/slide_to_edge.toml``, scored by ``slideplan eval``); the episodes are v0's. The suffix
+      changes with anything that changes a score on it.
     - v0: ``pixels`` is ``{"front": RGB}`` at 256 x 256 and ``task_description`` the episode's own, as the
       datasets have them; success is the runs' verdict (3 cm, a whole hold sampled every 10 ms); releases before 0.2 judged
       2.5 cm at each step; the object is perceived through the camera the robot in view puts (releases
-      before 0.2 perceived through the camera where it was believed to be). The id's suffix changes once the
-      benchmark's protocol is frozen and anything that changes scores changes.
+      before 0.2 perceived through the camera where it was believed to be). Still made, with gymnasium's
+      warning that v1 exists.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -499,4 +502,4 @@ class _World(Episode):
         super().close()  # the depth observation's renderer too
 
 
-register(gym)  # gym.make("slideplan/SlideToEdge-v0") works after import slideplan as well
+register(gym)  # gym.make("slideplan/SlideToEdge-v1") works after import slideplan as well

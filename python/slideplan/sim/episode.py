@@ -3,7 +3,7 @@ plan: :class:`~slideplan.sim.model.Rig`) with the object as it truly is, the sce
 where it is mounted; the core robot model; the servos (:class:`~slideplan.sim.runner.Runner`); and what watches
 it: noisy depth frames, the video, a listener after every step. ``slideplan run`` and the closed-loop
 experiment (:mod:`slideplan.sim.closed_loop`), the demonstrations (which observe a run), the environment
-``SlideToEdge-v0`` and ``slideplan ros sim`` all step an :class:`Episode`."""
+``SlideToEdge-v1`` and ``slideplan ros sim`` all step an :class:`Episode`."""
 
 from __future__ import annotations
 
