@@ -107,3 +107,70 @@ def test_the_expert_scored_on_two_tasks_writes_a_row_each_and_a_rerun_runs_nothi
     again = runner.invoke(app, argv)
     assert again.exit_code == 0 and "2/2" in again.output
     assert pd.concat([pd.read_parquet(path) for path in sorted((tmp_path / "results" / "expert").glob("*.parquet"))])["date"].tolist() == rows["date"].tolist()
+
+
+def _tiny_act(folder) -> None:
+    """An untrained ACT policy on the state (a few thousand parameters), saved as lerobot-train saves one."""
+    import torch
+    from lerobot.configs.types import FeatureType, PolicyFeature
+    from lerobot.policies.act.configuration_act import ACTConfig
+    from lerobot.policies.act.modeling_act import ACTPolicy
+    from lerobot.policies.factory import make_pre_post_processors
+
+    features = {"observation.state": (FeatureType.STATE, 14), "observation.environment_state": (FeatureType.ENV, 4),
+                "action": (FeatureType.ACTION, 8)}
+    config = ACTConfig(input_features={key: PolicyFeature(kind, (size,)) for key, (kind, size) in features.items() if key != "action"},
+                       output_features={"action": PolicyFeature(FeatureType.ACTION, (8,))}, chunk_size=5, n_action_steps=5,
+                       dim_model=16, n_heads=2, dim_feedforward=32, n_encoder_layers=1, n_decoder_layers=1, use_vae=False,
+                       device="cpu", push_to_hub=False)
+    torch.manual_seed(0)
+    stats = {key: {"mean": torch.zeros(size), "std": torch.ones(size)} for key, (_, size) in features.items()}
+    pre, post = make_pre_post_processors(config, dataset_stats=stats)
+    ACTPolicy(config).save_pretrained(folder)
+    pre.save_pretrained(folder)
+    post.save_pretrained(folder)
+
+
+@pytest.mark.lerobot
+def test_lerobot_eval_plays_the_tiers_tasks_and_slideplan_eval_scores_the_same_policy_alike(tmp_path, monkeypatch):
+    import json
+    import sys
+
+    from slideplan.benchmark import tier_env
+
+    _tiny_act(tmp_path / "policy")
+    played = []
+    reset, step = tier_env.BenchmarkEnv.reset, tier_env.BenchmarkEnv.step
+
+    def recording_reset(self, **kwargs):
+        observation, info = reset(self, **kwargs)
+        played.append([info["task_id"], 0, None])
+        return observation, info
+
+    def recording_step(self, action):
+        result = step(self, action)
+        played[-1][1] += 1
+        played[-1][2] = result[-1].get("end", played[-1][2])
+        return result
+
+    monkeypatch.setattr(tier_env.BenchmarkEnv, "reset", recording_reset)
+    monkeypatch.setattr(tier_env.BenchmarkEnv, "step", recording_step)
+    monkeypatch.setenv("MUJOCO_GL", "egl")
+    monkeypatch.setattr(sys, "argv", ["lerobot-eval", "--env.discover_packages_path=slideplan.benchmark.lerobot_plugin",
+                                      "--env.type=slideplan", "--env.tier=nominal", "--env.obs_type=state",
+                                      f"--policy.path={tmp_path / 'policy'}", "--policy.device=cpu", "--eval.n_episodes=2",
+                                      "--eval.batch_size=1", "--seed=0", f"--output_dir={tmp_path / 'lerobot'}"])
+    from lerobot.scripts.lerobot_eval import main
+
+    main()
+    overall = json.loads((tmp_path / "lerobot" / "eval_info.json").read_text())["overall"]
+    assert overall["n_episodes"] == 2 and "pc_success" in overall
+    episodes = [entry for entry in played if entry[1]]  # lerobot resets once more after the last episode
+    assert [task_id for task_id, _, _ in episodes[:2]] == ["nominal-000", "nominal-001"]
+    # The same policy on the same tasks through slideplan eval: the same episodes, step for step.
+    result = runner.invoke(app, ["eval", "--policy", str(tmp_path / "policy"), "--tier", "nominal", "--episodes", "2",
+                                 "--out", str(tmp_path / "ours"), "--workers", "1"])
+    assert result.exit_code == 0, result.output
+    rows = pd.concat([pd.read_parquet(path) for path in sorted((tmp_path / "ours" / "results").glob("*/*.parquet"))])
+    assert [[row.task_id, row.steps, row.end] for row in rows.itertuples()] == [list(entry) for entry in episodes[:2]]
+    assert 100 * rows["success"].mean() == overall["pc_success"]

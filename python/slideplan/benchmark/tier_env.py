@@ -25,6 +25,8 @@ class BenchmarkEnv(gym.Env):
             ``reward_type``, ``render_mode``, ``fps``, ``image_size`` and ``max_episode_steps``.
     """
 
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
     def __init__(self, tier: str = "nominal", protocol=None, **kwargs) -> None:
         from ..demos.env import SlideToEdgeEnv
 

@@ -1,5 +1,5 @@
 """``lerobot-eval --env.type=slideplan``: SlideToEdge's benchmark as a LeRobot environment (the ``lerobot``
-extra; lerobot 0.4.x). LeRobot loads this module when told where it is, its own plugin mechanism::
+extra; lerobot 0.4.x). LeRobot imports this package when told where it is, its own plugin mechanism::
 
     lerobot-eval --env.discover_packages_path=slideplan.benchmark.lerobot_plugin --env.type=slideplan \\
         --env.tier=nominal --policy.path=PATH --eval.n_episodes=100 --eval.batch_size=1 --seed=0
@@ -16,7 +16,7 @@ from lerobot.configs.types import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_IMAGES, OBS_STATE
 
-from .._environments import BENCHMARK_ID, MAX_EPISODE_STEPS
+from ..._environments import BENCHMARK_ID, MAX_EPISODE_STEPS
 
 ARM_JOINTS = 7  # every protocol table carries the WAM: its joints, and the gripper's closing
 
