@@ -34,7 +34,47 @@ def values() -> dict[str, str]:
             else "not run yet",
             "cl-dev-rerun": dev_rerun(sets["dev"], rows(DEV_RERUN, "runs")) if (HERE / DEV_RERUN).exists() else "not run yet",
             "cl-camera-calibration": calibration_table(rows(DEV_RERUN, "runs")) if (HERE / DEV_RERUN).exists()
-            else "not run yet"}
+            else "not run yet",
+            "cl-eval2-targets": eval2_targets(sets["eval2"]) if sets["eval2"] is not None and len(sets["eval2"])
+            else "not run yet: no numbers exist for `eval2`"}
+
+
+EVAL2_TARGETS = {"nominal": 0.99, "stress": 0.98, "random": 0.98}  # both modes
+EVAL2_HARD, EVAL2_HARD_GRIPPY = 0.85, 0.95  # the hard setting's closed loop: overall, and where the pad grips more than the table
+WORSE_P = 0.05  # the closed loop significantly worse than the open loop
+
+
+def eval2_targets(runs) -> str:
+    """The held-out ``eval2`` run against the targets fixed before it: each met or missed, with its numbers
+    and 95% Wilson interval."""
+    from slideplan.experiments.stats import wilson_interval
+
+    def rate(group) -> str:
+        ok, n, pct = _rate(group)
+        low, high = wilson_interval(ok, n)
+        return f"{pct:.1f}% ({ok} of {n}; {100 * low:.1f}-{100 * high:.1f}%)"
+
+    def verdict(group, target) -> str:
+        return "met" if _rate(group)[2] >= 100 * target else "missed"
+
+    lines = []
+    for setting, target in EVAL2_TARGETS.items():
+        for mode in ("open", "closed"):
+            group = runs[(runs["setting"] == setting) & (runs["mode"] == mode)]
+            lines.append(f"- {setting}, {mode} loop, at least {100 * target:.0f}%: {rate(group)}, {verdict(group, target)}")
+    hard = runs[(runs["setting"] == "hard") & (runs["mode"] == "closed")]
+    grippy = hard[hard["draws"].map(lambda text: (lambda d: d["pad_friction"] > d["table_friction"])(json.loads(text)))]
+    lines.append(f"- hard, closed loop, at least {100 * EVAL2_HARD:.0f}%: {rate(hard)}, {verdict(hard, EVAL2_HARD)}")
+    lines.append(f"- hard, closed loop, the pad's friction above the table's, at least {100 * EVAL2_HARD_GRIPPY:.0f}%: "
+                 f"{rate(grippy)}, {verdict(grippy, EVAL2_HARD_GRIPPY)}")
+    worse = []
+    for setting in dict.fromkeys(runs["setting"]):
+        better, fewer, p = mcnemar(runs[runs["setting"] == setting])
+        if fewer > better and p < WORSE_P:
+            worse.append(f"{setting} ({fewer} tasks against {better}, p = {p:.2g})")
+    lines.append(f"- the closed loop nowhere significantly worse than the open loop (McNemar p < {WORSE_P:g}): "
+                 + ("met" if not worse else "missed: " + ", ".join(worse)))
+    return "\n".join(lines)
 
 
 def rerun_table(before, after) -> str:
