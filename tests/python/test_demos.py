@@ -159,6 +159,60 @@ def test_a_broken_lerobot_install_is_named_once_the_episodes_are_done(monkeypatc
         loaded()
     assert caught.value.field == "lerobot" and 'pip install "slideplan[lerobot]"' in str(caught.value)
 
+@pytest.mark.physics
+def test_the_front_camera_keeps_the_hand_and_the_object_in_view_through_the_grasp_and_the_lift():
+    # Framed on the table alone, the hand left the frame as it closed on the overhang past the edge.
+    import math
+
+    from slideplan.demos.frames import PHASES, Frames
+    from slideplan.demos.generate import front_points
+    from slideplan.experiments.tasks import cached_scene
+    from slideplan.sim.closed_loop import run
+
+    scene = cached_scene("square")
+    drawn = draw(scene, Request.objects, "nominal", episode_seed(5, 0))
+    seen = []
+
+    def observe(plan, built, runner, robot):
+        frames = Frames(built, runner, robot, 10, (CameraSpec("front", 256, 256),), front_points(scene))
+        model, data = built.model, built.data
+        fingers = model.jnt_bodyid[model.actuator_trnid[built.gripper.actuators, 0]]
+        hand = np.unique(np.append(fingers, model.body_parentid[fingers]))  # the fingers and the palm they hang on
+        camera = frames._cameras[0][2]
+
+        def after_step():
+            before = len(frames.rows)
+            frames.after_step()
+            phase = PHASES[frames.rows[-1]["phase"]] if len(frames.rows) > before else None
+            # The grasp, the lift and the hold, and the approach's last 10 cm down (it comes from clear above).
+            if phase in ("grasp", "lift", "hold") or (phase == "approach" and
+                                                      data.geom_xpos[built.pad_geom][2] < scene.table.height + 0.1):
+                points = np.vstack([data.xpos[hand], data.geom_xpos[built.pad_geom], data.xpos[built.object_body]])
+                seen.append(_pixels(camera, math.radians(model.vis.global_.fovy), points, 256, 256))
+        return after_step
+
+    report = run(scene, drawn.object, drawn.pose, seed=drawn.seed, closed=True, observe=observe)
+    assert report.success and len(seen) > 20
+    pixels = np.vstack(seen)
+    assert (pixels >= 0).all() and (pixels < 256).all(), (pixels.min(axis=0), pixels.max(axis=0))
+
+
+def _pixels(camera, fov_y: float, points: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Where a MuJoCo free camera (its look-at, distance, azimuth and elevation) images world points (u right, v down)."""
+    import math
+
+    azimuth, elevation = math.radians(camera.azimuth), math.radians(camera.elevation)
+    forward = np.array([math.cos(elevation) * math.cos(azimuth), math.cos(elevation) * math.sin(azimuth), math.sin(elevation)])
+    eye = np.asarray(camera.lookat) - camera.distance * forward
+    right = np.cross(forward, (0.0, 0.0, 1.0))
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    offsets = points - eye
+    depth = offsets @ forward
+    focal = (height / 2) / math.tan(fov_y / 2)
+    return np.column_stack([width / 2 + focal * (offsets @ right) / depth, height / 2 - focal * (offsets @ up) / depth])
+
+
 def test_camera_specs():
     assert CameraSpec.parse("front:256x128") == CameraSpec("front", 256, 128)  # width x height
     assert CameraSpec.parse("scene:64x64:depth") == CameraSpec("scene", 64, 64, depth=True)

@@ -122,8 +122,9 @@ class SlideToEdgeEnv(gym.Env):
     ## Version History
 
     - v1: the benchmark's protocol frozen (:mod:`slideplan.benchmark.protocol`: its tiers' tasks in
-      ``data/benchmark/slide_to_edge.toml``, scored by ``slideplan eval``); the episodes are v0's. The suffix
-      changes with anything that changes a score on it.
+      ``data/benchmark/slide_to_edge.toml``, scored by ``slideplan eval``); the front camera frames the
+      hand's reach past the table's edges too (v0's framed the table alone, and the hand left the frame as it
+      grasped). The suffix changes with anything that changes a score on it.
     - v0: ``pixels`` is ``{"front": RGB}`` at 256 x 256 and ``task_description`` the episode's own, as the
       datasets have them; success is the runs' verdict (3 cm, a whole hold sampled every 10 ms); releases before 0.2 judged
       2.5 cm at each step; the object is perceived through the camera the robot in view puts (releases

@@ -99,12 +99,25 @@ def plan_hash(plan) -> str:
     return digest.hexdigest()[:16]
 
 
+FRONT_REACH_M = 0.25  # the hand grasps the overhang past the table's edge: its fingers and wrist reach this far
+FRONT_HAND_M = 0.08  # ... at this height above the table
+FRONT_AIR_M = 0.2  # the air above the table the lift goes up into
+
+
 def front_points(scene) -> np.ndarray:
-    """What the ``front`` camera keeps in view: the table and the 30 cm of air above it."""
-    corners = np.asarray(scene.table.polygon.exterior.coords, dtype=float)[:-1]
+    """What the ``front`` camera keeps in view: the table, the air above it, and the hand's reach past its
+    edges at the hand's height (the grasp and the lift happen there: framed on the table alone, the hand
+    left the frame as it closed)."""
+    import shapely
+
+    table = scene.table.polygon
+    corners = np.asarray(table.exterior.coords, dtype=float)[:-1]
+    reach = shapely.simplify(table.buffer(FRONT_REACH_M, join_style=shapely.BufferJoinStyle.mitre), 0.005)
+    around = np.asarray(reach.exterior.coords, dtype=float)[:-1]
     height = scene.table.height
     return np.vstack([np.column_stack([corners, np.full(len(corners), height)]),
-                      np.column_stack([corners, np.full(len(corners), height + 0.3)])])
+                      np.column_stack([around, np.full(len(around), height + FRONT_HAND_M)]),
+                      np.column_stack([corners, np.full(len(corners), height + FRONT_AIR_M)])])
 
 
 def run_episode(episode: Episode) -> dict:
