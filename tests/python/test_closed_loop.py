@@ -711,10 +711,12 @@ def test_a_slide_the_looks_find_graspable_early_ends_short_only_once_seen_so_fro
             pass
 
     robot = build_robot(result.robot)
-    for outcome, last in (("kept", "planned"), ("lost", "early")):
+    # (its outcome, slides re-planned after their end before it: at the cap too, the rest of a slide stopped short goes on)
+    for (outcome, ends), last in ((("kept", 0), "planned"), (("kept", 3), "planned"), (("lost", 0), "early")):
         arm = Arm()
         watch = Watch(scene, obj, config, default_camera(scene), (0.003, math.radians(2.0)), 1.0)
         loop = SlideLoop(watch, robot, scene.table.height + obj.thickness, 3, arm)
+        loop.ends = ends
         asked = []
 
         def look_at_end(segment, blind, end_config, predicted, clear=False, outcome=outcome):

@@ -281,7 +281,8 @@ class SlideLoop:
             if (blind or early) and not replanned:  # on track, not seen or no new plan: the rest of the slide, from rest
                 again = segment.rest(robot, end_s, end_config)
             self.seen, self.seen_frames = bool(seen.ok), event.frames
-            if again is None or self.ends >= self.end_replans:  # its own grasp, from where Eq. 2 put the object
+            # Its own grasp, from where Eq. 2 put the object; a slide stopped short goes on (its rest is no re-plan).
+            if again is None or (replanned and not early and self.ends >= self.end_replans):
                 return segment.result, seen.motion
             if replanned:
                 self.replans += 1
