@@ -34,6 +34,7 @@ SIGHT_LINES = 24  # lines of sight from the camera to the object's points that t
 SIGHT_RADIUS_M = 0.005  # each a capsule of this radius (CollisionWorld.hidden_lines)
 HIDDEN_SHARE = 0.25  # a pose that hides at most this share of them shows the tracker enough of the object
 SET_DOWN_TRIES = 8  # points of an object over an edge tried for the finger's new contact, nearest its centre first
+STAYS_SHARE = 0.5  # the finger rises to look only where the object's centre of mass is this share of support_margin inside what the table bears
 BLIND_S = 1.0  # a slide no look has seen the object in for this long stops, and the finger rises clear to look
 SLIP_ANSWERS = 2  # slides stopped for no progress answered (pressed deeper, then from another contact too) before a slip ends the run
 SLIP_FAILURE = ("slip: the finger travelled on and the object did not, though pressed deeper and from another "
@@ -309,7 +310,7 @@ class SlideLoop:
         robot, arm, watch = self.robot, self.arm, self.watch
         stays = self.stays(predicted)
         lifted = self.clear_way(segment.result, end_config, predicted) if (blind or clear) and stays else None
-        trigger = "blind" if blind else "clear"
+        trigger = "blind" if blind else "confirm" if clear else "clear"
         if lifted is None:
             again, event, seen = watch.replan("end", arm.clock(), arm.frames(), predicted, end_config,
                                               segment=segment, tip=np.asarray(robot.fk(end_config)))
@@ -335,11 +336,14 @@ class SlideLoop:
         """Whether the object at ``motion`` stays where it is when the finger rises: its centre of mass well
         inside the part of it the table bears (:func:`~slideplan.world.geometry.support_margin`). An L slid past
         the edge with its centre of mass off its own material is held down by the finger alone; lifted to
-        look, it tipped off the table, where the grasp's approach would have caught it. The margin is the
-        planner's ``support_margin``, calibrated in physics for the same tipping."""
+        look, it tipped off the table (its centre of mass 2.3 mm inside), where the grasp's approach would have
+        caught it; a crescent 6.9 mm inside stayed put, and the look from clear found it a better grasp than
+        the planned one. The margin is ``STAYS_SHARE`` of the planner's ``support_margin`` (calibrated in
+        physics for a grasp's release)."""
         watch = self.watch
         moved = watch.perceived.moved(motion)
-        return support_margin(watch.scene.table, moved.points[:, :2], moved.centroid_xy) >= watch.replan_config.support_margin
+        margin = support_margin(watch.scene.table, moved.points[:, :2], moved.centroid_xy)
+        return margin >= STAYS_SHARE * watch.replan_config.support_margin
 
     def answer_slip(self, config: np.ndarray, predicted, motion=None) -> tuple[PlanResult | None, tuple]:
         """A slide stopped for no progress (the pad slipped over the object, or pushed it stuck fast), the

@@ -51,7 +51,8 @@ class Replan:
         trigger: ``"drift"`` (off the predicted pose during a slide), ``"end"`` (a slide ended) or
             ``"clear"`` (the look after an end look that did not see the object, the finger lifted clear)
             or ``"blind"`` (the same when no look had seen the object for :data:`~slideplan.loop.decisions.BLIND_S` of a slide, which
-            stopped there), or ``"search"`` (after a clear look that did not see the object: the whole
+            stopped there), or ``"confirm"`` (the same where a drift had found the object graspable during
+            the slide, which stopped there), or ``"search"`` (after a clear look that did not see the object: the whole
             table's frame searched for it), or ``"new_contact"`` (after a look that found the fingertip off the object:
             a whole new slide, reached from where the finger is).
         position_error_m, yaw_error_deg: how far the seen pose was from the predicted one.
@@ -60,10 +61,9 @@ class Replan:
             camera, which a real camera does on its own; not part of the latency.
         outcome: ``"slide"`` (a new slide followed), ``"grasp"`` (grasped from there), ``"refused"``,
             ``"timeout"`` or ``"lost"`` (the frame did not show the object); the last three keep the
-            plan there was; ``"kept"`` (a blind look: the rest of the stopped slide still works from
-            the pose seen, or nothing was seen; an end or clear look: the object where Eq. 2 puts it
-            and the plan still ends graspable there, so its own grasp stands). After a blind look
-            without a new plan the rest of the stopped slide goes on, from rest.
+            plan there was; ``"kept"`` (a blind or confirm look: the rest of the stopped slide still works
+            from the pose seen, or, blind, nothing was seen). After such a look without a new plan the
+            rest of the stopped slide goes on, from rest.
         detail: why refused or lost ("" otherwise).
         frames: the indices of the depth frames (0 the run's first look) the decision used: the looks in a
             row that confirmed a drift, or the end look's frames.
@@ -318,7 +318,8 @@ class Watch:
                 clear of the object, after an end look that did not see it) or ``"blind"`` (lifted clear
                 where the slide ``segment``, not seen for :data:`~slideplan.loop.decisions.BLIND_S`, stopped with the fingertip at
                 ``tip``: where its rest still works from the pose seen, or nothing is seen, no new plan and
-                the event's outcome ``"kept"``) or ``"search"`` (as ``"clear"``, ``predicted`` where the whole
+                the event's outcome ``"kept"``), ``"confirm"`` (as ``"blind"`` where a drift stopped the slide
+                to grasp early: ``"kept"`` only when seen) or ``"search"`` (as ``"clear"``, ``predicted`` where the whole
                 table's frame shows the object, after a clear look that lost it).
             elapsed: time into the slide, for the event (s).
             frames: gives the next ``(depth, measured fingertip pose)``.
@@ -343,7 +344,7 @@ class Watch:
                 sensed[0] += time.perf_counter() - begun
 
         started, first_frame = time.perf_counter(), self.looks
-        if trigger in ("end", "clear", "blind", "search"):
+        if trigger in ("end", "clear", "blind", "confirm", "search"):
             seen = self.settled(timed_frames, predicted, pressed=trigger == "end")
         else:
             seen = self.look(*timed_frames(), predicted)
@@ -353,19 +354,12 @@ class Watch:
                        seen.reason, sensed[0], list(range(first_frame, self.looks)))
         if seen.ok and tip is not None and trigger != "search":  # the finger presses there, or comes back to
             seen = dataclasses.replace(seen, motion=self.on_finger(seen.motion, tip))
-        if trigger == "blind" and (not seen.ok or segment.still_works(self.perceived, self.scene.table, self.replan_config, tip,
-                                                                      seen.motion)):
+        if (trigger == "blind" and not seen.ok) or (trigger in ("blind", "confirm") and seen.ok and segment.still_works(
+                self.perceived, self.scene.table, self.replan_config, tip, seen.motion)):
             # On track, or not seen even from above: the rest of the slide goes on as it would have.
             self.kept += 1
             event.outcome, event.detail = "kept", ("" if seen.ok else f"not seen ({seen.reason})")
             return None, event, (seen if seen.ok else dataclasses.replace(seen, motion=tuple(predicted)))
-        if (trigger in ("end", "clear") and seen.ok and segment is not None and self.agree(seen.motion, predicted, 1.0)
-                and segment.still_works(self.perceived, self.scene.table, self.replan_config, tip, seen.motion)):
-            # Where Eq. 2 put it, and the plan still ends graspable from there: a grasp re-planned from the
-            # look would differ from the planned one by the tracker's own scatter, so the plan stands.
-            self.kept += 1
-            event.outcome = "kept"
-            return None, event, seen
         if not seen.ok:
             return None, (event if trigger != "drift" else None), seen
         if trigger == "drift" and not self.drifted(seen, predicted, segment, tip):
