@@ -49,6 +49,7 @@ FILES = {
     "closed_loop_clutter.parquet": ("df67b8c", AMD, "2026-12-07"),
     "closed_loop_eval_rerun.parquet": ("bd11be7", AMD, "2026-12-07"),
     "closed_loop_dev_rerun.parquet": ("b323f11", AMD, "2026-12-07"),
+    "closed_loop_eval2.parquet": ("5ee2cb0", AMD, "2026-12-07"),
     # benchmarks/hands_sweep.py's rows, recorded at run time from their first run (hands.md names them).
     "hands.parquet": ("c07a69c", AMD, "2026-12-07"),
     # benchmarks/grasp_model.py's rows, recorded at run time (grasp_model.md names them).

@@ -36,7 +36,9 @@ def values() -> dict[str, str]:
             "cl-camera-calibration": calibration_table(rows(DEV_RERUN, "runs")) if (HERE / DEV_RERUN).exists()
             else "not run yet",
             "cl-eval2-targets": eval2_targets(sets["eval2"]) if sets["eval2"] is not None and len(sets["eval2"])
-            else "not run yet: no numbers exist for `eval2`"}
+            else "not run yet: no numbers exist for `eval2`",
+            "cl-eval2-objects": by_object(sets["eval2"]) if sets["eval2"] is not None and len(sets["eval2"])
+            else "not run yet"}
 
 
 EVAL2_TARGETS = {"nominal": 0.99, "stress": 0.98, "random": 0.98}  # both modes
@@ -74,6 +76,22 @@ def eval2_targets(runs) -> str:
             worse.append(f"{setting} ({fewer} tasks against {better}, p = {p:.2g})")
     lines.append(f"- the closed loop nowhere significantly worse than the open loop (McNemar p < {WORSE_P:g}): "
                  + ("met" if not worse else "missed: " + ", ".join(worse)))
+    return "\n".join(lines)
+
+
+def by_object(runs) -> str:
+    """True success per object, setting and mode (each cell the object's runs on every table)."""
+    ok = runs.assign(ok=runs["success"].fillna(False).astype(bool))
+    settings = list(dict.fromkeys(runs["setting"]))
+    lines = ["| object | " + " | ".join(f"{setting} open | {setting} closed" for setting in settings) + " |",
+             "|---|" + "---|" * (2 * len(settings))]
+    for name, group in ok.groupby("object"):
+        cells = []
+        for setting in settings:
+            for mode in ("open", "closed"):
+                cell = group[(group["setting"] == setting) & (group["mode"] == mode)]
+                cells.append(f"{int(cell['ok'].sum())}/{len(cell)}")
+        lines.append(f"| {name.rsplit('/', 1)[-1]} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
