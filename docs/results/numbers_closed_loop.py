@@ -38,6 +38,8 @@ def values() -> dict[str, str]:
             "cl-eval2-targets": eval2_targets(sets["eval2"]) if sets["eval2"] is not None and len(sets["eval2"])
             else "not run yet: no numbers exist for `eval2`",
             "cl-eval2-objects": by_object(sets["eval2"]) if sets["eval2"] is not None and len(sets["eval2"])
+            else "not run yet",
+            "cl-eval2-calibration": calibration_table(sets["eval2"]) if sets["eval2"] is not None and len(sets["eval2"])
             else "not run yet"}
 
 
