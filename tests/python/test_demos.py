@@ -277,7 +277,7 @@ def test_a_dataset_loads_iterates_and_is_the_same_for_the_same_seed(tmp_path, mo
     # Offline RL's columns: each episode done on its last frame, rewarded there as it succeeded (all kept did).
     for _, episode in table.groupby("episode_index"):
         last = episode["frame_index"] == episode["frame_index"].max()
-        done, success, reward = (np.concatenate(episode[column].to_numpy()) for column in ("next.done", "next.success", "next.reward"))
+        done, success, reward = (np.hstack(episode[column].to_numpy()) for column in ("next.done", "next.success", "next.reward"))
         assert done.tolist() == last.tolist() and success.tolist() == last.tolist()
         assert reward.tolist() == last.astype(float).tolist()
     second = generate(tmp_path / "b", "--cameras", "front:64x64:depth", workers=1)
