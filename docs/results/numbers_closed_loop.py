@@ -101,9 +101,8 @@ def rerun_table(before, after) -> str:
     """The same tasks, settings and modes on two builds: true success on each, and the runs only one of them
     lifted (paired on object, table, pose, setting and mode: a task's id hashes the planner's parameters, which
     the later build has more of; McNemar's exact p)."""
-    from scipy.stats import binomtest
-
     from slideplan.experiments.closed_loop_report import builds
+    from slideplan.experiments.stats import mcnemar_exact
 
     key = ["object", "scene", "pose_index", "setting", "mode"]
     before = before.merge(after[key[:3]].drop_duplicates(), on=key[:3])  # a rerun of part of the set: that part
@@ -113,8 +112,7 @@ def rerun_table(before, after) -> str:
     lines = [header, "|---|---|---|---|---|---|---|"]
     for (setting, mode), group in paired.groupby(["setting", "mode"], sort=False):
         old, new = group["success_before"].fillna(False).astype(bool), group["success_after"].fillna(False).astype(bool)
-        only_old, only_new = int((old & ~new).sum()), int((new & ~old).sum())
-        p = binomtest(only_new, only_old + only_new, 0.5).pvalue if only_old + only_new else 1.0
+        only_old, only_new, p = mcnemar_exact(old, new)
         lines.append(f"| {setting} | {mode} | {100 * old.mean():.1f}% | {100 * new.mean():.1f}% | {only_old} | {only_new} | "
                      f"{p:.2g} |")
     grippy = paired["draws"].map(lambda text: (lambda draws: draws["pad_friction"] > draws["table_friction"])(json.loads(text)))

@@ -50,6 +50,7 @@ def rows_dir(out: str | Path, spec: str) -> Path:
 
 
 _POLICIES: dict[str, object] = {}  # loaded once per worker process
+_ENVS: dict[tuple, object] = {}  # a tier's environment per observation and action type, built once per worker process
 
 
 def run_episode(job: Job) -> dict:
@@ -60,7 +61,8 @@ def run_episode(job: Job) -> dict:
     task = job.task
     policy = _POLICIES.get(job.policy) or _POLICIES.setdefault(job.policy, load_policy(job.policy))
     started = time.perf_counter()
-    env = BenchmarkEnv(task.tier, obs_type=policy.obs_type, action_type=policy.action_type)
+    key = (task.tier, policy.obs_type, policy.action_type)
+    env = _ENVS.get(key) or _ENVS.setdefault(key, BenchmarkEnv(task.tier, obs_type=policy.obs_type, action_type=policy.action_type))
     try:
         observation, info = env.reset(seed=task.index)
         redrawn = int(info["redrawn"])
@@ -72,7 +74,7 @@ def run_episode(job: Job) -> dict:
             if terminated or truncated:
                 break
     finally:
-        env.close()
+        env.close()  # the episode's world; the environment is reset for the next
     return {"task_id": task.task_id, "tier": task.tier, "index": task.index, "scene": task.scene, "seed": task.seed,
             "object": task.object, "setting": job.setting, "policy": job.policy, "env_id": job.env_id,
             "success": bool(info["is_success"]), "end": info["end"], "steps": steps, "episode_s": steps / env.current.fps,
@@ -116,7 +118,7 @@ def evaluate(protocol: Protocol, tier: str, spec: str, out: str | Path, executor
     return table
 
 
-def expert_rows(out: str | Path, tier: str, task_ids) -> pd.DataFrame | None:
+def expert_rows(out: str | Path, task_ids) -> pd.DataFrame | None:
     """The expert's rows for the same tasks in ``out``, if it has one for each of them."""
     folder = rows_dir(out, EXPERT)
     paths = [folder / f"{task_id}.parquet" for task_id in task_ids]
@@ -128,9 +130,7 @@ def expert_rows(out: str | Path, tier: str, task_ids) -> pd.DataFrame | None:
 def summary(rows: pd.DataFrame, expert: pd.DataFrame | None) -> list[str]:
     """What ``slideplan eval`` prints: success with its 95% Wilson interval, the mean episode length, and
     the paired comparison with the expert on the same tasks (McNemar's exact test)."""
-    from scipy.stats import binomtest
-
-    from ..experiments.stats import wilson_interval
+    from ..experiments.stats import mcnemar_exact, wilson_interval
 
     n, successes = len(rows), int(rows["success"].sum())
     low, high = wilson_interval(successes, n)
@@ -141,9 +141,7 @@ def summary(rows: pd.DataFrame, expert: pd.DataFrame | None) -> list[str]:
     elif rows["policy"].iloc[0] != EXPERT:
         paired = rows.set_index("task_id")["success"].astype(bool).to_frame("policy").join(
             expert.set_index("task_id")["success"].astype(bool).rename("expert"))
-        only_policy = int((paired["policy"] & ~paired["expert"]).sum())
-        only_expert = int((paired["expert"] & ~paired["policy"]).sum())
-        p = binomtest(only_policy, only_policy + only_expert, 0.5).pvalue if only_policy + only_expert else 1.0
+        only_policy, only_expert, p = mcnemar_exact(paired["policy"], paired["expert"])
         lines.append(f"expert on the same tasks {int(paired['expert'].sum())}/{len(paired)}; the policy alone succeeded "
                      f"in {only_policy}, the expert alone in {only_expert} (McNemar p = {p:.3g})")
     return lines

@@ -47,7 +47,7 @@ def eval_command(
     except (ImportError, OSError) as error:
         raise _fail(error) from None
     if len(rows):
-        for line in summary(rows, expert_rows(out, tier, rows["task_id"])):
+        for line in summary(rows, expert_rows(out, rows["task_id"])):
             typer.echo(line)
     if rows.attrs.get("lost"):
         typer.echo(f"slideplan: {rows.attrs['lost']} episodes lost; rerun the same command to run them", err=True)

@@ -13,7 +13,7 @@ import json
 import pandas as pd
 
 from ..sim.conditions import SETTINGS
-from .stats import wilson_interval
+from .stats import mcnemar_exact, wilson_interval
 
 # eval: the former held-out set, spent, worked on as dev; eval2: held out; clutter: among obstacles, nominal only.
 SETS = ("dev", "eval", "eval2", "clutter")
@@ -41,13 +41,8 @@ def mcnemar(runs: pd.DataFrame) -> tuple[int, int, float]:
     Args:
         runs: one setting's rows, both modes.
     """
-    from scipy.stats import binomtest
-
     paired = runs.assign(ok=_ok(runs)).pivot_table(index="task_id", columns="mode", values="ok", aggfunc="first").dropna()
-    closed, opened = paired["closed"].astype(bool), paired["open"].astype(bool)
-    better, worse = int((closed & ~opened).sum()), int((opened & ~closed).sum())
-    p = binomtest(better, better + worse, 0.5).pvalue if better + worse else 1.0
-    return better, worse, float(p)
+    return mcnemar_exact(paired["closed"].astype(bool), paired["open"].astype(bool))
 
 
 def success_table(runs: pd.DataFrame) -> str:

@@ -14,6 +14,21 @@ import numpy as np
 import pandas as pd
 
 
+def mcnemar_exact(first, second) -> tuple[int, int, float]:
+    """McNemar's exact test of two paired success series: ``(first only, second only, p)``, p the two-sided
+    binomial test of the discordant pairs (1 with none).
+
+    Args:
+        first, second: booleans, one per paired task, in the same order.
+    """
+    from scipy.stats import binomtest
+
+    first, second = np.asarray(first, dtype=bool), np.asarray(second, dtype=bool)
+    only_first, only_second = int((first & ~second).sum()), int((second & ~first).sum())
+    p = binomtest(only_first, only_first + only_second, 0.5).pvalue if only_first + only_second else 1.0
+    return only_first, only_second, float(p)
+
+
 def wilson_interval(successes, n, confidence: float = 0.95):
     """Wilson score interval of a binomial proportion (closed form, no continuity correction).
 
